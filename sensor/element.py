@@ -263,7 +263,9 @@ class SensorElement:
         k_e = _as_load("k_e", k_e_cells)
         c_e = _as_load("c_e", c_e_cells)
         if k_e.shape[-1:] != ratios.shape or c_e.shape[-1:] != ratios.shape:
-            raise ValueError(f"k_e_cells and c_e_cells need {ratios.size} values on their last axis, got shapes {k_e.shape} and {c_e.shape}")
+            raise ValueError(
+                f"k_e_cells and c_e_cells need {ratios.size} values on their last axis, got shapes {k_e.shape} and {c_e.shape}"
+            )
         b = self.params.width_m
         return b * (k_e @ ratios), b * (c_e @ ratios)
 
@@ -325,6 +327,10 @@ class SensorElement:
         p = self.params
         kappa, gamma = self.modal_load(k_e, c_e, mode, coverage)
         omega, c = self._omega_c(mode)
-        numerator = (p.width_m * p.pzt_youngs_pa * p.d31_m_per_v) ** 2 * p.drive_voltage_v * (2 * p.substrate_half_thickness_m + p.pzt_thickness_m) ** 2
+        numerator = (
+            (p.width_m * p.pzt_youngs_pa * p.d31_m_per_v) ** 2
+            * p.drive_voltage_v
+            * (2 * p.substrate_half_thickness_m + p.pzt_thickness_m) ** 2
+        )
         numerator *= self.coupling_factor_per_m2(mode)
         return numerator / (4 * p.capacitance_f * p.length_m * np.hypot(kappa, omega * (gamma + c)))

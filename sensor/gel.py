@@ -162,6 +162,19 @@ def gent_tangent_pa(stretch, gel: GelParams) -> np.ndarray:
     return -mu * jm * (df * g - f * dg) / g**2
 
 
+def gent_curvature_pa(stretch, gel: GelParams) -> np.ndarray:
+    """d^2P/dlambda^2 of Gent's compression law, Pa (positive: the law is convex)."""
+    lam = np.asarray(stretch, float)
+    mu, jm = gel.shear_modulus_pa, gel.gent_jm
+    f = lam**-2 - lam
+    df = -2.0 * lam**-3 - 1.0
+    d2f = 6.0 * lam**-4
+    g = jm - (lam**2 + 2.0 / lam - 3.0)
+    dg = -(2.0 * lam - 2.0 / lam**2)
+    d2g = -(2.0 + 4.0 / lam**3)
+    return mu * jm * ((d2f * g - f * d2g) / g**2 - 2.0 * dg * (df * g - f * dg) / g**3)
+
+
 def stretch_from_pressure(pressure_pa, gel: GelParams) -> np.ndarray:
     """Invert Gent's law: the stretch lambda in (lambda_lim, 1] that carries pressure P (Pa).
 
@@ -187,6 +200,12 @@ def stretch_from_pressure(pressure_pa, gel: GelParams) -> np.ndarray:
             break
         lam = new
     return lam
+
+
+def contact_fraction_slope(pressure_pa, gel: GelParams) -> np.ndarray:
+    """dphi/dP of part 1, 1/Pa: (2/sqrt(pi)) a exp(-(a P)^2), a = sqrt(2) / (E* h'_rms)."""
+    a = math.sqrt(2.0) / (gel.contact_modulus_pa * gel.surface_slope_rms)
+    return 2.0 / math.sqrt(math.pi) * a * np.exp(-((a * np.asarray(pressure_pa, float)) ** 2))
 
 
 def winkler_stiffness_n_m3(stretch, gel: GelParams) -> np.ndarray:
@@ -279,6 +298,22 @@ class GelModel:
             raise ValueError(f"freq_hz must be positive and finite, got {freq_hz!r}")
         ratio = complex(self.modulus_ratio(f))
         return stiffness * ratio.real, stiffness * ratio.imag / (2 * math.pi * f)
+
+    def foundation_slope(self, pressure_pa, freq_hz) -> tuple[np.ndarray, np.ndarray]:
+        """(dk_e/dP in 1/m, dc_e/dP in s/m) at ``pressure_pa`` (Pa) and ``freq_hz`` (Hz).
+
+        Chain rule on k_e = phi(P) K(lambda(P)) Re R:  d(phi K)/dP = phi' K + phi K',
+        K' = dK/dP = P''(lambda) / (h0 T(lambda)) with T = -dP/dlambda.
+        """
+        gel = self.params
+        p = check_pressure(pressure_pa)
+        lam = stretch_from_pressure(p, gel)
+        tangent = gent_tangent_pa(lam, gel)
+        stiffness = tangent / gel.thickness_m
+        stiffness_slope = gent_curvature_pa(lam, gel) / (gel.thickness_m * tangent)
+        slope = contact_fraction_slope(p, gel) * stiffness + contact_fraction(p, gel) * stiffness_slope
+        ratio = complex(self.modulus_ratio(float(freq_hz)))
+        return slope * ratio.real, slope * ratio.imag / (2 * math.pi * float(freq_hz))
 
     def pressure_from_indentation(self, indentation_m) -> np.ndarray:
         """Quasi-static pressure (Pa) that compresses the gel by ``indentation_m`` (m).

@@ -22,7 +22,7 @@ from __future__ import annotations
 import functools
 import math
 from dataclasses import dataclass
-from enum import Enum
+from enum import StrEnum
 
 import numpy as np
 from scipy.optimize import brentq
@@ -36,7 +36,7 @@ _GL_NODES, _GL_WEIGHTS = np.polynomial.legendre.leggauss(12)
 MAX_MODE = 200
 
 
-class Boundary(str, Enum):
+class Boundary(StrEnum):
     """Support conditions of the beam at x = 0 and x = L."""
 
     CLAMPED_FREE = "clamped-free"

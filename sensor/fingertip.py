@@ -1,0 +1,291 @@
+"""The fingertip: element + gel + readout, from pressure to reading and back.
+
+``Fingertip`` composes :class:`sensor.SensorElement`, :class:`sensor.gel.GelModel` and
+:class:`sensor.readout.NoiseParams` and computes what physics.md section 5 defines:
+per-mode outputs against pressure, resolution, detection and upper limits, the inverse,
+the dynamic range and the pressures at which the most useful mode changes.
+
+Pressure is force over the element's face (b x L), in Pa, as the paper defines it.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+from collections.abc import Sequence
+
+import numpy as np
+from scipy.optimize import brentq
+
+from .element import SensorElement
+from .gel import GelModel, check_pressure
+from .modes import check_mode
+from .readout import DETECTION_SIGMAS, RESOLVED_FRACTION, NoiseParams, PressureEstimate, output_sigma
+from .stress import Mounting, StressReport, stress_report
+
+#: The pressure grid used to tabulate and search, Pa: from far below any detection limit
+#: to beyond the 1.3 MPa proof load.  ~40 points per decade.
+_GRID_DECADES = (-4.0, 6.5)
+_GRID_POINTS = 421
+
+
+class Fingertip:
+    """A fingertip that turns pressure (Pa) into normalized outputs V_1 per mode, and back.
+
+    Parameters
+    ----------
+    element : SensorElement (default: Table I cantilever).
+    gel : GelModel (default: 5 mm urethane gel, frequency dependent).
+    coverage : (x1_m, x2_m) of the gel on the element (default: the whole beam).
+    noise : NoiseParams (default: 1e-3 relative, 1 mV absolute).
+    modes : the vibration modes the drive can select (default 1 to 4, as in the paper).
+    rated_pressure_pa : the pressure the fingertip is rated for, Pa (default 1 MPa); the
+        upper limit P_max is at most this.
+    mounting : how the element is held (stress checks, physics.md section 7).
+    """
+
+    def __init__(
+        self,
+        element: SensorElement | None = None,
+        gel: GelModel | None = None,
+        coverage: tuple[float, float] | None = None,
+        noise: NoiseParams | None = None,
+        modes: Sequence[int] = (1, 2, 3, 4),
+        rated_pressure_pa: float = 1e6,
+        mounting: Mounting | None = None,
+    ) -> None:
+        self.element = element or SensorElement()
+        self.gel = gel or GelModel()
+        self.coverage = self.element._check_coverage(coverage)
+        self.noise = noise or NoiseParams()
+        self.modes = tuple(check_mode(m) for m in modes)
+        if not self.modes:
+            raise ValueError("modes must name at least one mode")
+        if not (math.isfinite(rated_pressure_pa) and rated_pressure_pa > 0):
+            raise ValueError(f"rated_pressure_pa must be positive and finite, got {rated_pressure_pa!r}")
+        self.rated_pressure_pa = float(rated_pressure_pa)
+        self.mounting = mounting or Mounting()
+
+    def __repr__(self) -> str:
+        return f"Fingertip(modes={self.modes}, coverage_m={self.coverage}, rated_pressure_pa={self.rated_pressure_pa})"
+
+    # -- forward model ---------------------------------------------------------------
+
+    def _mode(self, mode: int) -> int:
+        mode = check_mode(mode)
+        if mode not in self.modes:
+            raise ValueError(f"mode {mode} is not one of this fingertip's modes {self.modes}")
+        return mode
+
+    def freq_hz(self, mode: int) -> float:
+        """Drive frequency of ``mode``: the unloaded natural frequency, Hz."""
+        return self.element.natural_frequency_hz(self._mode(mode))
+
+    def foundation(self, pressure_pa, mode: int = 1) -> tuple[np.ndarray, np.ndarray]:
+        """(k_e N/m^3, c_e N s/m^3) the gel presents to ``mode`` at ``pressure_pa`` (Pa)."""
+        return self.gel.foundation(pressure_pa, self.freq_hz(mode))
+
+    def modal_load(self, pressure_pa, mode: int = 1) -> tuple[np.ndarray, np.ndarray]:
+        """(kappa N/m^2, gamma N s/m^2) of a uniform pressure over the coverage."""
+        k_e, c_e = self.foundation(pressure_pa, mode)
+        return self.element.modal_load(k_e, c_e, mode, self.coverage)
+
+    def output(self, pressure_pa, mode: int = 1) -> np.ndarray:
+        """Normalized output V_1 (eq. 19, dimensionless) at uniform ``pressure_pa`` (Pa)."""
+        k_e, c_e = self.foundation(pressure_pa, mode)
+        return self.element.normalized_output(k_e, c_e, mode, self.coverage)
+
+    def output_slope(self, pressure_pa, mode: int = 1) -> np.ndarray:
+        """dV_1/dP, 1/Pa (negative): -(S_k dk_e/dP + S_c dc_e/dP), eqs. 20, 21 and the gel's slope."""
+        k_e, c_e = self.foundation(pressure_pa, mode)
+        dk, dc = self.gel.foundation_slope(pressure_pa, self.freq_hz(mode))
+        s_k = self.element.sensitivity_k(k_e, c_e, mode, self.coverage)
+        s_c = self.element.sensitivity_c(k_e, c_e, mode, self.coverage)
+        return -(s_k * dk + s_c * dc)
+
+    def sigma(self, mode: int = 1) -> float:
+        """Standard deviation of one reading of V_1 in ``mode`` (dimensionless)."""
+        return output_sigma(self.noise, self.element.unloaded_voltage(self._mode(mode)))
+
+    def noisy_output(self, pressure_pa, mode: int = 1, rng: np.random.Generator | None = None) -> np.ndarray:
+        """One noisy reading of V_1 per pressure: V_1 + N(0, sigma_n^2)."""
+        rng = rng or np.random.default_rng()
+        v = self.output(pressure_pa, mode)
+        return v + rng.normal(0.0, self.sigma(mode), np.shape(v))
+
+    def resolution(self, pressure_pa, mode: int = 1) -> np.ndarray:
+        """Resolution dP_n(P) = 3 sigma_n / |dV_n/dP|, Pa (physics.md section 5)."""
+        slope = np.abs(self.output_slope(pressure_pa, mode))
+        with np.errstate(divide="ignore"):
+            return np.where(slope > 0, DETECTION_SIGMAS * self.sigma(mode) / np.maximum(slope, 1e-300), np.inf)
+
+    # -- limits and range ------------------------------------------------------------
+
+    @functools.cached_property
+    def _grid_pa(self) -> np.ndarray:
+        return np.logspace(*_GRID_DECADES, _GRID_POINTS)
+
+    @functools.cache  # noqa: B019 - a Fingertip is immutable after construction
+    def _table(self, mode: int) -> np.ndarray:
+        return self.output(self._grid_pa, mode)
+
+    @functools.cache  # noqa: B019
+    def detection_limit(self, mode: int = 1) -> float:
+        """P_min of ``mode``: the pressure that moves V_1 by 3 sigma from unloaded, Pa (inf if none)."""
+        target = DETECTION_SIGMAS * self.sigma(mode)
+        drop = 1.0 - self._table(mode)
+        above = np.nonzero(drop >= target)[0]
+        if above.size == 0 or self._grid_pa[above[0]] > self.rated_pressure_pa:
+            return math.inf
+        i = above[0]
+        if i == 0:
+            return float(self._grid_pa[0])
+        lo, hi = math.log(self._grid_pa[i - 1]), math.log(self._grid_pa[i])
+        root = brentq(lambda lp: 1.0 - float(self.output(math.exp(lp), mode)) - target, lo, hi, xtol=1e-12)
+        return math.exp(root)
+
+    def _resolved_excess(self, log_p: float, mode: int) -> float:
+        p = math.exp(log_p)
+        return math.log(float(self.resolution(p, mode)) / (RESOLVED_FRACTION * p))
+
+    @functools.cache  # noqa: B019
+    def upper_limit(self, mode: int = 1) -> float:
+        """P_max of ``mode``: the largest P <= rated where dP_n(P) <= 0.1 P, Pa (NaN if nowhere)."""
+        grid = self._grid_pa[self._grid_pa <= self.rated_pressure_pa]
+        grid = np.append(grid, self.rated_pressure_pa)
+        ok = np.nonzero(self.resolution(grid, mode) <= RESOLVED_FRACTION * grid)[0]
+        if ok.size == 0:
+            return math.nan
+        i = ok[-1]
+        if i == grid.size - 1:
+            return self.rated_pressure_pa
+        root = brentq(self._resolved_excess, math.log(grid[i]), math.log(grid[i + 1]), args=(mode,), xtol=1e-12)
+        return math.exp(root)
+
+    def best_mode(self, pressure_pa) -> np.ndarray:
+        """The mode with the finest resolution at each pressure (the most useful mode)."""
+        p = check_pressure(pressure_pa)
+        res = np.stack([self.resolution(p, m) for m in self.modes])
+        return np.asarray(self.modes)[np.argmin(res, axis=0)]
+
+    @functools.cache  # noqa: B019
+    def mode_bands(self) -> tuple[tuple[int, float, float], ...]:
+        """((mode, from_pa, to_pa), ...): where each mode is the most useful, P_min to P_max.
+
+        The band edges are the switch pressures: where two modes' resolution curves cross
+        (found on the grid, refined with brentq on log dP_a - log dP_b).
+        """
+        p_lo, p_hi = self.sensor_limits()
+        if not (p_lo < p_hi):
+            return ()
+        grid = np.geomspace(p_lo, p_hi, 400)
+        best = self.best_mode(grid)
+        bands: list[tuple[int, float, float]] = []
+        start = p_lo
+        for i in np.nonzero(best[1:] != best[:-1])[0]:
+            a, b = int(best[i]), int(best[i + 1])
+
+            def diff(lp: float, a: int = a, b: int = b) -> float:
+                p = math.exp(lp)
+                return math.log(float(self.resolution(p, a))) - math.log(float(self.resolution(p, b)))
+
+            cross = math.exp(brentq(diff, math.log(grid[i]), math.log(grid[i + 1]), xtol=1e-12))
+            bands.append((a, start, cross))
+            start = cross
+        bands.append((int(best[-1]), start, p_hi))
+        return tuple(bands)
+
+    def switch_pressures(self) -> list[float]:
+        """Pressures (Pa, ascending) at which the most useful mode changes."""
+        return [band[2] for band in self.mode_bands()[:-1]]
+
+    def sensor_limits(self) -> tuple[float, float]:
+        """(P_min, P_max) of the whole sensor, Pa: the best over its modes."""
+        p_min = min(self.detection_limit(m) for m in self.modes)
+        uppers = [self.upper_limit(m) for m in self.modes]
+        p_max = max((u for u in uppers if not math.isnan(u)), default=math.nan)
+        return p_min, p_max
+
+    def dynamic_range(self) -> dict:
+        """The sensor's range as a JSON-ready dict (physics.md section 5 definitions).
+
+        Keys: ``p_min_pa``, ``p_max_pa``, ``dynamic_range``, ``modes`` (per mode: ``mode``,
+        ``freq_hz``, ``p_min_pa``, ``p_max_pa``, ``sigma_v1``), ``switch_pressures_pa``, and
+        ``mode_bands`` (``mode``, ``from_pa``, ``to_pa``), ``coverage_m``,
+        ``rated_pressure_pa``, ``backstop_pressure_pa``.  Pressures in Pa, frequencies in Hz.
+        """
+        p_min, p_max = self.sensor_limits()
+        return {
+            "p_min_pa": p_min,
+            "p_max_pa": p_max,
+            "dynamic_range": p_max / p_min,
+            "modes": [
+                {
+                    "mode": m,
+                    "freq_hz": self.freq_hz(m),
+                    "p_min_pa": self.detection_limit(m),
+                    "p_max_pa": self.upper_limit(m),
+                    "sigma_v1": self.sigma(m),
+                }
+                for m in self.modes
+            ],
+            "switch_pressures_pa": self.switch_pressures(),
+            "mode_bands": [{"mode": m, "from_pa": lo, "to_pa": hi} for m, lo, hi in self.mode_bands()],
+            "coverage_m": list(self.coverage),
+            "rated_pressure_pa": self.rated_pressure_pa,
+            "backstop_pressure_pa": self.backstop_pressure_pa(),
+        }
+
+    def backstop_pressure_pa(self) -> float | None:
+        """Pressure at which a backed element touches its backstop, Pa (None if free-span)."""
+        if self.mounting.kind != "backed":
+            return None
+        per_pa = float(self.stress(1.0).max_deflection_m)
+        return self.mounting.backstop_gap_m / per_pa
+
+    # -- the inverse -----------------------------------------------------------------
+
+    def estimate(self, v1, mode: int = 1) -> PressureEstimate:
+        """Pressure from a reading ``v1`` of V_1 in ``mode``, with uncertainty and status.
+
+        The forward model is tabulated on a log grid, inverted by interpolation in log P and
+        polished by Newton's method with the analytic slope.  Readings within 3 sigma of
+        unloaded are "below_detection" (estimate from the inverse, never negative, with the
+        detection limit as uncertainty); estimates past the mode's P_max are "saturated" and
+        NaN.
+        """
+        mode = self._mode(mode)
+        v = np.asarray(v1, dtype=float)
+        if np.any(np.isnan(v)):
+            raise ValueError("v1 contains NaN")
+        table = self._table(mode)
+        log_p = np.interp(-v, -table, np.log(self._grid_pa))
+        p = np.exp(log_p)
+        inside = (v < table[0]) & (v > table[-1])
+        for _ in range(3):
+            step = (self.output(p, mode) - v) / self.output_slope(p, mode)
+            p = np.where(inside, np.clip(p - step, 0.5 * p, 2.0 * p), p)
+        # Above the table's first point the response is linear in P (phi ~ P): invert the slope.
+        p = np.where(v >= table[0], np.maximum(1.0 - v, 0.0) / abs(float(self.output_slope(0.0, mode))), p)
+        sigma = self.sigma(mode)
+        uncertainty = sigma / np.abs(self.output_slope(p, mode))
+        below = (1.0 - v) < DETECTION_SIGMAS * sigma
+        p_max = self.upper_limit(mode)
+        saturated = ~below & ((v <= table[-1]) | ~(p <= p_max))
+        status = np.where(below, "below_detection", np.where(saturated, "saturated", "ok"))
+        uncertainty = np.where(below, self.detection_limit(mode), uncertainty)
+        return PressureEstimate(
+            pressure_pa=np.where(saturated, np.nan, p),
+            uncertainty_pa=np.where(saturated, np.nan, uncertainty),
+            status=status,
+        )
+
+    def estimate_pressure(self, v1, mode: int = 1) -> np.ndarray:
+        """Pressure estimate in Pa from a reading of V_1 in ``mode`` (NaN where saturated)."""
+        return self.estimate(v1, mode).pressure_pa
+
+    # -- limits of the hardware ---------------------------------------------------------
+
+    def stress(self, pressure_pa) -> StressReport:
+        """Bending stress in the PZT at ``pressure_pa`` against its strength (physics.md section 7)."""
+        return stress_report(self.element, check_pressure(pressure_pa), self.coverage, self.mounting)
