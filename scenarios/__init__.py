@@ -1,0 +1,51 @@
+"""Named scenarios: each a factory returning its whole :class:`ScenarioConfig`.
+
+The command line, the docs and the tests all come from this one registry::
+
+    from scenarios import get, names
+    cfg = get("grasp", ["object.mass_kg=0.4"])
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+from .config import ControllerConfig, ObjectConfig, PhysicsConfig, ScenarioConfig, SensorConfig, valid_keys, with_overrides
+
+_REGISTRY: dict[str, Callable[[], ScenarioConfig]] = {}
+
+
+def register(factory: Callable[[], ScenarioConfig]) -> Callable[[], ScenarioConfig]:
+    """Register ``factory`` under the name of the config it returns."""
+    name = factory().name
+    if name in _REGISTRY:
+        raise ValueError(f"scenario {name!r} registered twice")
+    _REGISTRY[name] = factory
+    return factory
+
+
+def names() -> list[str]:
+    """Registered scenario names, sorted."""
+    return sorted(_REGISTRY)
+
+
+def get(name: str, overrides: list[str] | None = None) -> ScenarioConfig:
+    """The named scenario's config with ``key=value`` overrides applied and validated."""
+    if name not in _REGISTRY:
+        raise ValueError(f"unknown scenario {name!r}; valid scenarios: {', '.join(names())}")
+    return with_overrides(_REGISTRY[name](), list(overrides or []))
+
+
+from . import library  # noqa: E402,F401  (registers the scenarios)
+
+__all__ = [
+    "ControllerConfig",
+    "ObjectConfig",
+    "PhysicsConfig",
+    "ScenarioConfig",
+    "SensorConfig",
+    "get",
+    "names",
+    "register",
+    "valid_keys",
+]

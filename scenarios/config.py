@@ -1,0 +1,290 @@
+"""Scenario configuration: nested frozen dataclasses with dotted-path overrides.
+
+A scenario's whole configuration is one :class:`ScenarioConfig`.  Any value can be changed
+by a dotted key (``object.mass_kg=0.4``, ``controller.modes=[1]``); the value is parsed as
+a Python literal (numbers, lists, tuples, booleans, ``None``) or else taken as a string,
+then checked against the field's type.  An unknown key gets an error listing the valid
+ones; a value of the wrong type or range gets an error naming the key and the value.
+"""
+
+from __future__ import annotations
+
+import ast
+import dataclasses
+import math
+import types
+import typing
+from dataclasses import dataclass, field
+
+OBJECT_SHAPES = ("box", "cylinder", "sphere", "egg")
+INTEGRATORS = ("Euler", "implicitfast", "implicit", "RK4")
+SENSOR_DYNAMICS = ("steady", "envelope", "carrier")
+CONTROLLERS = ("scripted", "multimode")
+
+
+@dataclass(frozen=True)
+class ObjectConfig:
+    """The object on the table.
+
+    Attributes
+    ----------
+    shape : "box", "cylinder" (upright), "sphere" or "egg" (an ellipsoid, long axis up).
+    mass_kg : mass, kg.
+    size_m : width across the fingers (box edge, cylinder or sphere diameter, egg's short
+        diameter), m.
+    friction : sliding friction coefficient against the pads, dimensionless.
+    crush_force_n : for a fragile object, the grip force (per finger) at which it breaks, N;
+        None for a robust object.
+    """
+
+    shape: str = "box"
+    mass_kg: float = 0.1
+    size_m: float = 0.04
+    friction: float = 1.0
+    crush_force_n: float | None = None
+
+    def validate(self) -> None:
+        _one_of("object.shape", self.shape, OBJECT_SHAPES)
+        _positive("object.mass_kg", self.mass_kg)
+        _positive("object.size_m", self.size_m)
+        if not 0.005 <= self.size_m <= 0.09:
+            raise ValueError(f"object.size_m must be within the gripper's 5-90 mm stroke, got {self.size_m!r}")
+        _positive("object.friction", self.friction)
+        if self.crush_force_n is not None:
+            _positive("object.crush_force_n", self.crush_force_n)
+
+
+@dataclass(frozen=True)
+class PhysicsConfig:
+    """The physics engine's fidelity knobs.
+
+    Attributes
+    ----------
+    timestep_s : MuJoCo timestep, s.
+    integrator : MuJoCo integrator ("Euler", "implicitfast", "implicit", "RK4").
+    pad_segments : pad resolution: gel segments along the element's length (1 = uniform).
+    control_period_s : sensor sample and controller period, s; a whole number of timesteps.
+    """
+
+    timestep_s: float = 0.0005
+    integrator: str = "implicitfast"
+    pad_segments: int = 1
+    control_period_s: float = 0.002
+
+    def validate(self) -> None:
+        _positive("physics.timestep_s", self.timestep_s)
+        _one_of("physics.integrator", self.integrator, INTEGRATORS)
+        if not isinstance(self.pad_segments, int) or not 1 <= self.pad_segments <= 64:
+            raise ValueError(f"physics.pad_segments must be an integer in 1..64, got {self.pad_segments!r}")
+        _positive("physics.control_period_s", self.control_period_s)
+        ratio = self.control_period_s / self.timestep_s
+        if ratio < 1 - 1e-9 or abs(ratio - round(ratio)) > 1e-6:
+            raise ValueError(
+                f"physics.control_period_s ({self.control_period_s!r}) must be a whole multiple of physics.timestep_s ({self.timestep_s!r})"
+            )
+
+    @property
+    def substeps(self) -> int:
+        """Physics steps per control period."""
+        return round(self.control_period_s / self.timestep_s)
+
+
+@dataclass(frozen=True)
+class SensorConfig:
+    """What the fingertips observe, and how faithfully.
+
+    Attributes
+    ----------
+    pads : instrumented pads ("left", "right"); the others carry gel but no sensor model.
+    modes : vibration modes the element can be driven in.
+    dynamics : "steady" (output follows the load at once), "envelope" (the resonator's
+        amplitude relaxes with tau_n = 2 M_n / C_n; a mode switch rings up), or "carrier"
+        (the modal equation integrated through every drive cycle, demodulated).
+    quality_factor : unloaded Q of mode 1, or None for Table I's damping (Q ~ 7800).
+    gel_frequency_dependent : whether each mode sees its own viscoelastic modulus.
+    coverage_mm : gel coverage on the element (x1, x2), mm.
+    noise : whether readings carry the readout noise.
+    seed : seed of the readout noise.
+    """
+
+    pads: tuple[str, ...] = ("left", "right")
+    modes: tuple[int, ...] = (1, 2, 3, 4)
+    dynamics: str = "envelope"
+    quality_factor: float | None = 70.0
+    gel_frequency_dependent: bool = True
+    coverage_mm: tuple[float, float] = (0.0, 7.5)
+    noise: bool = True
+    seed: int = 0
+
+    def validate(self) -> None:
+        for pad in self.pads:
+            _one_of("sensor.pads", pad, ("left", "right"))
+        if not self.modes or any(not isinstance(m, int) or not 1 <= m <= 30 for m in self.modes):
+            raise ValueError(f"sensor.modes must be a non-empty list of modes in 1..30, got {self.modes!r}")
+        _one_of("sensor.dynamics", self.dynamics, SENSOR_DYNAMICS)
+        if self.quality_factor is not None:
+            _positive("sensor.quality_factor", self.quality_factor)
+        if len(self.coverage_mm) != 2 or not 0 <= self.coverage_mm[0] < self.coverage_mm[1] <= 7.5:
+            raise ValueError(f"sensor.coverage_mm must be (x1, x2) with 0 <= x1 < x2 <= 7.5, got {self.coverage_mm!r}")
+
+
+@dataclass(frozen=True)
+class ControllerConfig:
+    """The grasp controller.
+
+    Attributes
+    ----------
+    kind : "scripted" (fixed approach, close, lift, hold) or "multimode" (reads the
+        sensors, switches mode by pressure range).
+    modes : the modes the controller may drive (a subset of sensor.modes); ``[1]`` alone
+        makes a single-mode baseline.
+    lift_height_m : how far to lift the object, m.
+    hold_s : how long to hold it up, s.
+    """
+
+    kind: str = "scripted"
+    modes: tuple[int, ...] = (1, 2, 3, 4)
+    lift_height_m: float = 0.05
+    hold_s: float = 1.0
+
+    def validate(self) -> None:
+        _one_of("controller.kind", self.kind, CONTROLLERS)
+        if not self.modes:
+            raise ValueError("controller.modes must name at least one mode")
+        _positive("controller.lift_height_m", self.lift_height_m)
+        if self.hold_s < 0 or not math.isfinite(self.hold_s):
+            raise ValueError(f"controller.hold_s must be non-negative, got {self.hold_s!r}")
+
+
+@dataclass(frozen=True)
+class ScenarioConfig:
+    """A scenario's whole configuration."""
+
+    name: str
+    description: str
+    duration_s: float = 4.0
+    object: ObjectConfig = field(default_factory=ObjectConfig)
+    physics: PhysicsConfig = field(default_factory=PhysicsConfig)
+    sensor: SensorConfig = field(default_factory=SensorConfig)
+    controller: ControllerConfig = field(default_factory=ControllerConfig)
+
+    def validate(self) -> ScenarioConfig:
+        """Check every value; return self so it chains."""
+        _positive("duration_s", self.duration_s)
+        for part in (self.object, self.physics, self.sensor, self.controller):
+            part.validate()
+        unknown = sorted(set(self.controller.modes) - set(self.sensor.modes))
+        if unknown:
+            raise ValueError(f"controller.modes {list(self.controller.modes)} include modes the sensor lacks: {unknown}")
+        return self
+
+
+def _positive(key: str, value) -> None:
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) or value <= 0:
+        raise ValueError(f"{key} must be a positive number, got {value!r}")
+
+
+def _one_of(key: str, value, valid) -> None:
+    if value not in valid:
+        raise ValueError(f"{key} must be one of {', '.join(map(str, valid))}; got {value!r}")
+
+
+# ---------------------------------------------------------------------------------------
+# Dotted-path overrides.
+# ---------------------------------------------------------------------------------------
+
+
+def valid_keys(config) -> list[str]:
+    """Every dotted key of ``config`` that ``--set`` accepts."""
+    keys = []
+    for f in dataclasses.fields(config):
+        value = getattr(config, f.name)
+        if dataclasses.is_dataclass(value):
+            keys.extend(f"{f.name}.{k}" for k in valid_keys(value))
+        else:
+            keys.append(f.name)
+    return keys
+
+
+def parse_value(text: str):
+    """A ``--set`` value: a Python literal if it parses as one, else the string itself."""
+    try:
+        return ast.literal_eval(text)
+    except (ValueError, SyntaxError):
+        return text
+
+
+def _coerce(key: str, hint, value):
+    """``value`` converted to the field type ``hint``, or a ValueError naming ``key``."""
+    origin = typing.get_origin(hint)
+    args = typing.get_args(hint)
+    if origin in (typing.Union, types.UnionType):
+        if value is None and type(None) in args:
+            return None
+        for arg in args:
+            if arg is type(None):
+                continue
+            try:
+                return _coerce(key, arg, value)
+            except ValueError:
+                continue
+        raise ValueError(f"{key}: cannot use {value!r} (expected {hint})")
+    if origin is tuple:
+        if isinstance(value, (int, float, str)) and not isinstance(value, bool):
+            value = [value]
+        if not isinstance(value, (list, tuple)):
+            raise ValueError(f"{key}: expected a list, got {value!r}")
+        item_types = args[:1] if (len(args) == 2 and args[1] is Ellipsis) else args
+        if len(item_types) == 1:
+            return tuple(_coerce(key, item_types[0], v) for v in value)
+        if len(value) != len(item_types):
+            raise ValueError(f"{key}: expected {len(item_types)} values, got {value!r}")
+        return tuple(_coerce(key, t, v) for t, v in zip(item_types, value, strict=True))
+    if hint is bool:
+        if isinstance(value, bool):
+            return value
+        if isinstance(value, str) and value.lower() in ("true", "false"):
+            return value.lower() == "true"
+        raise ValueError(f"{key}: expected true or false, got {value!r}")
+    if hint is int:
+        if isinstance(value, bool) or not isinstance(value, int):
+            raise ValueError(f"{key}: expected an integer, got {value!r}")
+        return value
+    if hint is float:
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise ValueError(f"{key}: expected a number, got {value!r}")
+        return float(value)
+    if hint is str:
+        if not isinstance(value, str):
+            raise ValueError(f"{key}: expected text, got {value!r}")
+        return value
+    return value
+
+
+def apply_override(config, key: str, value, full_key: str | None = None):
+    """A copy of ``config`` with the dotted ``key`` set to ``value`` (already parsed)."""
+    full_key = full_key or key
+    head, _, rest = key.partition(".")
+    names = {f.name: f for f in dataclasses.fields(config)}
+    if head not in names or (rest and not dataclasses.is_dataclass(getattr(config, head))):
+        raise KeyError(key)
+    if rest:
+        return dataclasses.replace(config, **{head: apply_override(getattr(config, head), rest, value, full_key)})
+    if dataclasses.is_dataclass(getattr(config, head)):
+        raise KeyError(key)
+    hints = typing.get_type_hints(type(config))
+    return dataclasses.replace(config, **{head: _coerce(full_key, hints[head], value)})
+
+
+def with_overrides(config: ScenarioConfig, assignments: list[str]) -> ScenarioConfig:
+    """Apply ``key=value`` strings in order, then validate the result."""
+    for assignment in assignments:
+        key, sep, text = assignment.partition("=")
+        key = key.strip()
+        if not sep or not key:
+            raise ValueError(f"--set takes key=value, got {assignment!r}")
+        try:
+            config = apply_override(config, key, parse_value(text.strip()))
+        except KeyError:
+            raise ValueError(f"unknown key {key!r}; valid keys: {', '.join(valid_keys(config))}") from None
+    return config.validate()

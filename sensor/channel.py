@@ -1,0 +1,195 @@
+"""One instrumented fingertip as a running instrument: pressure profile in, reading out.
+
+A :class:`SensorChannel` holds what a real readout holds between samples: the mode it is
+driving, the resonator's complex envelope (physics.md section 6) and the noise generator.
+Each :meth:`SensorChannel.update` takes the pad's pressure along the element (one value per
+cell, Pa) and the time since the last sample, and returns a :class:`Reading`.
+
+Only what the scene asks for is computed: the per-mode tables of (k_e, c_e) against
+pressure are built once per channel, for its modes only, and a sample evaluates the
+active mode alone (plus any modes named in ``shadow_modes``, for plots and tests).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from .fingertip import Fingertip
+from .readout import envelope_rate, envelope_step, steady_envelope
+
+DYNAMICS = ("steady", "envelope")
+#: Pressure table for the fast path, Pa: log-spaced, 60 points per decade.
+_TABLE_P = np.logspace(-3, 7, 601)
+#: A reading is "settled" once the transient has decayed below this fraction.
+SETTLE_FRACTION = 1e-3
+
+
+@dataclass(frozen=True)
+class Reading:
+    """One sample of one channel.
+
+    Attributes
+    ----------
+    mode : the mode being driven.
+    v1 : the measured normalized output |V_s| / V_0 (noisy), dimensionless.
+    v1_true : the same without noise, dimensionless.
+    phase_rad : phase change relative to the unloaded pi/2 (noise-free), rad.
+    time_in_mode_s : time since the drive entered this mode, s.
+    tau_s : the envelope's current time constant 1 / Re(lambda), s.
+    settled : whether a ring-up or load step has decayed below SETTLE_FRACTION
+        (time_in_mode_s >= tau_s ln(1 / SETTLE_FRACTION)); always True for steady dynamics.
+    kappa, gamma : the generalized gel load on the driven mode, N/m^2 and N s/m^2.
+    """
+
+    mode: int
+    v1: float
+    v1_true: float
+    phase_rad: float
+    time_in_mode_s: float
+    tau_s: float
+    settled: bool
+    kappa: float
+    gamma: float
+
+
+class FoundationTable:
+    """(k_e, c_e) against pressure for one mode, tabulated in log-log and interpolated.
+
+    Below the table's first pressure both are linear in P (the contact fraction is), so the
+    first point's ratio extrapolates exactly.  The interpolation error is what the
+    ``fast`` fidelity presets pay; :func:`FoundationTable.max_relative_error` measures it.
+    """
+
+    def __init__(self, fingertip: Fingertip, mode: int) -> None:
+        k, c = fingertip.foundation(_TABLE_P, mode)
+        self._log_p = np.log(_TABLE_P)
+        self._log_k = np.log(k)
+        self._log_c = np.log(c)
+        self._k0, self._c0 = k[0] / _TABLE_P[0], c[0] / _TABLE_P[0]
+        self._p0 = _TABLE_P[0]
+
+    def __call__(self, pressure_pa: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        p = np.asarray(pressure_pa, float)
+        lp = np.log(np.maximum(p, self._p0))
+        k = np.exp(np.interp(lp, self._log_p, self._log_k))
+        c = np.exp(np.interp(lp, self._log_p, self._log_c))
+        low = p < self._p0
+        if np.any(low):
+            k = np.where(low, p * self._k0, k)
+            c = np.where(low, p * self._c0, c)
+        return k, c
+
+
+class SensorChannel:
+    """The readout of one fingertip: drives one mode at a time, samples, switches.
+
+    Parameters
+    ----------
+    fingertip : the Fingertip (element, gel, coverage, noise).
+    edges_m : cell edges along the element (m) of the pressure profile the pad supplies;
+        default one cell over the gel coverage (a uniform pressure).
+    dynamics : "steady" or "envelope".
+    mode : the initial drive mode.
+    noise : whether readings carry noise.
+    rng : noise generator.
+    exact : evaluate the gel model exactly each sample instead of the tables.
+    shadow_modes : extra modes whose noise-free steady outputs are reported by
+        :meth:`shadow_outputs` (for plots; a real readout cannot see them).
+    """
+
+    def __init__(
+        self,
+        fingertip: Fingertip,
+        edges_m: Sequence[float] | None = None,
+        dynamics: str = "envelope",
+        mode: int | None = None,
+        noise: bool = True,
+        rng: np.random.Generator | None = None,
+        exact: bool = False,
+        shadow_modes: Sequence[int] = (),
+    ) -> None:
+        if dynamics not in DYNAMICS:
+            raise ValueError(f"unknown sensor dynamics {dynamics!r}; valid: {', '.join(DYNAMICS)}")
+        self.tip = fingertip
+        self.dynamics = dynamics
+        self.noise = noise
+        self.rng = rng or np.random.default_rng(0)
+        self.exact = exact
+        self.edges_m = np.asarray(edges_m if edges_m is not None else fingertip.coverage, float)
+        el = fingertip.element
+        self._rho_a = el.params.mass_per_length_kg_m
+        self._c = el.params.damping_n_s_per_m2
+        b = el.params.width_m
+        used = sorted({*fingertip.modes})
+        # Per mode: b * cell ratios (so kappa = k_e @ weights), omega, sigma, table.
+        self._weights = {m: b * el.cell_ratios(m, self.edges_m) for m in used}
+        self._omega = {m: el.natural_angular_frequency(m) for m in used}
+        self._sigma = {m: fingertip.sigma(m) for m in used}
+        self._tables = {m: FoundationTable(fingertip, m) for m in used} if not exact else {}
+        self.shadow_modes = tuple(shadow_modes)
+        self.evaluations = 0  # gel/sensor evaluations, counted for "compute only what is needed" tests
+        self.mode = fingertip.modes[0] if mode is None else fingertip._mode(mode)
+        self.envelope = 0j if dynamics == "envelope" else 1 + 0j
+        self.time_in_mode_s = 0.0
+
+    @property
+    def n_cells(self) -> int:
+        return self.edges_m.size - 1
+
+    def select_mode(self, mode: int) -> None:
+        """Drive ``mode`` from now on; the envelope starts from rest (a ring-up)."""
+        mode = self.tip._mode(mode)
+        if mode != self.mode:
+            self.mode = mode
+            self.time_in_mode_s = 0.0
+            if self.dynamics == "envelope":
+                self.envelope = 0j
+
+    def _foundation(self, pressure_cells_pa: np.ndarray, mode: int) -> tuple[np.ndarray, np.ndarray]:
+        self.evaluations += 1
+        if self.exact:
+            return self.tip.foundation(pressure_cells_pa, mode)
+        return self._tables[mode](pressure_cells_pa)
+
+    def modal_load(self, pressure_cells_pa, mode: int) -> tuple[float, float]:
+        """(kappa, gamma) of a pressure profile on ``mode``: the modal integrals over cells."""
+        p = np.asarray(pressure_cells_pa, float)
+        if p.shape != (self.n_cells,):
+            raise ValueError(f"pressure profile needs {self.n_cells} cells, got shape {p.shape}")
+        if not np.all(np.isfinite(p)) or np.any(p < 0):
+            raise ValueError(f"pressure_pa must be finite and non-negative, got {p!r}")
+        k_e, c_e = self._foundation(p, mode)
+        w = self._weights[mode]
+        return float(k_e @ w), float(c_e @ w)
+
+    def update(self, pressure_cells_pa, dt_s: float) -> Reading:
+        """Advance by ``dt_s`` under the pad's pressure profile (held over the step) and sample."""
+        mode = self.mode
+        kappa, gamma = self.modal_load(pressure_cells_pa, mode)
+        omega = self._omega[mode]
+        steady = complex(steady_envelope(omega, self._c, kappa, gamma))
+        rate = complex(envelope_rate(self._rho_a, omega, self._c, kappa, gamma))
+        self.time_in_mode_s += dt_s
+        tau = 1.0 / rate.real
+        if self.dynamics == "envelope":
+            self.envelope = complex(envelope_step(self.envelope, steady, dt_s, rate))
+            settled = self.time_in_mode_s >= tau * math.log(1.0 / SETTLE_FRACTION)
+        else:
+            self.envelope = steady
+            settled = True
+        v1_true = abs(self.envelope)
+        v1 = v1_true + (self.rng.normal(0.0, self._sigma[mode]) if self.noise else 0.0)
+        phase = -math.atan2(self.envelope.imag, self.envelope.real) if v1_true > 0 else 0.0
+        return Reading(mode, v1, v1_true, phase, self.time_in_mode_s, tau, settled, kappa, gamma)
+
+    def shadow_outputs(self, pressure_cells_pa) -> dict[int, float]:
+        """Noise-free steady V_1 of each shadow mode under the profile (not visible to a robot)."""
+        out = {}
+        for m in self.shadow_modes:
+            kappa, gamma = self.modal_load(pressure_cells_pa, m)
+            out[m] = abs(complex(steady_envelope(self._omega[m], self._c, kappa, gamma)))
+        return out

@@ -1,0 +1,67 @@
+"""The scenario registry and --set overrides."""
+
+import pytest
+
+import scenarios
+from scenarios.config import valid_keys
+
+
+@pytest.mark.parametrize("name", scenarios.names())
+def test_every_registered_scenario_is_valid(name):
+    cfg = scenarios.get(name)
+    assert cfg.name == name
+    assert cfg.validate() is cfg
+
+
+def test_overrides_from_the_issue_apply_with_types():
+    cfg = scenarios.get(
+        "grasp",
+        ["object.mass_kg=0.4", "object.shape=cylinder", "object.size_m=0.04", "object.friction=0.8", "controller.modes=[1]"],
+    )
+    assert cfg.object.mass_kg == 0.4 and isinstance(cfg.object.mass_kg, float)
+    assert cfg.object.shape == "cylinder"
+    assert cfg.object.friction == 0.8
+    assert cfg.controller.modes == (1,)
+
+
+def test_optional_and_tuple_fields():
+    cfg = scenarios.get("grasp", ["object.crush_force_n=12", "sensor.coverage_mm=[6.5, 7.5]", "sensor.quality_factor=None"])
+    assert cfg.object.crush_force_n == 12.0
+    assert cfg.sensor.coverage_mm == (6.5, 7.5)
+    assert cfg.sensor.quality_factor is None
+
+
+def test_unknown_scenario_lists_valid_ones():
+    with pytest.raises(ValueError, match=r"valid scenarios: .*grasp"):
+        scenarios.get("no-such-scene")
+
+
+def test_unknown_key_lists_valid_keys():
+    with pytest.raises(ValueError, match=r"unknown key 'object\.mas'.*object\.mass_kg"):
+        scenarios.get("grasp", ["object.mas=1"])
+    with pytest.raises(ValueError, match="unknown key 'object'"):
+        scenarios.get("grasp", ["object=3"])
+
+
+@pytest.mark.parametrize(
+    ("assignment", "message"),
+    [
+        ("object.mass_kg=-1", "object.mass_kg must be a positive number"),
+        ("object.mass_kg=heavy", "object.mass_kg: expected a number"),
+        ("object.shape=cube", "object.shape must be one of"),
+        ("physics.pad_segments=2.5", "physics.pad_segments: expected an integer"),
+        ("physics.control_period_s=0.0007", "whole multiple"),
+        ("controller.modes=[5]", "modes the sensor lacks"),
+        ("sensor.dynamics=magic", "sensor.dynamics must be one of"),
+        ("object.size_m=0.5", "stroke"),
+        ("nonsense", "key=value"),
+    ],
+)
+def test_bad_values_name_the_key_and_value(assignment, message):
+    with pytest.raises(ValueError, match=message):
+        scenarios.get("grasp", [assignment])
+
+
+def test_valid_keys_cover_nested_fields():
+    keys = valid_keys(scenarios.get("grasp"))
+    assert {"object.mass_kg", "physics.timestep_s", "sensor.dynamics", "controller.modes"} <= set(keys)
