@@ -129,9 +129,12 @@ class Fingertip:
     def _table(self, mode: int) -> np.ndarray:
         return self.output(self._grid_pa, mode)
 
-    @functools.cache  # noqa: B019
     def detection_limit(self, mode: int = 1) -> float:
         """P_min of ``mode``: the pressure that moves V_1 by 3 sigma from unloaded, Pa (inf if none)."""
+        return self._detection_limit(self._mode(mode))
+
+    @functools.cache  # noqa: B019 - cached per (validated) int mode
+    def _detection_limit(self, mode: int) -> float:
         target = DETECTION_SIGMAS * self.sigma(mode)
         drop = 1.0 - self._table(mode)
         above = np.nonzero(drop >= target)[0]
@@ -148,9 +151,12 @@ class Fingertip:
         p = math.exp(log_p)
         return math.log(float(self.resolution(p, mode)) / (RESOLVED_FRACTION * p))
 
-    @functools.cache  # noqa: B019
     def upper_limit(self, mode: int = 1) -> float:
         """P_max of ``mode``: the largest P <= rated where dP_n(P) <= 0.1 P, Pa (NaN if nowhere)."""
+        return self._upper_limit(self._mode(mode))
+
+    @functools.cache  # noqa: B019 - cached per (validated) int mode
+    def _upper_limit(self, mode: int) -> float:
         grid = self._grid_pa[self._grid_pa <= self.rated_pressure_pa]
         grid = np.append(grid, self.rated_pressure_pa)
         ok = np.nonzero(self.resolution(grid, mode) <= RESOLVED_FRACTION * grid)[0]

@@ -62,7 +62,8 @@ class GelParams:
     gent_jm : Gent locking parameter J_m, dimensionless.  20: soft, loosely cross-linked
         gels lock at far smaller first-invariant excursions than filled rubbers (J_m 30-100);
         20 puts the lock at about 91 % compression.
-    poisson_ratio : nu, dimensionless.  0.5: an elastomer gel is nearly incompressible.
+    poisson_ratio : nu, dimensionless, used in the contact modulus E* only (Gent's law is
+        incompressible).  0.5: an elastomer gel is nearly incompressible.
     density_kg_m3 : gel density, kg/m^3.  1000: polyurethane gels are 1000-1100 kg/m^3.
     prony_g : relative Prony strengths g_i = E_i / E_inf, dimensionless.
     prony_tau_s : Prony relaxation times tau_i, s.  Three terms of strength 0.5 at 1, 10
@@ -107,8 +108,12 @@ class GelParams:
 
     @property
     def shear_modulus_pa(self) -> float:
-        """mu = E / (2 (1 + nu)), Pa (E/3 for an incompressible gel)."""
-        return self.youngs_modulus_pa / (2 * (1 + self.poisson_ratio))
+        """mu = E / 3, Pa: Gent's law is for an incompressible solid, so its tangent at lambda = 1 is E.
+
+        (nu enters only the contact modulus E*, where a slightly compressible gel's plane-strain
+        stiffness matters.)
+        """
+        return self.youngs_modulus_pa / 3.0
 
     @property
     def contact_modulus_pa(self) -> float:
@@ -132,6 +137,17 @@ def check_pressure(pressure_pa) -> np.ndarray:
     if np.any(bad):
         raise ValueError(f"pressure_pa must be finite and non-negative, got {p[bad].flat[0]!r}")
     return p
+
+
+def _check_freq(freq_hz, name: str = "freq_hz") -> float:
+    """``freq_hz`` as a float, or a ValueError if it is not positive and finite."""
+    try:
+        f = float(freq_hz)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} must be a positive number of Hz, got {freq_hz!r}") from None
+    if not (math.isfinite(f) and f > 0):
+        raise ValueError(f"{name} must be positive and finite, got {freq_hz!r}")
+    return f
 
 
 # ---------------------------------------------------------------------------------------
@@ -264,6 +280,9 @@ class GelModel:
     frequency_dependent: bool = True
     reference_freq_hz: float = 3768.0
 
+    def __post_init__(self) -> None:
+        _check_freq(self.reference_freq_hz, "reference_freq_hz")
+
     def state(self, pressure_pa) -> GelState:
         """The gel's :class:`GelState` at pressures ``pressure_pa`` (Pa, arrays allowed)."""
         p = check_pressure(pressure_pa)
@@ -292,10 +311,8 @@ class GelModel:
         k_e = phi K Re R(omega), c_e = phi K Im R(omega) / omega  (module docstring, parts 1-4).
         Both are zero at zero pressure and non-negative everywhere.
         """
+        f = _check_freq(freq_hz)
         stiffness = self.state(pressure_pa).stiffness_n_m3
-        f = float(freq_hz)
-        if not (math.isfinite(f) and f > 0):
-            raise ValueError(f"freq_hz must be positive and finite, got {freq_hz!r}")
         ratio = complex(self.modulus_ratio(f))
         return stiffness * ratio.real, stiffness * ratio.imag / (2 * math.pi * f)
 
@@ -305,6 +322,7 @@ class GelModel:
         Chain rule on k_e = phi(P) K(lambda(P)) Re R:  d(phi K)/dP = phi' K + phi K',
         K' = dK/dP = P''(lambda) / (h0 T(lambda)) with T = -dP/dlambda.
         """
+        f = _check_freq(freq_hz)
         gel = self.params
         p = check_pressure(pressure_pa)
         lam = stretch_from_pressure(p, gel)
@@ -312,8 +330,8 @@ class GelModel:
         stiffness = tangent / gel.thickness_m
         stiffness_slope = gent_curvature_pa(lam, gel) / (gel.thickness_m * tangent)
         slope = contact_fraction_slope(p, gel) * stiffness + contact_fraction(p, gel) * stiffness_slope
-        ratio = complex(self.modulus_ratio(float(freq_hz)))
-        return slope * ratio.real, slope * ratio.imag / (2 * math.pi * float(freq_hz))
+        ratio = complex(self.modulus_ratio(f))
+        return slope * ratio.real, slope * ratio.imag / (2 * math.pi * f)
 
     def pressure_from_indentation(self, indentation_m) -> np.ndarray:
         """Quasi-static pressure (Pa) that compresses the gel by ``indentation_m`` (m).

@@ -75,8 +75,7 @@ def _characteristic(boundary: Boundary, z: float) -> float:
     return math.sin(z)
 
 
-@functools.cache
-def characteristic_root(boundary: Boundary, mode: int) -> float:
+def characteristic_root(boundary: Boundary | str, mode: int) -> float:
     """Root ``beta_n L`` (dimensionless) of the boundary condition's frequency equation.
 
     physics.md section 2: clamped-free ``cos z cosh z = -1`` (1.8751, 4.6941, 7.8548, ...),
@@ -84,8 +83,11 @@ def characteristic_root(boundary: Boundary, mode: int) -> float:
     ``sin z = 0`` (n pi).  Root n of the clamped-free equation lies in ((n-1) pi, n pi) and
     of the clamped-clamped one in (n pi, (n+1) pi); each interval holds exactly one root.
     """
-    boundary = Boundary.parse(boundary)
-    mode = check_mode(mode)
+    return _characteristic_root(Boundary.parse(boundary), check_mode(mode))
+
+
+@functools.cache
+def _characteristic_root(boundary: Boundary, mode: int) -> float:
     if boundary is Boundary.SIMPLY_SUPPORTED:
         return mode * math.pi
     lo, hi = ((mode - 1) * math.pi, mode * math.pi)
@@ -153,15 +155,18 @@ class ModeShape:
         x2 = np.asarray(x2_m, dtype=float)
         x1, x2 = np.broadcast_arrays(x1, x2)
         panels = 4 * (self.mode + 2)
-        # Fixed panel grid over [0, L]; each interval is cut at the panel edges inside it.
+        # Fixed panel grid over [0, L]; whole panels come from a running sum (monotone, so
+        # never negative), the two partial panels from direct quadrature (positive weights):
+        # the result is >= 0 for every x2 >= x1, however narrow the interval.
         edges = np.linspace(0.0, self.length_m, panels + 1)
         cum = np.concatenate([[0.0], np.cumsum(_panel_integrals(self, edges[:-1], edges[1:]))])
-
-        def cumulative(x: np.ndarray) -> np.ndarray:
-            k = np.clip(np.searchsorted(edges, x, side="right") - 1, 0, panels - 1)
-            return cum[k] + _panel_integrals(self, edges[k], x)
-
-        return cumulative(x2) - cumulative(x1)
+        k1 = np.clip(np.searchsorted(edges, x1, side="right") - 1, 0, panels - 1)
+        k2 = np.clip(np.searchsorted(edges, x2, side="right") - 1, 0, panels - 1)
+        same = k1 == k2
+        head = _panel_integrals(self, x1, np.where(same, x2, edges[np.minimum(k1 + 1, panels)]))
+        middle = np.where(same, 0.0, cum[k2] - cum[np.minimum(k1 + 1, panels)])
+        tail = np.where(same, 0.0, _panel_integrals(self, edges[k2], x2))
+        return head + np.maximum(middle, 0.0) + tail
 
 
 def _panel_integrals(shape: ModeShape, a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -174,14 +179,16 @@ def _panel_integrals(shape: ModeShape, a: np.ndarray, b: np.ndarray) -> np.ndarr
     return half * (shape(x) ** 2 @ _GL_WEIGHTS)
 
 
-@functools.cache
 def mode_shape(boundary: Boundary | str, mode: int, length_m: float) -> ModeShape:
     """The normalized mode ``mode`` of a beam of length ``length_m`` (m) with ``boundary``."""
-    boundary = Boundary.parse(boundary)
-    mode = check_mode(mode)
-    if not (length_m > 0 and math.isfinite(length_m)):
+    if not (isinstance(length_m, (int, float)) and math.isfinite(length_m) and length_m > 0):
         raise ValueError(f"length_m must be positive and finite, got {length_m!r}")
-    z = characteristic_root(boundary, mode)
+    return _mode_shape(Boundary.parse(boundary), check_mode(mode), float(length_m))
+
+
+@functools.cache
+def _mode_shape(boundary: Boundary, mode: int, length_m: float) -> ModeShape:
+    z = _characteristic_root(boundary, mode)
     (left, right) = _END_CONDITIONS[boundary]
     rows = [_basis(z, np.array(0.0), k) for k in left] + [_basis(z, np.array(1.0), k) for k in right]
     _, _, vt = np.linalg.svd(np.stack(rows))

@@ -142,7 +142,7 @@ def self_test(
         lag = [-(np.angle(v)) for v in (lo, mid, hi)]  # phase lag, rad; pi/2 at resonance
         t_lo, t_mid, t_hi = (math.tan(phi - math.pi / 2) for phi in lag)
         amplitude_ratio = abs(mid) / v0
-        phase_error = math.degrees(lag[1] - math.pi / 2)
+        phase_error = (math.degrees(lag[1] - math.pi / 2) + 180.0) % 360.0 - 180.0  # wrapped into [-180, 180)
         findings = []
         if abs(phase_error) > 60 or amplitude_ratio < 0.05:
             findings.append(
