@@ -46,6 +46,9 @@ def _cmd_range(args: argparse.Namespace) -> int:
     coverage = None
     if args.coverage is not None:
         x1_mm, x2_mm = args.coverage
+        length_mm = 7.5
+        if not (0 <= x1_mm < x2_mm <= length_mm):
+            raise ValueError(f"--coverage must satisfy 0 <= X1_MM < X2_MM <= {length_mm} (the element's length), got {x1_mm:g} {x2_mm:g}")
         coverage = (x1_mm * 1e-3, x2_mm * 1e-3)
     tip = Fingertip(coverage=coverage)
     report = tip.dynamic_range()

@@ -100,7 +100,8 @@ def test_out_writes_plots_csv_and_json(tmp_path, capsys):
 
 @pytest.mark.parametrize(
     ("x1", "x2", "shown"),
-    [("5", "3", ("0.005", "0.003")), ("-1", "3", ("-0.001",)), ("0", "9", ("0.009",)), ("2", "nan", ("nan",))],
+    # The error repeats the values in the millimetres the user typed.
+    [("5", "3", ("got 5 3",)), ("-1", "3", ("got -1 3",)), ("0", "9", ("got 0 9",)), ("2", "nan", ("nan",))],
 )
 def test_bad_coverage_exits_2_naming_the_values(capsys, x1, x2, shown):
     assert run_sim.main(["range", "--coverage", x1, x2]) == 2
