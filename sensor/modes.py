@@ -122,7 +122,7 @@ class ModeShape:
     """One bending mode ``Z_n(x)`` of a beam of length ``length_m``.
 
     Normalized so that ``integral_0^L Z^2 dx = L`` (so A_L = L, in metres) and, for a
-    deterministic sign, so that the largest-magnitude value of Z on [0, L] is positive.
+    deterministic sign, so that Z'(0) > 0 (simply supported) or Z''(0) > 0 (clamped at x = 0).
     Z is dimensionless; ``derivative(x, k)`` has units m^-k.
     """
 
@@ -146,14 +146,16 @@ class ModeShape:
         return self.derivative(x_m, 0)
 
     def square_integral(self, x1_m: np.ndarray | float, x2_m: np.ndarray | float) -> np.ndarray:
-        """``integral_{x1}^{x2} Z(x)^2 dx`` in metres, for arrays of interval ends.
+        """``integral_{x1}^{x2} Z(x)^2 dx`` in metres, for arrays of interval ends (signed: x2 < x1 gives <= 0).
 
         Composite Gauss-Legendre with panels no wider than a quarter of the mode's
         half-wavelength, so the quadrature error is at rounding level for every mode.
         """
-        x1 = np.asarray(x1_m, dtype=float)
-        x2 = np.asarray(x2_m, dtype=float)
-        x1, x2 = np.broadcast_arrays(x1, x2)
+        a = np.asarray(x1_m, dtype=float)
+        b = np.asarray(x2_m, dtype=float)
+        a, b = np.broadcast_arrays(a, b)
+        # Integrate over [min, max] and give the result the interval's orientation.
+        x1, x2, sign = np.minimum(a, b), np.maximum(a, b), np.where(b >= a, 1.0, -1.0)
         panels = 4 * (self.mode + 2)
         # Fixed panel grid over [0, L]; whole panels come from a running sum (monotone, so
         # never negative), the two partial panels from direct quadrature (positive weights):
@@ -166,7 +168,7 @@ class ModeShape:
         head = _panel_integrals(self, x1, np.where(same, x2, edges[np.minimum(k1 + 1, panels)]))
         middle = np.where(same, 0.0, cum[k2] - cum[np.minimum(k1 + 1, panels)])
         tail = np.where(same, 0.0, _panel_integrals(self, edges[k2], x2))
-        return head + np.maximum(middle, 0.0) + tail
+        return sign * (head + np.maximum(middle, 0.0) + tail)
 
 
 def _panel_integrals(shape: ModeShape, a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -193,10 +195,12 @@ def _mode_shape(boundary: Boundary, mode: int, length_m: float) -> ModeShape:
     rows = [_basis(z, np.array(0.0), k) for k in left] + [_basis(z, np.array(1.0), k) for k in right]
     _, _, vt = np.linalg.svd(np.stack(rows))
     coeffs = vt[-1]
-    # Normalize: integral of Z^2 over [0, L] equals L, largest excursion positive.
+    # Normalize: integral of Z^2 over [0, L] equals L, and the lowest-order derivative that
+    # the support at x = 0 leaves free is positive (Z'' for a clamped end, Z' for a pinned one):
+    # the textbook sign, and decided for every mode (a largest-excursion rule is not, when
+    # the peaks are equal, as in every simply supported mode).
     trial = ModeShape(boundary, mode, z, length_m, tuple(float(c) for c in coeffs))
     norm = math.sqrt(float(trial.square_integral(0.0, length_m)) / length_m)
-    x = np.linspace(0.0, length_m, 8 * mode + 17)
-    values = trial(x)
-    sign = 1.0 if values[np.argmax(np.abs(values))] >= 0 else -1.0
+    free_order = 1 if boundary is Boundary.SIMPLY_SUPPORTED else 2
+    sign = 1.0 if float(trial.derivative(0.0, free_order)) > 0 else -1.0
     return ModeShape(boundary, mode, z, length_m, tuple(float(c) * sign / norm for c in coeffs))
