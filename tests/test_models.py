@@ -1,0 +1,344 @@
+"""The MuJoCo models and the pad mechanics (models/, cosim/pads.py).
+
+* every scene file loads and steps a simulated second from ``home`` without warnings;
+* squeeze test: the pad's force against indentation follows the gel's law A P(d), for objects
+  from 1 g to 10 kg (the contact itself adds no compliance, whatever the object's mass);
+* static cross-checks: gel pressure = contact force / area per strip, gel force = contact force;
+* bottoming: past the gel's range the housing takes the load and ``bottomed`` is set;
+* the static gripper.xml equals the pads regenerated for its N; keyframes survive regeneration;
+* the gripper holds and lifts 10 kg; a broken MJCF names its file.
+"""
+
+from __future__ import annotations
+
+import re
+
+import mujoco
+import numpy as np
+import pytest
+
+from cosim.pads import (
+    DEFAULT_PAD_SEGMENTS,
+    MODELS_DIR,
+    PAD_NAMES,
+    PadBridge,
+    PadGeometry,
+    _GelTable,
+    build_model,
+    scene_names,
+    scene_path,
+)
+from sensor.gel import GelModel
+
+GEL = GelModel()
+GEOMETRY = PadGeometry()
+
+# A box squeezed between the pads, away from the table, its 30 x 40 mm faces covering the
+# 20 x 20 mm pads.  {mass} in kg.
+SQUEEZE_SCENE = """<mujoco model="squeeze">
+  <include file="{models}/gripper.xml"/>
+  <include file="{models}/table.xml"/>
+  <worldbody>
+    <body name="object" pos="0 0 0.08">
+      <freejoint name="object_joint"/>
+      <geom name="object_geom" class="object" type="box" size="{half_x} 0.015 {half_z}" mass="{mass}"/>
+    </body>
+  </worldbody>
+</mujoco>
+"""
+LIFT_SQUEEZE = -0.2  # lift_joint: pad centres at z = 0.28 - 0.2 = 0.08 m, the object's centre
+BOX_HALF_X = 0.02  # m: 40 mm between the pads
+
+
+def squeeze_model(tmp_path, mass, half_z=0.02, pad_segments=None):
+    """The squeeze scene for one object mass, without gravity, the fingers just touching it."""
+    path = tmp_path / f"squeeze_{mass}_{half_z}.xml"
+    path.write_text(SQUEEZE_SCENE.format(models=MODELS_DIR, mass=mass, half_x=BOX_HALF_X, half_z=half_z))
+    model = build_model(path, pad_segments=pad_segments)
+    model.opt.gravity[:] = 0.0  # the pad law alone: no weight to hold, mass only in the dynamics
+    data = mujoco.MjData(model)
+    data.qpos[model.joint("lift_joint").qposadr[0]] = data.ctrl[0] = LIFT_SQUEEZE
+    for side in ("left", "right"):
+        data.qpos[model.joint(f"{side}_finger_joint").qposadr[0]] = BOX_HALF_X + 2e-4
+    data.ctrl[model.actuator("fingers_actuator").id] = 0.0  # close: the servo saturates at its force limit
+    mujoco.mj_forward(model, data)
+    return model, data, PadBridge(model)
+
+
+def settle(model, data, bridge, grip_force_n, max_time_s=2.0, tol=1e-7, quiet_steps=50):
+    """Squeeze with ``grip_force_n`` per finger until every velocity stays below ``tol`` for ``quiet_steps``."""
+    model.actuator_forcerange[model.actuator("fingers_actuator").id] = [-grip_force_n, grip_force_n]
+    start, quiet = data.time, 0
+    while quiet < quiet_steps:
+        bridge.apply_gel_forces(data)
+        mujoco.mj_step(model, data)
+        quiet = quiet + 1 if np.abs(data.qvel).max() < tol else 0
+        if data.time - start > max_time_s:
+            raise AssertionError(f"no static equilibrium at {grip_force_n} N after {max_time_s} s")
+
+
+def pad_contact_force(model, data, side):
+    """Sum of mj_contactForce normal components over the contacts of one pad's strip geoms."""
+    strips = {model.geom(f"{name}_geom").id for name in GEOMETRY.strip_names(side)}
+    total, f6 = 0.0, np.zeros(6)
+    for i in range(data.ncon):
+        if data.contact.geom[i, 0] in strips or data.contact.geom[i, 1] in strips:
+            mujoco.mj_contactForce(model, data, i, f6)
+            total += f6[0]
+    return total
+
+
+def geometric_indentation(model, data, side):
+    """How far the object's face lies inside the pad's unloaded surface, m (contact penetration included)."""
+    finger = data.body(f"{side}_finger")
+    surface_x = finger.xpos[0]  # the finger frame's origin is the unloaded pad surface's centre
+    normal_x = finger.xmat[0]  # the finger's local x (towards the object) in world x
+    obj_x = data.body("object").xpos[0]
+    face_x = obj_x - BOX_HALF_X * normal_x
+    return (surface_x - face_x) * normal_x
+
+
+def assert_no_warnings(data):
+    counts = {mujoco.mjtWarning(i).name: w.number for i, w in enumerate(data.warning) if w.number}
+    assert not counts, f"MuJoCo warnings: {counts}"
+
+
+# ---------------------------------------------------------------------------------------
+# Scenes.
+# ---------------------------------------------------------------------------------------
+
+
+def test_scene_registry():
+    assert {"light", "fragile", "heavy", "10kg"} <= set(scene_names())
+    with pytest.raises(ValueError, match=r"valid scenes: .*light"):
+        scene_path("no_such_scene")
+
+
+@pytest.mark.parametrize("scene", scene_names())
+def test_scene_steps_one_second_clean(scene):
+    """MuJoCo's own loader, then one second from home, bare and with the gel law: no warning, no NaN."""
+    raw = mujoco.MjModel.from_xml_path(str(scene_path(scene)))
+    model = build_model(scene)
+    for bridge in (None, PadBridge(model)):
+        m = model if bridge else raw
+        data = mujoco.MjData(m)
+        mujoco.mj_resetDataKeyframe(m, data, m.key("home").id)
+        object_start = data.qpos[m.joint("object_joint").qposadr[0] :][:3].copy()
+        for _ in range(round(1.0 / m.opt.timestep)):
+            if bridge:
+                bridge.apply_gel_forces(data)
+            mujoco.mj_step(m, data)
+        assert_no_warnings(data)
+        assert np.all(np.isfinite(data.qpos)) and np.all(np.isfinite(data.qvel))
+        # The object rests on the table (contact sinks it by well under a millimetre).
+        object_end = data.qpos[m.joint("object_joint").qposadr[0] :][:3]
+        np.testing.assert_allclose(object_end, object_start, atol=1e-3)
+
+
+def test_scenes_share_the_gripper_conventions():
+    model = build_model("fragile")
+    for name in ("lift_joint", "left_finger_joint", "right_finger_joint"):
+        assert model.joint(name).type[0] == mujoco.mjtJoint.mjJNT_SLIDE
+    for name in ("lift_actuator", "fingers_actuator"):
+        assert model.actuator(name).forcelimited[0]
+    # The grip: 10 kg at mu = 1 needs 49 N per finger; lifting 10 kg needs 98 N plus acceleration.
+    assert model.actuator("fingers_actuator").forcerange[1] >= 60
+    assert model.actuator("lift_actuator").forcerange[1] >= 2 * 10 * 9.81
+    assert model.numeric("object_crush_force").data[0] == pytest.approx(30.0)
+    for name in ("lift_pos", "fingers_opening", "fingers_force", "left_finger_contact"):
+        model.sensor(name)
+    assert model.opt.integrator == mujoco.mjtIntegrator.mjINT_DISCRETE
+
+
+# ---------------------------------------------------------------------------------------
+# The pad law.
+# ---------------------------------------------------------------------------------------
+
+
+def test_gel_table_follows_the_gel_model():
+    table = _GelTable.build(GEL, GEOMETRY)
+    d = np.random.default_rng(0).uniform(0.0, GEOMETRY.stop_m, 1000)
+    exact = GEL.pressure_from_indentation(d)
+    np.testing.assert_allclose(np.interp(d, table.grid_m, table.pressure_pa), exact, rtol=1e-5, atol=1e-3)
+    assert np.all(table.pressure_pa[table.grid_m < 0] < 0)  # the bonded gel pulls back in tension
+    assert np.all(np.diff(table.pressure_pa) > 0)
+
+
+SQUEEZE_MASSES_KG = (0.001, 0.06, 0.5, 2.0, 10.0)
+SQUEEZE_FORCES_N = (0.5, 5.0, 30.0, 80.0)  # indentations 0.2, 1.4, 3.1, 3.7 mm: strains 4-75 %
+SQUEEZE_TOLERANCE = 0.10  # the brief's 10 %; measured errors are below 0.7 %
+
+
+@pytest.mark.parametrize("mass", SQUEEZE_MASSES_KG)
+def test_squeeze_follows_the_gel_law_for_any_mass(tmp_path, mass):
+    """Contact normal force (mj_contactForce) against the object's indentation into the pad = A P(d)."""
+    model, data, bridge = squeeze_model(tmp_path, mass)
+    for force in SQUEEZE_FORCES_N:
+        settle(model, data, bridge, force)
+        assert_no_warnings(data)
+        for i, side in enumerate(("left", "right")):
+            measured = pad_contact_force(model, data, side)
+            d = geometric_indentation(model, data, side)
+            law = GEOMETRY.pad_area_m2 * float(GEL.pressure_from_indentation(d))
+            assert measured == pytest.approx(law, rel=SQUEEZE_TOLERANCE), f"{side}: {measured} N vs A P({d}) = {law} N"
+            assert measured == pytest.approx(force, rel=1e-3)  # the servo's force limit is the grip
+            # Static cross-checks: the gel's pressure is the contact pressure, strip by strip.
+            reading = bridge.read(data)[PAD_NAMES[i]]
+            assert not reading.bottomed
+            assert reading.gel_force_n == pytest.approx(measured, rel=1e-4)
+            assert reading.normal_force_n == pytest.approx(measured, rel=1e-4)
+            contact_pressure = bridge.strip_contact_forces(data)[i] / GEOMETRY.strip_areas_m2
+            np.testing.assert_allclose(bridge.strip_pressures(data)[i], contact_pressure, rtol=1e-3)
+            assert reading.mean_pressure_pa == pytest.approx(force / GEOMETRY.pad_area_m2, rel=1e-2)
+            assert reading.contact_area_m2 == pytest.approx(GEOMETRY.pad_area_m2)
+            np.testing.assert_allclose(reading.indentation_m, d, atol=2e-6)  # the contact itself is hard
+
+
+@pytest.mark.parametrize("segments", [1, 2, 8])
+def test_other_pad_resolutions_squeeze_statically(tmp_path, segments):
+    model, data, bridge = squeeze_model(tmp_path, 0.06, pad_segments=segments)
+    assert bridge.geometry.segments == segments
+    settle(model, data, bridge, 20.0)
+    readings = bridge.read(data)
+    for i, name in enumerate(PAD_NAMES):
+        assert readings[name].segment_pressure_pa.shape == (segments,)
+        assert readings[name].gel_force_n == pytest.approx(20.0, rel=1e-3)
+        np.testing.assert_allclose(bridge.element_pressures(data)[i], readings[name].segment_pressure_pa)
+
+
+@pytest.mark.parametrize(("segments", "grip"), [(5, 3.0), (5, 10.0), (5, 30.0), (1, 30.0), (9, 45.0)])
+def test_egg_settles_and_loads_the_element_centre_most(segments, grip):
+    """A curved object on the table: the grasp settles (it touches the guards at their edges, where
+    friction once drove a limit cycle); the strips under its equator carry the most pressure."""
+    model = build_model("fragile", pad_segments=segments)
+    data = mujoco.MjData(model)
+    bridge = PadBridge(model)
+    mujoco.mj_resetDataKeyframe(model, data, model.key("home").id)
+    data.ctrl[model.actuator("fingers_actuator").id] = 0.0
+    settle(model, data, bridge, grip, tol=1e-5)  # the egg creeps on the table at < 1 um/s
+    for _ in range(500):  # and stays settled: a limit cycle grows over a few tenths of a second
+        bridge.apply_gel_forces(data)
+        mujoco.mj_step(model, data)
+        assert np.abs(data.qvel).max() < 1e-4
+    assert_no_warnings(data)
+    pressures = bridge.strip_pressures(data)
+    for i in range(2):
+        assert pressures[i, 0] < pressures[i, 1:-1].min() and pressures[i, -1] < pressures[i, 1:-1].min()
+        assert bridge.read(data)[PAD_NAMES[i]].gel_force_n == pytest.approx(grip, rel=1e-3)
+
+
+def test_bottoming_engages_the_housing(tmp_path):
+    """A 4 mm bar pressed with 60 N: its strips reach the 4 mm stop, the housing takes the rest."""
+    model, data, bridge = squeeze_model(tmp_path, 0.06, half_z=0.002)
+    settle(model, data, bridge, 10.0)  # 10 N on 3 strips (90 mm^2): 111 kPa, inside the gel's range
+    assert not any(r.bottomed for r in bridge.read(data).values())
+    settle(model, data, bridge, 60.0)  # 667 kPa > 383 kPa at the stop
+    stop_pressure = float(GEL.pressure_from_indentation(GEOMETRY.stop_m))
+    for i, (name, reading) in enumerate(bridge.read(data).items()):
+        assert reading.bottomed, name
+        assert reading.indentation_m.max() == pytest.approx(GEOMETRY.stop_m, abs=5e-6)
+        assert reading.segment_pressure_pa.max() == pytest.approx(stop_pressure, rel=1e-3)
+        assert reading.gel_force_n < 50.0  # the gel alone cannot carry the load any more ...
+        assert reading.normal_force_n == pytest.approx(60.0, rel=1e-3)  # ... the housing carries the rest
+        assert pad_contact_force(model, data, ("left", "right")[i]) == pytest.approx(60.0, rel=1e-3)
+
+
+# ---------------------------------------------------------------------------------------
+# Generated pads, keyframes, the lift, errors.
+# ---------------------------------------------------------------------------------------
+
+
+def test_static_gripper_equals_generated_pads():
+    static = build_model("light")
+    generated = build_model("light", pad_segments=DEFAULT_PAD_SEGMENTS)
+    for field in (
+        "body_pos",
+        "body_mass",
+        "body_gravcomp",
+        "geom_size",
+        "geom_pos",
+        "geom_solref",
+        "geom_solimp",
+        "geom_friction",
+        "geom_priority",
+        "geom_contype",
+        "geom_conaffinity",
+        "jnt_range",
+        "jnt_solref",
+        "jnt_solimp",
+        "jnt_stiffness",
+        "dof_damping",
+        "key_qpos",
+        "key_ctrl",
+    ):
+        np.testing.assert_allclose(getattr(static, field), getattr(generated, field), rtol=1e-6, atol=1e-12, err_msg=field)
+    assert [static.body(i).name for i in range(static.nbody)] == [generated.body(i).name for i in range(generated.nbody)]
+
+
+def test_regenerated_pads_keep_the_keyframe():
+    static = build_model("heavy")
+    coarse = build_model("heavy", pad_segments=2)
+    assert coarse.nq == static.nq - 2 * (DEFAULT_PAD_SEGMENTS - 2)
+    for name in ("lift_joint", "left_finger_joint", "right_finger_joint", "object_joint"):
+        a, b = static.joint(name).qposadr[0], coarse.joint(name).qposadr[0]
+        n = 7 if name == "object_joint" else 1
+        np.testing.assert_array_equal(coarse.key_qpos[0, b : b + n], static.key_qpos[0, a : a + n])
+    np.testing.assert_array_equal(coarse.key_ctrl, static.key_ctrl)
+
+
+def test_gripper_lifts_10_kg_without_slip():
+    """Close with the full 100 N, lift 5 cm at 10 cm/s, hold: the block follows the palm."""
+    model = build_model("10kg")
+    data = mujoco.MjData(model)
+    bridge = PadBridge(model)
+    mujoco.mj_resetDataKeyframe(model, data, model.key("home").id)
+    lift0 = data.ctrl[0]
+    data.ctrl[1] = 0.0
+    offsets = []
+    while data.time < 1.6:
+        if data.time > 0.5:
+            data.ctrl[0] = lift0 + min(0.05, 0.1 * (data.time - 0.5))
+        bridge.apply_gel_forces(data)
+        mujoco.mj_step(model, data)
+        if data.time > 0.45:
+            offsets.append(data.body("palm").xpos[2] - data.body("object").xpos[2])
+    assert_no_warnings(data)
+    assert data.body("object").xpos[2] > 0.1325 + 0.04  # lifted (servo sag ~5 mm under 10 kg)
+    assert np.ptp(offsets) < 1e-3  # no slip along the pads
+    assert not any(r.bottomed for r in bridge.read(data).values())
+
+
+def test_explicit_integrators_are_refused_at_this_timestep():
+    model = build_model("light")
+    model.opt.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
+    with pytest.raises(ValueError, match="discrete"):
+        PadBridge(model)
+
+
+def test_timestep_rescales_the_pad_time_constants():
+    model = build_model("light", timestep=5e-4)
+    assert model.opt.timestep == 5e-4
+    assert model.geom("left_pad_seg0_geom").solref[0] == pytest.approx(1e-3)
+    assert model.joint("right_pad_guard_upper_joint").solref[0] == pytest.approx(1e-3)
+
+
+def test_broken_mjcf_names_its_file(tmp_path):
+    broken = tmp_path / "broken_scene.xml"
+    broken.write_text('<mujoco><worldbody><geom type="box" sizee="1"/></worldbody></mujoco>')
+    with pytest.raises(ValueError, match=re.escape("broken_scene.xml")):
+        build_model(broken)
+    missing_include = tmp_path / "scene_missing.xml"
+    missing_include.write_text('<mujoco><include file="no_gripper.xml"/></mujoco>')
+    with pytest.raises(ValueError, match=re.escape("scene_missing.xml")):
+        build_model(missing_include)
+    with pytest.raises(ValueError, match=re.escape("nowhere.xml")):
+        build_model(tmp_path / "nowhere.xml")
+
+
+def test_pad_geometry_validates():
+    assert GEOMETRY.strip_areas_m2.sum() == pytest.approx(GEOMETRY.pad_area_m2)
+    np.testing.assert_allclose(GEOMETRY.segment_centers_m, [-3e-3, -1.5e-3, 0.0, 1.5e-3, 3e-3], atol=1e-15)
+    assert PadGeometry(segments=3, pad_length_m=7.5e-3).strip_names("left") == ("left_pad_seg0", "left_pad_seg1", "left_pad_seg2")
+    for bad in ({"segments": 0}, {"element_length_m": 0.03}, {"stop_strain": 1.0}, {"retain_m": -1e-3}):
+        with pytest.raises(ValueError):
+            PadGeometry(**bad)
