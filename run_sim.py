@@ -1,6 +1,9 @@
 #!/usr/bin/env python3
 """piezotip's command line.
 
+    python run_sim.py list                       the registered scenarios
+    python run_sim.py run SCENARIO [--set KEY=VALUE ...] [--out DIR] [--json] [--csv] [--render]
+                                                 a scenario, headless: summary, plots, recording
     python run_sim.py figures [--out DIR]        the paper's analysis figures + crossovers.json
     python run_sim.py range [--coverage X1_MM X2_MM] [--json] [--out DIR]
                                                  the fingertip's dynamic range and switch pressures
@@ -14,8 +17,12 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import os
 import sys
 from pathlib import Path
+
+# Headless rendering: MuJoCo reads MUJOCO_GL when it is first imported (commands import it lazily).
+os.environ.setdefault("MUJOCO_GL", "egl")
 
 
 def _cmd_figures(args: argparse.Namespace) -> int:
@@ -68,11 +75,78 @@ def _cmd_range(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_list(args: argparse.Namespace) -> int:
+    import scenarios
+
+    width = max(len(n) for n in scenarios.names())
+    for name in scenarios.names():
+        print(f"{name:<{width}}  {scenarios.get(name).description}")
+    return 0
+
+
+def run_scenario(name: str, overrides: list[str], out: Path, csv: bool = False, render: bool = False, quiet: bool = False) -> dict:
+    """Run one scenario headless; write its recording, plot and summary.json into ``out``."""
+    import scenarios
+    from analysis.run_report import plot_run, summary
+    from cosim.loop import CoSimulation
+    from cosim.recorder import Recorder
+
+    config = scenarios.get(name, overrides)
+    sim = CoSimulation(config)
+    out.mkdir(parents=True, exist_ok=True)
+    recorder = Recorder(out / "run", csv=csv, metadata={"scenario": name, "overrides": overrides, "units": "in column names"})
+    total = math.ceil(config.duration_s / config.physics.control_period_s - 1e-9)
+    strip = None
+    if render:
+        from analysis.render import FrameStrip
+
+        strip = FrameStrip(sim.model, total)
+    from tqdm import tqdm
+
+    with tqdm(total=total, desc=name, unit="step", disable=quiet, leave=False) as bar:
+        result = sim.run(recorder, progress=bar, on_step=strip)
+    data = recorder.data()
+    files = [str(f) for f in result.files]
+    if data:
+        files.append(str(plot_run(config, sim.fingertip, data, out)))
+    if strip is not None and strip.images:
+        files.append(str(strip.save(out / "frames.png")))
+    report = summary(config, data, result.wall_time_s, files, result.error)
+    summary_path = out / "summary.json"
+    report["files"].append(str(summary_path))
+    summary_path.write_text(json.dumps(_json_safe(report), indent=2) + "\n")
+    return report
+
+
+def _cmd_run(args: argparse.Namespace) -> int:
+    from analysis.run_report import format_summary
+
+    out = Path(args.out or f"out/{args.scenario}")
+    report = run_scenario(args.scenario, args.set or [], out, csv=args.csv, render=args.render, quiet=args.json)
+    if args.json:
+        print(json.dumps(_json_safe(report), indent=2))
+    else:
+        print(format_summary(report))
+    return 1 if report.get("error") else 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="run_sim.py", description="piezotip: a robot fingertip with a multimode piezoelectric tactile sensor"
     )
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+
+    p = sub.add_parser("list", help="the registered scenarios")
+    p.set_defaults(func=_cmd_list)
+
+    p = sub.add_parser("run", help="run a scenario headless: summary, plots, recording")
+    p.add_argument("scenario", help="scenario name (see 'list')")
+    p.add_argument("--set", action="append", metavar="KEY=VALUE", help="override a config value, e.g. object.mass_kg=0.4 (repeatable)")
+    p.add_argument("--out", help="output directory (default: out/SCENARIO)")
+    p.add_argument("--json", action="store_true", help="print the summary as JSON")
+    p.add_argument("--csv", action="store_true", help="also write the recording as CSV")
+    p.add_argument("--render", action="store_true", help="save a strip of frames from MuJoCo's offscreen renderer (MUJOCO_GL=egl)")
+    p.set_defaults(func=_cmd_run)
 
     p = sub.add_parser("figures", help="the paper's analysis figures (V_1 and sensitivities against k_e, c_e)")
     p.add_argument("--out", default="out/figures", help="output directory (default: out/figures)")

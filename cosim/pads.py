@@ -26,6 +26,7 @@ are ordered the same way, and :attr:`PadGeometry.segment_centers_m` gives their 
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -221,6 +222,7 @@ def build_model(
     geometry: PadGeometry | None = None,
     gel: GelParams | None = None,
     timestep: float | None = None,
+    edit: Callable[[mujoco.MjSpec], None] | None = None,
 ) -> mujoco.MjModel:
     """Load a scene, optionally with its pads regenerated for another resolution.
 
@@ -235,6 +237,8 @@ def build_model(
         (default: ``GelParams()``).
     timestep : physics timestep, s; also sets the pads' contact and housing time constants to
         2 x timestep (their floor).  None keeps the file's 1 ms.
+    edit : a function applied to the loaded MjSpec before anything else (a scenario uses it
+        to replace the object); errors it raises are reported with the file's name.
 
     Returns
     -------
@@ -248,6 +252,11 @@ def build_model(
     """
     path = scene_path(scene)
     spec = _load_spec(path)
+    if edit is not None:
+        try:
+            edit(spec)
+        except (ValueError, KeyError, AttributeError) as err:
+            raise ValueError(f"MJCF file {str(path)!r}: cannot apply the scenario's edits: {err}") from err
     if geometry is None and (pad_segments is not None or gel is not None):
         gel_params = gel or _GEL
         n = DEFAULT_PAD_SEGMENTS if pad_segments is None else pad_segments

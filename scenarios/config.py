@@ -17,7 +17,7 @@ import typing
 from dataclasses import dataclass, field
 
 OBJECT_SHAPES = ("box", "cylinder", "sphere", "egg")
-INTEGRATORS = ("Euler", "implicitfast", "implicit", "RK4")
+INTEGRATORS = ("discrete", "implicitfast", "implicit", "Euler", "RK4")
 SENSOR_DYNAMICS = ("steady", "envelope", "carrier")
 CONTROLLERS = ("scripted", "multimode")
 
@@ -28,7 +28,8 @@ class ObjectConfig:
 
     Attributes
     ----------
-    shape : "box", "cylinder" (upright), "sphere" or "egg" (an ellipsoid, long axis up).
+    shape : "box" (a cube), "cylinder" (upright, 1.2 diameters tall), "sphere" or "egg" (an
+        ellipsoid lying on its side, long axis across the fingers' closing direction).
     mass_kg : mass, kg.
     size_m : width across the fingers (box edge, cylinder or sphere diameter, egg's short
         diameter), m.
@@ -47,8 +48,8 @@ class ObjectConfig:
         _one_of("object.shape", self.shape, OBJECT_SHAPES)
         _positive("object.mass_kg", self.mass_kg)
         _positive("object.size_m", self.size_m)
-        if not 0.005 <= self.size_m <= 0.09:
-            raise ValueError(f"object.size_m must be within the gripper's 5-90 mm stroke, got {self.size_m!r}")
+        if not 0.012 <= self.size_m <= 0.085:
+            raise ValueError(f"object.size_m must be within 12-85 mm (the open gripper spans 90 mm), got {self.size_m!r}")
         _positive("object.friction", self.friction)
         if self.crush_force_n is not None:
             _positive("object.crush_force_n", self.crush_force_n)
@@ -61,15 +62,20 @@ class PhysicsConfig:
     Attributes
     ----------
     timestep_s : MuJoCo timestep, s.
-    integrator : MuJoCo integrator ("Euler", "implicitfast", "implicit", "RK4").
+    integrator : MuJoCo integrator: "discrete" (MuJoCo 4's, implicit in position: the only
+        one that integrates the gel's stiff law stably at millisecond steps, models/README.md),
+        or "implicitfast", "implicit", "Euler", "RK4" (explicit in the gel's stiffness: the
+        pad bridge refuses timesteps past their stability limit, before the run starts).
     pad_segments : pad resolution: gel segments along the element's length (1 = uniform).
     control_period_s : sensor sample and controller period, s; a whole number of timesteps.
+        5 ms (200 Hz): a gripper controller's rate and a lock-in amplifier's output bandwidth;
+        the envelope update is exact over any period, so it costs no sensor accuracy.
     """
 
-    timestep_s: float = 0.0005
-    integrator: str = "implicitfast"
+    timestep_s: float = 0.001
+    integrator: str = "discrete"
     pad_segments: int = 1
-    control_period_s: float = 0.002
+    control_period_s: float = 0.005
 
     def validate(self) -> None:
         _positive("physics.timestep_s", self.timestep_s)
@@ -100,7 +106,9 @@ class SensorConfig:
     dynamics : "steady" (output follows the load at once), "envelope" (the resonator's
         amplitude relaxes with tau_n = 2 M_n / C_n; a mode switch rings up), or "carrier"
         (the modal equation integrated through every drive cycle, demodulated).
-    quality_factor : unloaded Q of mode 1, or None for Table I's damping (Q ~ 7800).
+    quality_factor : unloaded Q of mode 1, or None for Table I's damping (Q ~ 7800, ring-up
+        time constant 0.66 s: the paper's numbers).  Soft PZT has Q ~ 70 (physics.md
+        section 6): 100x faster ring-up and 100x less sensitivity.
     gel_frequency_dependent : whether each mode sees its own viscoelastic modulus.
     coverage_mm : gel coverage on the element (x1, x2), mm.
     noise : whether readings carry the readout noise.
@@ -110,7 +118,7 @@ class SensorConfig:
     pads: tuple[str, ...] = ("left", "right")
     modes: tuple[int, ...] = (1, 2, 3, 4)
     dynamics: str = "envelope"
-    quality_factor: float | None = 70.0
+    quality_factor: float | None = None
     gel_frequency_dependent: bool = True
     coverage_mm: tuple[float, float] = (0.0, 7.5)
     noise: bool = True
@@ -140,18 +148,29 @@ class ControllerConfig:
         makes a single-mode baseline.
     lift_height_m : how far to lift the object, m.
     hold_s : how long to hold it up, s.
+    grip_force_n : the scripted controller's grip (the fingers' force limit), N per finger.
+    closing_speed_m_s : how fast the fingers close, m/s (a real parallel gripper: 0.05-0.15).
+    lift_speed_m_s : how fast the object is lifted, m/s.
     """
 
     kind: str = "scripted"
     modes: tuple[int, ...] = (1, 2, 3, 4)
     lift_height_m: float = 0.05
     hold_s: float = 1.0
+    grip_force_n: float = 20.0
+    closing_speed_m_s: float = 0.08
+    lift_speed_m_s: float = 0.1
 
     def validate(self) -> None:
         _one_of("controller.kind", self.kind, CONTROLLERS)
         if not self.modes:
             raise ValueError("controller.modes must name at least one mode")
         _positive("controller.lift_height_m", self.lift_height_m)
+        _positive("controller.grip_force_n", self.grip_force_n)
+        if self.grip_force_n > 100:
+            raise ValueError(f"controller.grip_force_n must be at most the fingers' 100 N force limit, got {self.grip_force_n!r}")
+        _positive("controller.closing_speed_m_s", self.closing_speed_m_s)
+        _positive("controller.lift_speed_m_s", self.lift_speed_m_s)
         if self.hold_s < 0 or not math.isfinite(self.hold_s):
             raise ValueError(f"controller.hold_s must be non-negative, got {self.hold_s!r}")
 

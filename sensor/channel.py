@@ -84,6 +84,67 @@ class FoundationTable:
         return k, c
 
 
+@dataclass(frozen=True)
+class Estimate:
+    """The readout's pressure estimate from one reading (what a controller may use).
+
+    Attributes
+    ----------
+    pressure_pa : estimate, Pa (NaN when saturated or settling).
+    uncertainty_pa : one standard deviation of the estimate, Pa (NaN when unknown).
+    status : "ok", "below_detection" (within 3 sigma of unloaded: P is below the mode's
+        P_min, reported as the estimate clipped at >= 0), "saturated" (past the mode's P_max)
+        or "settling" (the resonator has not settled since the last switch or load step).
+    """
+
+    pressure_pa: float
+    uncertainty_pa: float
+    status: str
+
+
+class ModeInverse:
+    """Fast inverse of one mode's uniform-pressure response: V_1 -> P by table lookup.
+
+    The forward curve is tabulated once on the channel's log-pressure grid; a reading is
+    inverted by linear interpolation in log P (the curve is monotone), its uncertainty from
+    the tabulated slope.  Status thresholds are the fingertip's P_min and P_max of the mode.
+    """
+
+    def __init__(self, fingertip: Fingertip, mode: int, table: FoundationTable | None) -> None:
+        p = _TABLE_P
+        if table is None:
+            v = fingertip.output(p, mode)
+        else:
+            k, c = table(p)
+            v = fingertip.element.normalized_output(k, c, mode, fingertip.coverage)
+        self._neg_v = -v  # increasing, for np.interp
+        self._log_p = np.log(p)
+        self._dv_dlogp = np.gradient(v, self._log_p)
+        self.sigma = fingertip.sigma(mode)
+        self.p_min_pa = fingertip.detection_limit(mode)
+        self.p_max_pa = fingertip.upper_limit(mode)
+        self._v_first, self._v_last = float(v[0]), float(v[-1])
+        self._slope0 = abs(float(fingertip.output_slope(0.0, mode)))
+
+    def __call__(self, v1: float, settled: bool = True) -> Estimate:
+        if not settled:
+            return Estimate(math.nan, math.nan, "settling")
+        if 1.0 - v1 < 3.0 * self.sigma:
+            p = max(1.0 - v1, 0.0) / self._slope0
+            return Estimate(p, self.p_min_pa, "below_detection")
+        if v1 <= self._v_last:
+            return Estimate(math.nan, math.nan, "saturated")
+        if v1 >= self._v_first:
+            p = (1.0 - v1) / self._slope0
+            return Estimate(p, self.sigma / self._slope0, "ok")
+        log_p = float(np.interp(-v1, self._neg_v, self._log_p))
+        p = math.exp(log_p)
+        if not p <= self.p_max_pa:
+            return Estimate(math.nan, math.nan, "saturated")
+        slope = abs(float(np.interp(log_p, self._log_p, self._dv_dlogp))) / p
+        return Estimate(p, self.sigma / slope if slope > 0 else math.inf, "ok")
+
+
 class SensorChannel:
     """The readout of one fingertip: drives one mode at a time, samples, switches.
 
@@ -130,11 +191,13 @@ class SensorChannel:
         self._omega = {m: el.natural_angular_frequency(m) for m in used}
         self._sigma = {m: fingertip.sigma(m) for m in used}
         self._tables = {m: FoundationTable(fingertip, m) for m in used} if not exact else {}
+        self._inverse = {m: ModeInverse(fingertip, m, self._tables.get(m)) for m in used}
         self.shadow_modes = tuple(shadow_modes)
         self.evaluations = 0  # gel/sensor evaluations, counted for "compute only what is needed" tests
         self.mode = fingertip.modes[0] if mode is None else fingertip._mode(mode)
-        self.envelope = 0j if dynamics == "envelope" else 1 + 0j
-        self.time_in_mode_s = 0.0
+        # The instrument has been running unloaded before the scene starts: steady, settled.
+        self.envelope = 1 + 0j
+        self.time_in_mode_s = math.inf
 
     @property
     def n_cells(self) -> int:
@@ -185,6 +248,14 @@ class SensorChannel:
         v1 = v1_true + (self.rng.normal(0.0, self._sigma[mode]) if self.noise else 0.0)
         phase = -math.atan2(self.envelope.imag, self.envelope.real) if v1_true > 0 else 0.0
         return Reading(mode, v1, v1_true, phase, self.time_in_mode_s, tau, settled, kappa, gamma)
+
+    def estimate(self, reading: Reading) -> Estimate:
+        """The readout's inverse of ``reading`` in its mode (uniform-pressure calibration)."""
+        return self._inverse[reading.mode](reading.v1, reading.settled)
+
+    def inverse(self, mode: int) -> ModeInverse:
+        """The fast inverse of ``mode`` (its P_min, P_max, sigma)."""
+        return self._inverse[mode]
 
     def shadow_outputs(self, pressure_cells_pa) -> dict[int, float]:
         """Noise-free steady V_1 of each shadow mode under the profile (not visible to a robot)."""

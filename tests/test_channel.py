@@ -30,7 +30,8 @@ def test_steady_envelope_magnitude_and_phase_are_eqs_19_and_13(tip):
 def test_envelope_ring_up_matches_closed_form_time_constant(tip):
     """Unloaded ring-up from rest: |a(t)| = 1 - exp(-t / tau), tau = 2 rho A / c (= 2 Q / omega)."""
     el = tip.element
-    ch = SensorChannel(tip, dynamics="envelope", noise=False)
+    ch = SensorChannel(tip, dynamics="envelope", noise=False, mode=2)
+    ch.select_mode(1)  # a switch starts mode 1 from rest
     tau = 2 * el.params.mass_per_length_kg_m / el.params.damping_n_s_per_m2
     assert_allclose(tau, 2 * el.quality_factor(1) / el.natural_angular_frequency(1), rtol=1e-12)
     dt, t = 1e-4, 0.0
@@ -95,6 +96,13 @@ def test_uniform_profile_over_cells_equals_one_cell(tip):
         one.select_mode(mode)
         many.select_mode(mode)
         assert_allclose(many.update(np.full(7, 250.0), 1e-3).v1_true, one.update([250.0], 1e-3).v1_true, rtol=1e-12)
+
+
+def test_channel_starts_steady_and_settled(tip):
+    """The instrument runs before the scene starts: the first reading is the unloaded steady one."""
+    r = SensorChannel(tip, dynamics="envelope", noise=False).update([0.0], 1e-3)
+    assert r.settled
+    assert_allclose(r.v1_true, 1.0, rtol=1e-12)
 
 
 def test_mode_switch_restarts_ring_up_and_clears_settled(tip):

@@ -1,0 +1,162 @@
+"""A run's outcome, summary and plots, computed from its recording.
+
+The referee here uses ground truth the controller never sees (the object's height, the
+contact forces); its criteria, stated once:
+
+- lifted: at the end of the run the object is at least ``LIFT_FRACTION`` of the commanded
+  lift height above where it started;
+- slipped: during the hold the object moved down relative to the gripper by more than
+  ``SLIP_TOLERANCE_M``;
+- crushed: a fragile object's grip (the larger finger's contact force) exceeded its
+  ``crush_force_n`` at any time;
+- success: lifted, the hold completed, not slipped, not crushed, no error.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+
+from cosim.controller import PHASES
+from scenarios.config import ScenarioConfig
+from sensor import Fingertip
+
+from .plotting import new_figure, save_figure
+
+LIFT_FRACTION = 0.8
+SLIP_TOLERANCE_M = 0.005
+
+
+def _finite_max(values: np.ndarray) -> float:
+    finite = values[np.isfinite(values)]
+    return float(finite.max()) if finite.size else 0.0
+
+
+def outcome(config: ScenarioConfig, data: dict[str, np.ndarray], error: str | None = None) -> dict:
+    """Lifted, slipped, crushed and success of a recorded run (criteria in the module docstring)."""
+    if not data or data["time_s"].size == 0:
+        return {"lifted": False, "slipped": False, "crushed": False, "success": False, "held_s": 0.0}
+    height = data["object_height_m"]
+    lifted = bool(height[-1] - height[0] >= LIFT_FRACTION * config.controller.lift_height_m)
+    phase = data["phase"]
+    hold = phase == PHASES.index("hold")
+    held_s = float(hold.sum() * np.median(np.diff(data["time_s"]))) if hold.sum() > 1 else 0.0
+    slipped = False
+    if hold.any():
+        relative = height[hold] - data["lift_m"][hold]
+        slipped = bool(relative[0] - relative.min() > SLIP_TOLERANCE_M)
+    crush = config.object.crush_force_n
+    grip_true = np.maximum(data.get("left_contact_force_n", 0.0), data.get("right_contact_force_n", 0.0))
+    crushed = bool(crush is not None and np.max(grip_true) > crush)
+    hold_done = held_s >= config.controller.hold_s - 1e-6 or bool((phase >= PHASES.index("release")).any() and hold.any())
+    success = bool(lifted and hold_done and not slipped and not crushed and error is None)
+    return {
+        "lifted": lifted,
+        "slipped": slipped,
+        "crushed": crushed,
+        "success": success,
+        "held_s": held_s,
+        "peak_grip_force_n": float(np.max(grip_true)),
+    }
+
+
+def mode_changes(data: dict[str, np.ndarray], pads: tuple[str, ...]) -> tuple[int, list[int]]:
+    """(number of mode switches over all pads, sorted modes used)."""
+    switches, used = 0, set()
+    for side in pads:
+        modes = data[f"{side}_mode"]
+        switches += int(np.count_nonzero(np.diff(modes)))
+        used.update(int(m) for m in np.unique(modes))
+    return switches, sorted(used)
+
+
+def summary(config: ScenarioConfig, data: dict[str, np.ndarray], wall_time_s: float, files: list[str], error: str | None) -> dict:
+    """The run's JSON summary: scenario, times, steps, lifted, pressures, modes, outcome, files."""
+    pads = tuple(config.sensor.pads)
+    sim_time = float(data["time_s"][-1]) if data else 0.0
+    switches, used = mode_changes(data, pads) if data else (0, [])
+    pressures = [data[f"{s}_true_pressure_pa"] for s in pads] if data else []
+    result = {
+        "scenario": config.name,
+        "sim_time_s": sim_time,
+        "wall_time_s": wall_time_s,
+        "steps": int(data["time_s"].size) if data else 0,
+        "realtime_factor": sim_time / wall_time_s if wall_time_s > 0 else math.inf,
+        "max_pressure_pa": max((float(np.max(p)) for p in pressures), default=0.0),
+        "max_estimate_pa": max((_finite_max(data[f"{s}_estimate_pa"]) for s in pads), default=0.0) if data else 0.0,
+        "mode_switches": switches,
+        "modes_used": used,
+        "object": {"shape": config.object.shape, "mass_kg": config.object.mass_kg, "size_m": config.object.size_m},
+        "files": files,
+        "error": error,
+    }
+    result.update(outcome(config, data, error))
+    return result
+
+
+def format_summary(s: dict) -> str:
+    """A readable block of the summary."""
+    lines = [
+        f"scenario {s['scenario']}: {s['object']['shape']} {1e3 * s['object']['mass_kg']:.4g} g, {1e3 * s['object']['size_m']:.0f} mm",
+        f"  simulated {s['sim_time_s']:.2f} s in {s['wall_time_s']:.2f} s wall ({s['realtime_factor']:.1f}x real time, {s['steps']} steps)",
+        f"  lifted {s['lifted']}, slipped {s['slipped']}, crushed {s['crushed']}, success {s['success']}"
+        f" (held {s['held_s']:.2f} s, peak grip {s['peak_grip_force_n']:.1f} N)",
+        f"  max pad pressure {s['max_pressure_pa']:.4g} Pa (true), {s['max_estimate_pa']:.4g} Pa (largest estimate)",
+        f"  modes used {s['modes_used']}, {s['mode_switches']} switches",
+    ]
+    if s.get("error"):
+        lines.append(f"  STOPPED: {s['error']}")
+    lines.extend(f"  wrote {f}" for f in s["files"])
+    return "\n".join(lines)
+
+
+def per_mode_outputs(fingertip: Fingertip, data: dict[str, np.ndarray], side: str) -> dict[int, np.ndarray]:
+    """Steady V_1 of every mode under the recorded pressure profile (computed after the run).
+
+    A robot sees only its driven mode; the others are for the plot, and cost nothing per step.
+    """
+    cells = sorted(k for k in data if k.startswith(f"{side}_cell") and k.endswith("_pressure_pa"))
+    profile = np.stack([data[k] for k in cells], axis=-1)
+    el = fingertip.element
+    edges = np.linspace(0.0, el.params.length_m, len(cells) + 1)
+    out = {}
+    for m in fingertip.modes:
+        k_e, c_e = fingertip.foundation(profile, m)
+        kappa, gamma = el.modal_load_profile(k_e, c_e, m, edges)
+        out[m] = el.normalized_output_from_modal(kappa, gamma, m)
+    return out
+
+
+def plot_run(config: ScenarioConfig, fingertip: Fingertip, data: dict[str, np.ndarray], out_dir: Path) -> Path:
+    """One PNG: pressure (true, estimated), per-mode outputs, active mode, grip force, object height."""
+    t = data["time_s"]
+    fig, axes = new_figure(5, 1, figsize=(10, 13), sharex=True)
+    ax_p, ax_v, ax_m, ax_f, ax_h = (row[0] for row in axes)
+    for side, color in zip(config.sensor.pads, ("tab:blue", "tab:orange"), strict=False):
+        ax_p.semilogy(t, np.maximum(data[f"{side}_true_pressure_pa"], 1e-3), color=color, label=f"{side}: true")
+        est = data[f"{side}_estimate_pa"]
+        ax_p.semilogy(t, np.where(est > 0, est, np.nan), ".", ms=2, color=color, alpha=0.6, label=f"{side}: estimated")
+        ax_m.step(t, data[f"{side}_mode"], where="post", color=color, label=side)
+    side = config.sensor.pads[0]
+    for m, v in per_mode_outputs(fingertip, data, side).items():
+        ax_v.plot(t, v, lw=1, label=f"mode {m} (steady, {fingertip.freq_hz(m) / 1e3:.1f} kHz)")
+    ax_v.plot(t, data[f"{side}_v1"], "k.", ms=1.5, alpha=0.5, label=f"{side}: measured, driven mode")
+    ax_f.plot(t, data["grip_force_n"], label="grip (fingers actuator)")
+    if f"{side}_contact_force_n" in data:
+        ax_f.plot(t, data[f"{side}_contact_force_n"], "--", label=f"{side} finger contact (true)")
+    if config.object.crush_force_n is not None:
+        ax_f.axhline(config.object.crush_force_n, color="red", ls=":", label="crush limit")
+    ax_h.plot(t, 1e3 * (data["object_height_m"] - data["object_height_m"][0]), label="object")
+    ax_h.plot(t, 1e3 * (data["lift_m"] - data["lift_m"][0]), "--", label="gripper")
+    ax_p.set(ylabel="pressure on element [Pa]", title=f"{config.name}: {config.description}")
+    ax_v.set(ylabel="normalized output $V_1$ [-]")
+    ax_m.set(ylabel="driven mode [-]")
+    ax_m.set_yticks(sorted(config.sensor.modes))
+    ax_f.set(ylabel="force [N]")
+    ax_h.set(ylabel="height change [mm]", xlabel="time [s]")
+    for ax in (ax_p, ax_v, ax_m, ax_f, ax_h):
+        ax.grid(True, alpha=0.3)
+        ax.legend(fontsize=7, loc="best")
+    return save_figure(fig, Path(out_dir) / "run.png")

@@ -1,0 +1,137 @@
+"""A scenario's MuJoCo scene: the gripper, the table and the configured object.
+
+The scene file ``models/scene_grasp.xml`` holds the gripper, the table and a placeholder
+object; :func:`build_scene` replaces the object by the one a scenario configures (shape,
+size, mass, friction), regenerates the pads for the configured resolution and sets the
+timestep and integrator.  The home state (gripper open, pads centred on the object's grasp
+height, object at rest) is computed here from the geometry instead of a typed keyframe, so it
+holds for every object.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+
+from scenarios.config import ObjectConfig, ScenarioConfig
+from sensor.gel import GelParams
+
+from .pads import MODELS_DIR, PAD_NAMES, build_model
+
+SCENE_FILE = MODELS_DIR / "scene_grasp.xml"
+#: Height of the pad centres above the palm joint's zero, m (gripper.xml: palm at 0.35 m,
+#: pad centres 70 mm below it).
+PAD_CENTRE_AT_ZERO_LIFT_M = 0.28
+#: Half the pad's length along z, m, and the clearance kept between pad and table, m.
+PAD_HALF_LENGTH_M = 0.01
+TABLE_CLEARANCE_M = 0.002
+#: Opening between the unloaded pad surfaces at home, m (the fingers' stroke is 0-100 mm).
+HOME_OPENING_M = 0.09
+#: Egg proportions: the long axis (along y, the egg lies on its side) over the short one.
+EGG_ASPECT = 57.0 / 43.0
+
+_INTEGRATORS = {
+    "Euler": mujoco.mjtIntegrator.mjINT_EULER,
+    "implicitfast": mujoco.mjtIntegrator.mjINT_IMPLICITFAST,
+    "implicit": mujoco.mjtIntegrator.mjINT_IMPLICIT,
+    "RK4": mujoco.mjtIntegrator.mjINT_RK4,
+    "discrete": mujoco.mjtIntegrator.mjINT_DISCRETE,
+}
+
+
+@dataclass(frozen=True)
+class ObjectShape:
+    """The object's MuJoCo geom: type, half-sizes (m) and the height of its centre at rest (m)."""
+
+    geom_type: mujoco.mjtGeom
+    size: tuple[float, float, float]
+    rest_height_m: float
+
+
+def object_shape(obj: ObjectConfig) -> ObjectShape:
+    """Geom type and half-sizes for ``obj``; ``size_m`` is always the width between the fingers."""
+    r = 0.5 * obj.size_m
+    if obj.shape == "box":  # a cube
+        return ObjectShape(mujoco.mjtGeom.mjGEOM_BOX, (r, r, r), r)
+    if obj.shape == "cylinder":  # upright, 1.2 diameters tall
+        return ObjectShape(mujoco.mjtGeom.mjGEOM_CYLINDER, (r, 1.2 * r, 0.0), 1.2 * r)
+    if obj.shape == "sphere":
+        return ObjectShape(mujoco.mjtGeom.mjGEOM_SPHERE, (r, 0.0, 0.0), r)
+    return ObjectShape(mujoco.mjtGeom.mjGEOM_ELLIPSOID, (r, EGG_ASPECT * r, r), r)
+
+
+def grasp_height_m(obj: ObjectConfig) -> float:
+    """Height of the pad centres for the grasp, m: the object's centre, the pads clear of the table."""
+    return max(object_shape(obj).rest_height_m, PAD_HALF_LENGTH_M + TABLE_CLEARANCE_M)
+
+
+def _edit_object(obj: ObjectConfig):
+    shape = object_shape(obj)
+
+    def edit(spec: mujoco.MjSpec) -> None:
+        geom = spec.geom("object_geom")
+        body = spec.body("object")
+        if geom is None or body is None:
+            raise ValueError("the scene has no body 'object' with geom 'object_geom'")
+        geom.type = shape.geom_type
+        geom.size = list(shape.size)
+        geom.mass = obj.mass_kg
+        body.pos = [0.0, 0.0, shape.rest_height_m]
+        # Pad-object contacts take the pads' parameters (class `pad` has priority): the pair's
+        # friction is the object's, so it goes on the pads.
+        pad = spec.find_default("pad")
+        pad.geom.friction = [obj.friction, pad.geom.friction[1], pad.geom.friction[2]]
+        for key in list(spec.keys):
+            spec.delete(key)
+
+    return edit
+
+
+def build_scene(config: ScenarioConfig, gel: GelParams | None = None) -> mujoco.MjModel:
+    """The compiled model for ``config``: its object, pad resolution, timestep and integrator."""
+    phys = config.physics
+    model = build_model(
+        SCENE_FILE,
+        pad_segments=phys.pad_segments,
+        gel=gel,
+        timestep=phys.timestep_s,
+        edit=_edit_object(config.object),
+    )
+    model.opt.integrator = _INTEGRATORS[phys.integrator]
+    return model
+
+
+def reset_home(model: mujoco.MjModel, data: mujoco.MjData, config: ScenarioConfig) -> dict[str, float]:
+    """Put ``data`` in the home state; returns the home commands (lift_m, opening_m)."""
+    mujoco.mj_resetData(model, data)
+    lift = grasp_height_m(config.object) - PAD_CENTRE_AT_ZERO_LIFT_M
+    half_opening = 0.5 * HOME_OPENING_M
+    data.qpos[model.joint("lift_joint").qposadr[0]] = lift
+    for side in ("left", "right"):
+        data.qpos[model.joint(f"{side}_finger_joint").qposadr[0]] = half_opening
+    adr = model.joint("object_joint").qposadr[0]
+    data.qpos[adr : adr + 7] = [0.0, 0.0, object_shape(config.object).rest_height_m, 1.0, 0.0, 0.0, 0.0]
+    data.ctrl[model.actuator("lift_actuator").id] = lift
+    data.ctrl[model.actuator("fingers_actuator").id] = HOME_OPENING_M
+    mujoco.mj_forward(model, data)
+    return {"lift_m": lift, "opening_m": HOME_OPENING_M}
+
+
+def pad_names() -> tuple[str, ...]:
+    """Pad names as the bridge orders them."""
+    return PAD_NAMES
+
+
+def object_height_m(model: mujoco.MjModel, data: mujoco.MjData) -> float:
+    """The object's centre height, m (ground truth: for the recorder and the referee only)."""
+    return float(data.xpos[model.body("object").id][2])
+
+
+def finite_state(data: mujoco.MjData) -> bool:
+    """Whether the state is finite (no NaN or inf in qpos, qvel)."""
+    return bool(np.all(np.isfinite(data.qpos)) and np.all(np.isfinite(data.qvel)))
+
+
+__all__ = ["build_scene", "grasp_height_m", "object_height_m", "object_shape", "reset_home"]
