@@ -53,7 +53,7 @@ def test_unknown_key_lists_valid_keys():
         ("physics.control_period_s=0.0007", "whole multiple"),
         ("controller.modes=[5]", "modes the sensor lacks"),
         ("sensor.dynamics=magic", "sensor.dynamics must be one of"),
-        ("object.size_m=0.5", "stroke"),
+        ("object.size_m=0.5", "open gripper spans 90 mm"),
         ("nonsense", "key=value"),
     ],
 )
