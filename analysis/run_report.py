@@ -3,8 +3,8 @@
 The referee here uses ground truth the controller never sees (the object's height, the
 contact forces); its criteria, stated once:
 
-- lifted: at the end of the run the object is at least ``LIFT_FRACTION`` of the commanded
-  lift height above where it started;
+- lifted: during the hold (or, without one, at some time) the object is at least
+  ``LIFT_FRACTION`` of the commanded lift height above where it started;
 - slipped: during the hold the object moved down relative to the gripper by more than
   ``SLIP_TOLERANCE_M``;
 - crushed: a fragile object's grip (the larger finger's contact force) exceeded its
@@ -20,6 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from cosim.controller import PHASES
+from cosim.loop import coverage_cells
 from scenarios.config import ScenarioConfig
 from sensor import Fingertip
 
@@ -39,9 +40,11 @@ def outcome(config: ScenarioConfig, data: dict[str, np.ndarray], error: str | No
     if not data or data["time_s"].size == 0:
         return {"lifted": False, "slipped": False, "crushed": False, "success": False, "held_s": 0.0}
     height = data["object_height_m"]
-    lifted = bool(height[-1] - height[0] >= LIFT_FRACTION * config.controller.lift_height_m)
     phase = data["phase"]
     hold = phase == PHASES.index("hold")
+    # Held up: judged during the hold (the multimode controller puts the object back after it).
+    raised = height[hold] if hold.any() else height
+    lifted = bool(np.max(raised) - height[0] >= LIFT_FRACTION * config.controller.lift_height_m)
     held_s = float(hold.sum() * np.median(np.diff(data["time_s"]))) if hold.sum() > 1 else 0.0
     slipped = False
     if hold.any():
@@ -117,10 +120,13 @@ def per_mode_outputs(fingertip: Fingertip, data: dict[str, np.ndarray], side: st
 
     A robot sees only its driven mode; the others are for the plot, and cost nothing per step.
     """
-    cells = sorted(k for k in data if k.startswith(f"{side}_cell") and k.endswith("_pressure_pa"))
-    profile = np.stack([data[k] for k in cells], axis=-1)
+    strips = sorted(
+        (k for k in data if k.startswith(f"{side}_cell") and k.endswith("_pressure_pa")),
+        key=lambda k: int(k.split("cell")[1].split("_")[0]),
+    )
     el = fingertip.element
-    edges = np.linspace(0.0, el.params.length_m, len(cells) + 1)
+    edges, index = coverage_cells(np.linspace(0.0, el.params.length_m, len(strips) + 1), fingertip.coverage)
+    profile = np.stack([data[k] for k in strips], axis=-1)[:, index]
     out = {}
     for m in fingertip.modes:
         k_e, c_e = fingertip.foundation(profile, m)

@@ -68,7 +68,7 @@ class Command:
 
 
 #: Phase names, in order; recorded as their index.
-PHASES = ("approach", "close", "squeeze", "lift", "hold", "release", "done", "fault")
+PHASES = ("approach", "close", "squeeze", "lift", "hold", "place", "release", "done", "fault")
 
 
 class ScriptedGrasp:

@@ -18,7 +18,7 @@ import numpy as np
 
 from scenarios.config import ScenarioConfig
 from sensor import ElementParams, Fingertip, GelModel, SensorElement
-from sensor.channel import SensorChannel
+from sensor.channel import Reading, SensorChannel
 
 from .controller import Command, Observation, PadSignal, ScriptedGrasp, phase_index
 from .pads import PAD_NAMES, PadBridge
@@ -41,15 +41,37 @@ def make_fingertip(config: ScenarioConfig) -> Fingertip:
     return Fingertip(element=element, gel=gel, coverage=coverage, modes=s.modes)
 
 
-def make_controller(config: ScenarioConfig, home: dict[str, float], fingertip: Fingertip):
-    """The scenario's controller."""
+def make_controller(config: ScenarioConfig, home: dict[str, float], fingertip: Fingertip, pad_area_m2: float):
+    """The scenario's controller (the multimode one first runs the element's self-test)."""
     c = config.controller
     pads = tuple(f"{p}_pad" for p in config.sensor.pads)
     if c.kind == "scripted":
         return ScriptedGrasp(c, home["lift_m"], home["opening_m"], pads)
+    from sensor.selftest import damaged, self_test
+
     from .grasp import MultimodeGrasp
 
-    return MultimodeGrasp(c, home["lift_m"], home["opening_m"], pads, fingertip)
+    s = config.sensor
+    physical = damaged(fingertip.element, s.damage_stiffness, s.damage_coupling, s.damage_damping)
+    report = self_test(physical, healthy=fingertip.element, modes=c.modes, noise=fingertip.noise, rng=np.random.default_rng(s.seed))
+    message = None if report.passed else report.message
+    return MultimodeGrasp(c, home["lift_m"], home["opening_m"], pads, fingertip, pad_area_m2, message)
+
+
+def coverage_cells(strip_edges_m: np.ndarray, coverage: tuple[float, float]) -> tuple[np.ndarray, np.ndarray]:
+    """Cells of the gel-covered part of the element, and the pad strip each lies under.
+
+    The pad's strips tile the element's length (``strip_edges_m``, root to tip, m); the gel
+    touches the element over ``coverage`` = (x1, x2) only.  Returns the cell edges (the
+    coverage cut at the strip edges inside it, m) and, per cell, the index of its strip, so a
+    strip-pressure profile ``p`` becomes the cells' profile ``p[index]``.
+    """
+    x1, x2 = coverage
+    inner = strip_edges_m[(strip_edges_m > x1) & (strip_edges_m < x2)]
+    edges = np.concatenate([[x1], inner, [x2]])
+    mids = 0.5 * (edges[1:] + edges[:-1])
+    index = np.clip(np.searchsorted(strip_edges_m, mids) - 1, 0, strip_edges_m.size - 2)
+    return edges, index
 
 
 @dataclass(frozen=True)
@@ -93,7 +115,7 @@ class CoSimulation:
         # the bridge orders strips from the distal end up, so a profile is reversed.
         n = self.bridge.geometry.segments
         length = self.fingertip.element.params.length_m
-        edges = np.linspace(0.0, length, n + 1)
+        edges, self._cell_strip = coverage_cells(np.linspace(0.0, length, n + 1), self.fingertip.coverage)
         rng = np.random.default_rng(config.sensor.seed)
         self.pads = tuple(f"{p}_pad" for p in config.sensor.pads)
         self._pad_rows = [PAD_NAMES.index(p) for p in self.pads]
@@ -102,12 +124,14 @@ class CoSimulation:
                 self.fingertip,
                 edges_m=edges,
                 dynamics=config.sensor.dynamics,
+                # The drive starts (steady, settled) in the controller's most sensitive mode.
+                mode=min(config.controller.modes),
                 noise=config.sensor.noise,
                 rng=np.random.default_rng(rng.integers(2**63)),
             )
             for pad in self.pads
         }
-        self.controller = make_controller(config, self.home, self.fingertip)
+        self.controller = make_controller(config, self.home, self.fingertip, self.bridge.geometry.pad_area_m2)
         m = self.model
         self._lift_qpos = m.joint("lift_joint").qposadr[0]
         self._finger_qpos = [m.joint(f"{s}_finger_joint").qposadr[0] for s in ("left", "right")]
@@ -120,44 +144,87 @@ class CoSimulation:
         # Ground truth for the referee and the record (never in the Observation): each
         # finger's net contact force, world x is the closing direction ("found" then force).
         self._contact_adr = {pad: m.sensor(f"{pad.removesuffix('_pad')}_finger_contact").adr[0] + 1 for pad in self.pads}
+        self._prepare_step()
+
+    def _prepare_step(self) -> None:
+        """Everything the per-step path reads, as Python scalars, lists and live array views."""
+        m, d = self.model, self.data
+        n = self.bridge.geometry.segments
+        # Per instrumented pad: its element strips root to tip, as indices into the bridge's
+        # flat list (pads in PAD_NAMES order, strips distal first), and its channel's cells.
+        self._profile_index = [[row * n + n - 1 - k for k in range(n)] for row in self._pad_rows]
+        self._cells = [int(i) for i in self._cell_strip]
+        self._channel_list = [self.channels[pad] for pad in self.pads]
+        self._qpos, self._actuator_force = memoryview(d.qpos), memoryview(d.actuator_force)
+        self._qvel, self._sensordata = d.qvel, d.sensordata
+        self._warning_number = d.warning.number  # a live view of the warnings' counters
+        self._xpos, self._object_body = d.xpos, m.body("object").id
+        self._contact_list = [int(self._contact_adr[pad]) for pad in self.pads]
+        self._lift_q, self._finger_q = int(self._lift_qpos), [int(a) for a in self._finger_qpos]
+        self.columns = ["time_s", "phase", "lift_m", "opening_m", "grip_force_n", "lift_force_n", "object_height_m"]
+        for pad in self.pads:
+            side = pad.removesuffix("_pad")
+            names = ("true_pressure_pa", "contact_force_n", "estimate_pa", "uncertainty_pa", "status", "mode", "v1", "v1_true", "settled")
+            self.columns += [f"{side}_{name}" for name in names]
+            self.columns += [f"{side}_cell{k}_pressure_pa" for k in range(n)]
 
     # -- one control step --------------------------------------------------------------
 
-    def step(self) -> dict[str, float]:
-        """Advance one control period; return the recorded row."""
-        m, d = self.model, self.data
+    def advance(self) -> list[float]:
+        """Advance one control period; return the recorded row's values, in :attr:`columns` order."""
         # 1. physics (the gel's law acts on the pad joints every substep)
-        for _ in range(self.substeps):
-            self.bridge.apply_gel_forces(d)
-            mujoco.mj_step(m, d)
-        self._check_stable()
-        self.time_s += self.dt
-        self.steps += 1
-        # 2. pad pressure along each element (Pa), root to tip
-        pressures = self.bridge.element_pressures(d)[:, ::-1]
-        # 3-5. gel -> sensor (envelope) -> readout (inverse)
-        signals = {}
-        for pad, row in zip(self.pads, self._pad_rows, strict=True):
-            channel = self.channels[pad]
-            reading = channel.update(pressures[row], self.dt)
-            signals[pad] = PadSignal(reading, channel.estimate(reading))
+        self._physics()
+        # 2. pad pressure along each element (Pa), root to tip, per instrumented pad
+        profiles = self._pressures()
+        # 3-4. gel -> sensor (envelope), the driven mode only
+        readings = self._sense(profiles)
+        # 5. readout (inverse)
+        signals = self._readout(readings)
         # 6. controller (sensors and proprioception only)
         obs = self._observe(signals)
         command = self.controller.step(obs, self.dt)
         # 7. actuators and drive modes
         self._actuate(command)
         # 8. record
-        return self._row(obs, command, pressures)
+        return self._record(obs, command, profiles)
+
+    def step(self) -> dict[str, float]:
+        """Advance one control period; return the recorded row (column name -> value)."""
+        return dict(zip(self.columns, self.advance(), strict=True))
+
+    def _physics(self) -> None:
+        m, d, apply_gel_forces = self.model, self.data, self.bridge.apply_gel_forces
+        for _ in range(self.substeps):
+            apply_gel_forces(d)
+            mujoco.mj_step(m, d)
+        self._check_stable()
+        self.time_s += self.dt
+        self.steps += 1
+
+    def _pressures(self) -> list[list[float]]:
+        values = self.bridge.element_pressure_values(self.data)
+        return [[values[i] for i in index] for index in self._profile_index]
+
+    def _sense(self, profiles: list[list[float]]) -> list[Reading]:
+        cells, dt = self._cells, self.dt
+        channels = self._channel_list
+        return [channel.update_trusted([profile[i] for i in cells], dt) for channel, profile in zip(channels, profiles, strict=True)]
+
+    def _readout(self, readings: list[Reading]) -> dict[str, PadSignal]:
+        return {
+            pad: PadSignal(reading, channel.estimate(reading))
+            for pad, channel, reading in zip(self.pads, self._channel_list, readings, strict=True)
+        }
 
     def _observe(self, signals: dict[str, PadSignal]) -> Observation:
-        d = self.data
+        qpos, force = self._qpos, self._actuator_force
         return Observation(
             time_s=self.time_s,
             pads=signals,
-            lift_pos_m=float(d.qpos[self._lift_qpos]),
-            opening_m=float(d.qpos[self._finger_qpos[0]] + d.qpos[self._finger_qpos[1]]),
-            lift_force_n=float(d.actuator_force[self._lift_act]),
-            grip_force_n=-float(d.actuator_force[self._finger_act]),
+            lift_pos_m=qpos[self._lift_q],
+            opening_m=qpos[self._finger_q[0]] + qpos[self._finger_q[1]],
+            lift_force_n=force[self._lift_act],
+            grip_force_n=-force[self._finger_act],
         )
 
     def _actuate(self, command: Command) -> None:
@@ -170,6 +237,12 @@ class CoSimulation:
             self.channels[pad].select_mode(mode)
 
     def _check_stable(self) -> None:
+        # The common case in two sums: no warning counted, and a finite sum of qpos and qvel
+        # (NaN and inf propagate through a sum; an overflow to inf is checked exactly).
+        if not any(self._warning_number.tolist()) and (
+            math.isfinite(sum(self._qpos.tolist()) + sum(self._qvel.tolist())) or finite_state(self.data)
+        ):
+            return
         d = self.data
         warned = [mujoco.mjtWarning(i).name for i in range(len(d.warning)) if d.warning[i].number > 0]
         if warned or not finite_state(d):
@@ -179,32 +252,34 @@ class CoSimulation:
                 f"(timestep {self.model.opt.timestep:g} s, integrator {self.config.physics.integrator})"
             )
 
-    def _row(self, obs: Observation, command: Command, pressures: np.ndarray) -> dict[str, float]:
-        m, d = self.model, self.data
-        row = {
-            "time_s": self.time_s,
-            "phase": float(phase_index(command.phase)) if command.phase else -1.0,
-            "lift_m": obs.lift_pos_m,
-            "opening_m": obs.opening_m,
-            "grip_force_n": obs.grip_force_n,
-            "lift_force_n": obs.lift_force_n,
-            "object_height_m": object_height_m(m, d),
-        }
-        for pad, prow in zip(self.pads, self._pad_rows, strict=True):
-            side = pad.removesuffix("_pad")
+    def _record(self, obs: Observation, command: Command, profiles: list[list[float]]) -> list[float]:
+        """The row's values in :attr:`columns` order (all Python floats)."""
+        row = [
+            self.time_s,
+            float(phase_index(command.phase)) if command.phase else -1.0,
+            obs.lift_pos_m,
+            obs.opening_m,
+            obs.grip_force_n,
+            obs.lift_force_n,
+            float(self._xpos[self._object_body, 2]),
+        ]
+        sensordata = self._sensordata
+        for pad, profile, adr in zip(self.pads, profiles, self._contact_list, strict=True):
             sig = obs.pads[pad]
             r, e = sig.reading, sig.estimate
-            row[f"{side}_true_pressure_pa"] = float(np.mean(pressures[prow]))
-            row[f"{side}_contact_force_n"] = abs(float(d.sensordata[self._contact_adr[pad]]))
-            row[f"{side}_estimate_pa"] = e.pressure_pa
-            row[f"{side}_uncertainty_pa"] = e.uncertainty_pa
-            row[f"{side}_status"] = float(_STATUS.index(e.status))
-            row[f"{side}_mode"] = float(r.mode)
-            row[f"{side}_v1"] = r.v1
-            row[f"{side}_v1_true"] = r.v1_true
-            row[f"{side}_settled"] = float(r.settled)
-            for k, p in enumerate(pressures[prow]):
-                row[f"{side}_cell{k}_pressure_pa"] = float(p)
+            mean = profile[0] if len(profile) == 1 else float(np.mean(profile))
+            row += (
+                mean,
+                abs(float(sensordata[adr])),
+                e.pressure_pa,
+                e.uncertainty_pa,
+                float(_STATUS.index(e.status)),
+                float(r.mode),
+                r.v1,
+                r.v1_true,
+                float(r.settled),
+            )
+            row += profile
         return row
 
     # -- a whole run ---------------------------------------------------------------------
@@ -222,9 +297,9 @@ class CoSimulation:
         error = None
         try:
             for _ in range(total):
-                row = self.step()
+                values = self.advance()
                 if recorder is not None:
-                    recorder.append(row)
+                    recorder.append_values(values, self.columns)
                 if progress is not None:
                     progress.update(1)
                 if on_step is not None:

@@ -410,6 +410,50 @@ class _GelTable:
         return cls(grid, pressure, np.gradient(pressure, grid))
 
 
+class _TableLookup:
+    """P(q) and dP/dq from a :class:`_GelTable` at one scalar q, in plain Python (the bridge's hot path).
+
+    The same arithmetic as ``np.interp(q, grid, column)`` for each column: the interval j with
+    grid[j] <= q < grid[j + 1], the slope (f[j+1] - f[j]) / (grid[j+1] - grid[j]) (tabulated
+    once here) and f = slope (q - grid[j]) + f[j]; clamped to the end values outside the grid;
+    NaN for NaN.  One interval search serves both columns, and the grid is uniform, so j comes
+    from one multiplication (then corrected by the grid's own values).  On numpy builds that do
+    not fuse the multiply-add, the results are bitwise np.interp's (tests/test_models.py checks).
+    """
+
+    __slots__ = ("_grid", "_inv_step", "_last", "_p", "_p_slope", "_t", "_t_slope", "_x0", "_xn")
+
+    def __init__(self, table: _GelTable) -> None:
+        grid, p, t = table.grid_m, table.pressure_pa, table.tangent_pa_m
+        dx = grid[1:] - grid[:-1]
+        self._grid = grid.tolist()
+        self._p, self._t = p.tolist(), t.tolist()
+        self._p_slope = ((p[1:] - p[:-1]) / dx).tolist()
+        self._t_slope = ((t[1:] - t[:-1]) / dx).tolist()
+        self._x0, self._xn = self._grid[0], self._grid[-1]
+        self._last = len(self._grid) - 2  # last interval
+        self._inv_step = self._last + 1 if self._xn == self._x0 else (len(self._grid) - 1) / (self._xn - self._x0)
+
+    def at(self, q: float) -> tuple[float, float]:
+        """(P, dP/dq) at indentation ``q`` (m): exactly ``np.interp`` of the table's two columns."""
+        if q > self._x0:
+            if q < self._xn:
+                grid = self._grid
+                j = int((q - self._x0) * self._inv_step)
+                if j > self._last:
+                    j = self._last
+                while q < grid[j]:
+                    j -= 1
+                while q >= grid[j + 1]:
+                    j += 1
+                dq = q - grid[j]
+                return self._p_slope[j] * dq + self._p[j], self._t_slope[j] * dq + self._t[j]
+            return self._p[-1], self._t[-1]
+        if q <= self._x0:
+            return self._p[0], self._t[0]
+        return math.nan, math.nan
+
+
 class PadBridge:
     """Applies the gel law to the pad joints and reads the pads, every step.
 
@@ -474,6 +518,16 @@ class PadBridge:
         self._elliptic = model.opt.cone == mujoco.mjtCone.mjCONE_ELLIPTIC
         model.jnt_stiffnesspoly[self._jnt] = 0.0
         self._check_stability()
+        # The per-substep path works on Python scalars: one tuple per strip (qpos address, dof,
+        # joint, area, spring reference), the table as lists, and memoryviews of the arrays it
+        # reads and writes (item access on them costs a fraction of a numpy scalar's).
+        self._lookup = _TableLookup(self._table)
+        self._strips = tuple(
+            zip(self._qadr.tolist(), self._dof.tolist(), self._jnt.tolist(), self._area.tolist(), self._qspring.tolist(), strict=True)
+        )
+        self._element_qadr = self._qadr_element.tolist()
+        self._stiffness = memoryview(model.jnt_stiffness)
+        self._views_of: mujoco.MjData | None = None
 
     # -- set-up checks -------------------------------------------------------------------
 
@@ -515,11 +569,21 @@ class PadBridge:
         implicitly) and ``qfrc_applied`` = -A P(q) + A dP/dq (q - q_spring), so that the
         explicit force on the joint is exactly -A P(q).  Touches only the pad joints' entries.
         """
-        q = data.qpos[self._qadr]
-        t = self._table
-        stiffness = self._area * np.interp(q, t.grid_m, t.tangent_pa_m)
-        self.model.jnt_stiffness[self._jnt] = stiffness
-        data.qfrc_applied[self._dof] = stiffness * (q - self._qspring) - self._area * np.interp(q, t.grid_m, t.pressure_pa)
+        qpos, qfrc = self._data_views(data)
+        stiffness, lookup = self._stiffness, self._lookup.at
+        for qadr, dof, jnt, area, qspring in self._strips:
+            q = qpos[qadr]
+            pressure, tangent = lookup(q)
+            k = area * tangent
+            stiffness[jnt] = k
+            qfrc[dof] = k * (q - qspring) - area * pressure
+
+    def _data_views(self, data: mujoco.MjData) -> tuple[memoryview, memoryview]:
+        """memoryviews of ``data.qpos`` and ``data.qfrc_applied`` (kept while the same MjData comes back)."""
+        if data is not self._views_of:
+            self._views = memoryview(data.qpos), memoryview(data.qfrc_applied)
+            self._views_of = data
+        return self._views
 
     def element_pressures(self, data: mujoco.MjData) -> np.ndarray:
         """Gel pressure over each element strip, Pa, shape (pads, segments); the sensor's input.
@@ -527,8 +591,14 @@ class PadBridge:
         Compressive only (tension reads 0: the gel rests unbonded on the element).  The cheapest
         read (about 2 us); :meth:`read` gives everything else.
         """
-        q = data.qpos[self._qadr_element]
-        return np.maximum(np.interp(q, self._table.grid_m, self._table.pressure_pa), 0.0).reshape(self.n_pads, -1)
+        return np.array(self.element_pressure_values(data)).reshape(self.n_pads, -1)
+
+    def element_pressure_values(self, data: mujoco.MjData) -> list[float]:
+        """:meth:`element_pressures` as a flat list of Python floats (pads in ``PAD_NAMES`` order,
+        strips distal first): the co-simulation's per-step read, without numpy's overhead."""
+        qpos = self._data_views(data)[0]
+        lookup = self._lookup.at
+        return [max(lookup(qpos[a])[0], 0.0) for a in self._element_qadr]
 
     def strip_pressures(self, data: mujoco.MjData) -> np.ndarray:
         """Gel pressure of every strip, guards included, Pa, shape (pads, strips); tension < 0."""

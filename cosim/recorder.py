@@ -37,6 +37,8 @@ class Recorder:
         self.flush_every = int(flush_every)
         self.metadata = dict(metadata or {})
         self._columns: list[str] | None = None
+        self._column_set: frozenset[str] = frozenset()
+        self._column_source = None  # the sequence append_values was first given, to recognise it
         self._chunk: list[list[float]] = []
         self._flushed: list[np.ndarray] = []
         self._closed = False
@@ -53,13 +55,39 @@ class Recorder:
     def append(self, row: dict[str, float]) -> None:
         """Add one row; the first row fixes the columns (later rows must have the same keys)."""
         if self._columns is None:
-            self._columns = list(row)
-        elif row.keys() != set(self._columns):
-            differ = set(self._columns) ^ set(row)
+            self._set_columns(list(row))
+        elif row.keys() != self._column_set:
+            differ = self._column_set ^ set(row)
             raise ValueError(f"row columns differ from the first row's: {sorted(differ)}")
         self._chunk.append([float(row[c]) for c in self._columns])
         if len(self._chunk) >= self.flush_every:
             self.flush()
+
+    def append_values(self, values, columns=None) -> None:
+        """Add one row given as its values in column order (the co-simulation's per-step path).
+
+        ``columns`` names them; it is needed with the first row (which fixes the columns, as
+        in :meth:`append`) and checked against them afterwards (cheaply when it is the same
+        sequence object every time).  The values are copied, so the caller may reuse its list.
+        """
+        if self._columns is None:
+            if columns is None:
+                raise ValueError("the first row needs its column names")
+            self._set_columns(list(columns))
+            self._column_source = columns
+        elif columns is not None and columns is not self._column_source and list(columns) != self._columns:
+            differ = self._column_set ^ set(columns)
+            raise ValueError(f"row columns differ from the first row's: {sorted(differ) or 'their order'}")
+        row = [float(v) for v in values]
+        if len(row) != len(self._columns):
+            raise ValueError(f"row has {len(row)} values for {len(self._columns)} columns")
+        self._chunk.append(row)
+        if len(self._chunk) >= self.flush_every:
+            self.flush()
+
+    def _set_columns(self, columns: list[str]) -> None:
+        self._columns = columns
+        self._column_set = frozenset(columns)
 
     def flush(self) -> None:
         """Write the pending chunk: append to the CSV, rewrite the checkpoint NPZ."""

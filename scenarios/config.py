@@ -110,9 +110,14 @@ class SensorConfig:
         time constant 0.66 s: the paper's numbers).  Soft PZT has Q ~ 70 (physics.md
         section 6): 100x faster ring-up and 100x less sensitivity.
     gel_frequency_dependent : whether each mode sees its own viscoelastic modulus.
-    coverage_mm : gel coverage on the element (x1, x2), mm.
+    coverage_mm : gel coverage on the element (x1, x2), mm.  The tip (6.5-7.5 mm) by default:
+        the paper's widest-range coverage (2 Pa to 450 kPa with Table I's element), which a
+        10 kg grip needs; the whole beam (0-7.5) is 1 Pa to 110 kPa.
     noise : whether readings carry the readout noise.
     seed : seed of the readout noise.
+    damage_stiffness, damage_coupling, damage_damping : injected element damage, factors on
+        the healthy stiffness, d31 and damping (sensor.selftest.damaged); the multimode
+        controller's start-up self-test must catch them.
     """
 
     pads: tuple[str, ...] = ("left", "right")
@@ -120,11 +125,16 @@ class SensorConfig:
     dynamics: str = "envelope"
     quality_factor: float | None = None
     gel_frequency_dependent: bool = True
-    coverage_mm: tuple[float, float] = (0.0, 7.5)
+    coverage_mm: tuple[float, float] = (6.5, 7.5)
     noise: bool = True
     seed: int = 0
+    damage_stiffness: float = 1.0
+    damage_coupling: float = 1.0
+    damage_damping: float = 1.0
 
     def validate(self) -> None:
+        for name in ("damage_stiffness", "damage_coupling", "damage_damping"):
+            _positive(f"sensor.{name}", getattr(self, name))
         for pad in self.pads:
             _one_of("sensor.pads", pad, ("left", "right"))
         if not self.modes or any(not isinstance(m, int) or not 1 <= m <= 30 for m in self.modes):
@@ -153,7 +163,7 @@ class ControllerConfig:
     lift_speed_m_s : how fast the object is lifted, m/s.
     """
 
-    kind: str = "scripted"
+    kind: str = "multimode"
     modes: tuple[int, ...] = (1, 2, 3, 4)
     lift_height_m: float = 0.05
     hold_s: float = 1.0

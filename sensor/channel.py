@@ -8,24 +8,64 @@ cell, Pa) and the time since the last sample, and returns a :class:`Reading`.
 Only what the scene asks for is computed: the per-mode tables of (k_e, c_e) against
 pressure are built once per channel, for its modes only, and a sample evaluates the
 active mode alone (plus any modes named in ``shadow_modes``, for plots and tests).
+
+A sample is scalar work (a few table lookups and complex numbers), so it runs on Python
+floats and complex numbers: numpy's per-call overhead on 0-d arrays would cost ten times the
+arithmetic.  The formulas are those of :mod:`sensor.readout` (``_steady``, ``_rate`` and
+``_step`` below restate them for scalars; tests/test_channel_perf_equivalence.py checks them
+against the documented functions).  :meth:`SensorChannel.update` checks its input and the
+co-simulation, whose profiles are checked by construction, calls
+:meth:`SensorChannel.update_trusted`.
 """
 
 from __future__ import annotations
 
+import cmath
 import math
+from bisect import bisect_right
 from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
 from .fingertip import Fingertip
-from .readout import envelope_rate, envelope_step, steady_envelope
 
 DYNAMICS = ("steady", "envelope")
 #: Pressure table for the fast path, Pa: log-spaced, 60 points per decade.
 _TABLE_P = np.logspace(-3, 7, 601)
 #: A reading is "settled" once the transient has decayed below this fraction.
 SETTLE_FRACTION = 1e-3
+#: Settling takes this many time constants: ln(1 / SETTLE_FRACTION).
+_SETTLE_TAUS = math.log(1.0 / SETTLE_FRACTION)
+
+
+def _interp(x: float, xp: list[float], fp: list[float]) -> float:
+    """``np.interp(x, xp, fp)`` for one float and increasing ``xp`` (lists): the same interval,
+    the same arithmetic (slope (fp[j+1] - fp[j]) / (xp[j+1] - xp[j]) times (x - xp[j]) plus
+    fp[j]), the same clamping at the ends; NaN for NaN."""
+    if x >= xp[-1]:
+        return fp[-1]
+    if x >= xp[0]:
+        j = bisect_right(xp, x) - 1
+        return (fp[j + 1] - fp[j]) / (xp[j + 1] - xp[j]) * (x - xp[j]) + fp[j]
+    if x < xp[0]:
+        return fp[0]
+    return math.nan
+
+
+def _steady(omega: float, c: float, kappa: float, gamma: float) -> complex:
+    """:func:`sensor.readout.steady_envelope` for floats."""
+    return omega * c / (omega * (gamma + c) - 1j * kappa)
+
+
+def _rate(mass_per_length_kg_m: float, omega: float, c: float, kappa: float, gamma: float) -> complex:
+    """:func:`sensor.readout.envelope_rate` for floats."""
+    return (c + gamma) / (2.0 * mass_per_length_kg_m) - 1j * kappa / (2.0 * omega * mass_per_length_kg_m)
+
+
+def _step(envelope: complex, steady: complex, dt_s: float, rate: complex) -> complex:
+    """:func:`sensor.readout.envelope_step` for Python complex numbers."""
+    return steady + (envelope - steady) * cmath.exp(-rate * dt_s)
 
 
 @dataclass(frozen=True)
@@ -71,6 +111,11 @@ class FoundationTable:
         self._log_c = np.log(c)
         self._k0, self._c0 = k[0] / _TABLE_P[0], c[0] / _TABLE_P[0]
         self._p0 = _TABLE_P[0]
+        # For :meth:`at`: the columns as lists, Python floats.
+        self._k0_f, self._c0_f, self._p0_f = float(self._k0), float(self._c0), float(self._p0)
+        self._log_p_list = self._log_p.tolist()
+        self._log_k_list = self._log_k.tolist()
+        self._log_c_list = self._log_c.tolist()
 
     def __call__(self, pressure_pa: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         p = np.asarray(pressure_pa, float)
@@ -82,6 +127,24 @@ class FoundationTable:
             k = np.where(low, p * self._k0, k)
             c = np.where(low, p * self._c0, c)
         return k, c
+
+    def at(self, pressure_pa: float) -> tuple[float, float]:
+        """(k_e, c_e) at one pressure (a float, Pa): :meth:`__call__`'s table and formulas, one
+        interval search for both, in Python floats (equal to ``__call__`` within rounding)."""
+        p = pressure_pa
+        if p < self._p0_f:
+            return p * self._k0_f, p * self._c0_f
+        lp, xp = math.log(p), self._log_p_list
+        log_k, log_c = self._log_k_list, self._log_c_list
+        if lp >= xp[-1]:
+            return math.exp(log_k[-1]), math.exp(log_c[-1])
+        if lp > xp[0]:
+            j = bisect_right(xp, lp) - 1
+            dx, h = lp - xp[j], xp[j + 1] - xp[j]
+            return math.exp((log_k[j + 1] - log_k[j]) / h * dx + log_k[j]), math.exp((log_c[j + 1] - log_c[j]) / h * dx + log_c[j])
+        if lp <= xp[0]:  # p0 itself, where math.log may round below the table's first point
+            return math.exp(log_k[0]), math.exp(log_c[0])
+        return math.nan, math.nan
 
 
 @dataclass(frozen=True)
@@ -108,6 +171,7 @@ class ModeInverse:
     The forward curve is tabulated once on the channel's log-pressure grid; a reading is
     inverted by linear interpolation in log P (the curve is monotone), its uncertainty from
     the tabulated slope.  Status thresholds are the fingertip's P_min and P_max of the mode.
+    A call works on Python floats (the tables as lists; the same interpolation as np.interp).
     """
 
     def __init__(self, fingertip: Fingertip, mode: int, table: FoundationTable | None) -> None:
@@ -125,6 +189,9 @@ class ModeInverse:
         self.p_max_pa = fingertip.upper_limit(mode)
         self._v_first, self._v_last = float(v[0]), float(v[-1])
         self._slope0 = abs(float(fingertip.output_slope(0.0, mode)))
+        self._neg_v_list = self._neg_v.tolist()
+        self._log_p_list = self._log_p.tolist()
+        self._dv_dlogp_list = self._dv_dlogp.tolist()
 
     def __call__(self, v1: float, settled: bool = True) -> Estimate:
         if not settled:
@@ -137,11 +204,11 @@ class ModeInverse:
         if v1 >= self._v_first:
             p = (1.0 - v1) / self._slope0
             return Estimate(p, self.sigma / self._slope0, "ok")
-        log_p = float(np.interp(-v1, self._neg_v, self._log_p))
+        log_p = _interp(-v1, self._neg_v_list, self._log_p_list)
         p = math.exp(log_p)
         if not p <= self.p_max_pa:
             return Estimate(math.nan, math.nan, "saturated")
-        slope = abs(float(np.interp(log_p, self._log_p, self._dv_dlogp))) / p
+        slope = abs(_interp(log_p, self._log_p_list, self._dv_dlogp_list)) / p
         return Estimate(p, self.sigma / slope if slope > 0 else math.inf, "ok")
 
 
@@ -192,6 +259,12 @@ class SensorChannel:
         self._sigma = {m: fingertip.sigma(m) for m in used}
         self._tables = {m: FoundationTable(fingertip, m) for m in used} if not exact else {}
         self._inverse = {m: ModeInverse(fingertip, m, self._tables.get(m)) for m in used}
+        # For update_trusted: per mode (omega, sigma, table lookup, weights as floats).
+        self._fast = {
+            m: (float(self._omega[m]), float(self._sigma[m]), self._tables[m].at if not exact else None, self._weights[m].tolist())
+            for m in used
+        }
+        self._rho_a_f, self._c_f = float(self._rho_a), float(self._c)
         self.shadow_modes = tuple(shadow_modes)
         self.evaluations = 0  # gel/sensor evaluations, counted for "compute only what is needed" tests
         self.mode = fingertip.modes[0] if mode is None else fingertip._mode(mode)
@@ -218,35 +291,60 @@ class SensorChannel:
             return self.tip.foundation(pressure_cells_pa, mode)
         return self._tables[mode](pressure_cells_pa)
 
-    def modal_load(self, pressure_cells_pa, mode: int) -> tuple[float, float]:
-        """(kappa, gamma) of a pressure profile on ``mode``: the modal integrals over cells."""
+    def _checked(self, pressure_cells_pa) -> np.ndarray:
         p = np.asarray(pressure_cells_pa, float)
         if p.shape != (self.n_cells,):
             raise ValueError(f"pressure profile needs {self.n_cells} cells, got shape {p.shape}")
         if not np.all(np.isfinite(p)) or np.any(p < 0):
             raise ValueError(f"pressure_pa must be finite and non-negative, got {p!r}")
-        k_e, c_e = self._foundation(p, mode)
+        return p
+
+    def modal_load(self, pressure_cells_pa, mode: int) -> tuple[float, float]:
+        """(kappa, gamma) of a pressure profile on ``mode``: the modal integrals over cells."""
+        k_e, c_e = self._foundation(self._checked(pressure_cells_pa), mode)
         w = self._weights[mode]
         return float(k_e @ w), float(c_e @ w)
 
     def update(self, pressure_cells_pa, dt_s: float) -> Reading:
         """Advance by ``dt_s`` under the pad's pressure profile (held over the step) and sample."""
+        return self.update_trusted(self._checked(pressure_cells_pa).tolist(), dt_s)
+
+    def update_trusted(self, pressure_cells_pa: Sequence[float], dt_s: float) -> Reading:
+        """:meth:`update` without checking the profile: the co-simulation's per-step path.
+
+        ``pressure_cells_pa`` must be ``n_cells`` finite, non-negative Python floats (Pa); a
+        wrong profile gives a wrong reading, not an error.  One table lookup per cell for the
+        active mode (counted in :attr:`evaluations`), then the envelope in complex scalars.
+        """
         mode = self.mode
-        kappa, gamma = self.modal_load(pressure_cells_pa, mode)
-        omega = self._omega[mode]
-        steady = complex(steady_envelope(omega, self._c, kappa, gamma))
-        rate = complex(envelope_rate(self._rho_a, omega, self._c, kappa, gamma))
+        omega, sigma, table_at, weights = self._fast[mode]
+        c = self._c_f
+        self.evaluations += 1
+        if table_at is None:  # exact: the gel model itself, on arrays
+            k_e, c_e = self.tip.foundation(np.asarray(pressure_cells_pa, float), mode)
+            kappa, gamma = float(k_e @ self._weights[mode]), float(c_e @ self._weights[mode])
+        elif len(weights) == 1:
+            k_e, c_e = table_at(pressure_cells_pa[0])
+            kappa, gamma = k_e * weights[0], c_e * weights[0]
+        else:
+            kappa = gamma = 0.0
+            for p, w in zip(pressure_cells_pa, weights, strict=True):
+                k_e, c_e = table_at(p)
+                kappa += k_e * w
+                gamma += c_e * w
+        steady = _steady(omega, c, kappa, gamma)
+        rate = _rate(self._rho_a_f, omega, c, kappa, gamma)
         self.time_in_mode_s += dt_s
         tau = 1.0 / rate.real
         if self.dynamics == "envelope":
-            self.envelope = complex(envelope_step(self.envelope, steady, dt_s, rate))
-            settled = self.time_in_mode_s >= tau * math.log(1.0 / SETTLE_FRACTION)
+            self.envelope = envelope = _step(self.envelope, steady, dt_s, rate)
+            settled = self.time_in_mode_s >= tau * _SETTLE_TAUS
         else:
-            self.envelope = steady
+            self.envelope = envelope = steady
             settled = True
-        v1_true = abs(self.envelope)
-        v1 = v1_true + (self.rng.normal(0.0, self._sigma[mode]) if self.noise else 0.0)
-        phase = -math.atan2(self.envelope.imag, self.envelope.real) if v1_true > 0 else 0.0
+        v1_true = abs(envelope)
+        v1 = v1_true + (self.rng.normal(0.0, sigma) if self.noise else 0.0)
+        phase = -math.atan2(envelope.imag, envelope.real) if v1_true > 0 else 0.0
         return Reading(mode, v1, v1_true, phase, self.time_in_mode_s, tau, settled, kappa, gamma)
 
     def estimate(self, reading: Reading) -> Estimate:
@@ -262,5 +360,5 @@ class SensorChannel:
         out = {}
         for m in self.shadow_modes:
             kappa, gamma = self.modal_load(pressure_cells_pa, m)
-            out[m] = abs(complex(steady_envelope(self._omega[m], self._c, kappa, gamma)))
+            out[m] = abs(_steady(self._omega[m], self._c, kappa, gamma))
         return out

@@ -1,0 +1,76 @@
+"""Running one scenario headless: the recording, the plot, the frames and the summary."""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import asdict
+from pathlib import Path
+
+import numpy as np
+
+
+def json_safe(value):
+    """Replace non-finite floats by None (strict JSON) and numpy scalars by Python ones."""
+    if isinstance(value, (float, np.floating)):
+        return float(value) if math.isfinite(value) else None
+    if isinstance(value, (np.integer, np.bool_)):
+        return value.item()
+    if isinstance(value, dict):
+        return {k: json_safe(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [json_safe(v) for v in value]
+    return value
+
+
+def run_scenario(
+    name: str,
+    overrides: list[str],
+    out: Path,
+    csv: bool = False,
+    render: bool = False,
+    plot: bool = True,
+    quiet: bool = False,
+) -> tuple[dict, dict[str, np.ndarray]]:
+    """Run scenario ``name`` with ``overrides``; write into ``out``; return (summary, recorded data).
+
+    Files: ``run.npz`` (every control step, units in the column names), ``run.csv`` with
+    ``csv``, ``run.png`` with ``plot``, ``frames.png`` with ``render``, ``summary.json``.
+    A divergence stops the run with the recording kept; the summary's ``error`` says why.
+    """
+    import scenarios
+    from cosim.loop import CoSimulation
+    from cosim.recorder import Recorder
+
+    from .run_report import plot_run, summary
+
+    config = scenarios.get(name, overrides)
+    sim = CoSimulation(config)
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    recorder = Recorder(out / "run", csv=csv, metadata={"scenario": name, "overrides": list(overrides), "units": "in column names"})
+    total = math.ceil(config.duration_s / config.physics.control_period_s - 1e-9)
+    strip = None
+    if render:
+        from .render import FrameStrip
+
+        strip = FrameStrip(sim.model, total)
+    from tqdm import tqdm
+
+    with tqdm(total=total, desc=name, unit="step", disable=quiet, leave=False) as bar:
+        result = sim.run(recorder, progress=bar, on_step=strip)
+    data = recorder.data()
+    files = [str(f) for f in result.files]
+    if data and plot:
+        files.append(str(plot_run(config, sim.fingertip, data, out)))
+    if strip is not None and strip.images:
+        files.append(str(strip.save(out / "frames.png")))
+    report = summary(config, data, result.wall_time_s, files, result.error)
+    events = [asdict(e) for e in getattr(sim.controller, "events", [])]
+    report["events"] = events
+    report["touch_time_s"] = getattr(sim.controller, "touch_time_s", math.nan)
+    report["overrides"] = list(overrides)
+    summary_path = out / "summary.json"
+    report["files"].append(str(summary_path))
+    summary_path.write_text(json.dumps(json_safe(report), indent=2) + "\n")
+    return report, data
