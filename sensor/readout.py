@@ -14,6 +14,7 @@ Physics reference: ``shared/physics.md`` sections 5 and 6.  Definitions used thr
 
 from __future__ import annotations
 
+import cmath
 import math
 from dataclasses import dataclass
 
@@ -119,3 +120,60 @@ def envelope_step(envelope, steady, dt_s: float, rate) -> np.ndarray:
     dt and needs no substeps.
     """
     return steady + (np.asarray(envelope, complex) - steady) * np.exp(-np.asarray(rate) * dt_s)
+
+
+def ring_up_steady(envelope: complex, time_s: float, tau0_s: float, rate_guess: complex | None = None) -> tuple[complex, float]:
+    """Steady envelope inferred from a ring-up in progress, and its noise gain.
+
+    After a mode switch the envelope rises from rest under a (constant) load as
+    a(t) = a_ss (1 - exp(-lambda t)), and the load ties the two unknowns together:
+    a_ss = omega c / (omega (gamma + c) - j kappa) and lambda = ((c + gamma) - j kappa / omega) / (2 rho A)
+    give a_ss = 1 / (tau0 lambda), tau0 = 2 rho A / c the unloaded time constant (both from
+    eqs. 10 and 19 and :func:`envelope_rate`).  One complex reading a at time t therefore
+    fixes z = lambda t through
+
+        (1 - exp(-z)) / z = a tau0 / t,
+
+    solved here by Newton's method; then a_ss = t / (tau0 z).  The returned gain
+    |d a_ss / d a| = 1 / |z^2 g'(z)| (g the left-hand side) is how much the reading's noise
+    is amplified: about 2 / |z|^2 early in the ring-up, 1 once it has settled.  A reading
+    that cannot be inverted yet (noise larger than the rise) returns (nan, inf).
+
+    A stiff load detunes the mode (Im lambda = -kappa / (2 omega rho A)) and the envelope
+    spirals in; then the equation has other roots, and only the physical one has
+    Re z >= t / tau0 (gamma >= 0) and Im z <= 0 (kappa >= 0).  Pass ``rate_guess`` (the
+    previous sample's lambda, 1/s) to follow that root through a ring-up; a root outside the
+    physical quadrant, past half a beat (|Im z| > pi) without a guess, or more than one
+    radian from the guessed branch, returns (nan, inf).
+    """
+    if time_s <= 0 or tau0_s <= 0:
+        return complex(math.nan, math.nan), math.inf
+    w = complex(envelope) * tau0_s / time_s
+    if not 1e-12 < abs(w) < 1.0:  # |g(z)| < 1 for every physical z: noise has outrun the rise
+        return complex(math.nan, math.nan), math.inf
+    if rate_guess is not None and math.isfinite(abs(rate_guess)):
+        z = complex(rate_guess) * time_s
+    else:
+        z = 2.0 * (1.0 - w) if abs(w) > 0.5 else 1.0 / w  # small- and large-z asymptotes of g
+    for _ in range(60):
+        if abs(z) < 1e-8:
+            return complex(math.nan, math.nan), math.inf
+        ez = cmath.exp(-z)
+        g = (1.0 - ez) / z
+        dg = (ez * (1.0 + z) - 1.0) / (z * z)
+        if dg == 0:
+            return complex(math.nan, math.nan), math.inf
+        step = (g - w) / dg
+        z -= step
+        if abs(step) <= 1e-13 * max(1.0, abs(z)):
+            break
+    else:
+        return complex(math.nan, math.nan), math.inf
+    unphysical = z.real < (1.0 - 1e-9) * time_s / tau0_s or z.imag > 1e-9 * abs(z)
+    # Past half a beat the spiral's other turns are roots too: only a tracked root is kept.
+    ambiguous = abs(z.imag) > math.pi if rate_guess is None else abs(z - complex(rate_guess) * time_s) > 1.0
+    if unphysical or ambiguous:
+        return complex(math.nan, math.nan), math.inf
+    ez = cmath.exp(-z)
+    dg = (ez * (1.0 + z) - 1.0) / (z * z)
+    return time_s / (tau0_s * z), 1.0 / abs(z * z * dg)
