@@ -130,6 +130,28 @@ def _cmd_run(args: argparse.Namespace) -> int:
     return 1 if report.get("error") else 0
 
 
+def _cmd_bench(args: argparse.Namespace) -> int:
+    from analysis.bench import bench_report, format_report, grasp_cases, write_report
+
+    if args.repeats < 1:
+        raise ValueError(f"--repeats must be at least 1, got {args.repeats}")
+    cases = grasp_cases(all_scenes=args.all_scenes, overrides=args.set or [])
+    progress = None if args.json else (lambda name: print(f"benchmarking {name} ...", file=sys.stderr, flush=True))
+    try:
+        report = bench_report(cases, repeats=args.repeats, duration_s=args.duration, progress=progress)
+    except RuntimeError as err:  # a run diverged or was not deterministic: no numbers to report
+        print(f"error: {err}", file=sys.stderr)
+        return 1
+    files = [str(p) for p in write_report(report, Path(args.out))] if args.out else []
+    if args.json:
+        print(json.dumps(_json_safe(report), indent=2))
+    else:
+        print(format_report(report))
+        for f in files:
+            print(f"wrote {f}")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="run_sim.py", description="piezotip: a robot fingertip with a multimode piezoelectric tactile sensor"
@@ -159,6 +181,15 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--json", action="store_true", help="print the report as JSON")
     p.add_argument("--out", help="directory for plots, CSV and range.json")
     p.set_defaults(func=_cmd_range)
+
+    p = sub.add_parser("bench", help="the co-simulation's cost: real-time factor, overhead over bare mj_step, per-stage times")
+    p.add_argument("--json", action="store_true", help="print the report as JSON")
+    p.add_argument("--out", help="directory for bench.json and bench.png")
+    p.add_argument("--repeats", type=int, default=5, help="timed runs and bare-step passes; the fastest is kept (default 5)")
+    p.add_argument("--duration", type=float, metavar="SECONDS", help="simulated seconds per run (default: the scenario's)")
+    p.add_argument("--all-scenes", action="store_true", help="also the other registered grasp scenes")
+    p.add_argument("--set", action="append", metavar="KEY=VALUE", help="override a config value of every benchmarked scene (repeatable)")
+    p.set_defaults(func=_cmd_bench)
     return parser
 
 

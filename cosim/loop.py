@@ -2,8 +2,11 @@
 
     physics -> pad pressure -> gel -> sensor -> readout -> controller -> actuators -> record
 
-:meth:`CoSimulation.step` is that order, in one screen.  Everything a step needs (ids,
-tables, modal integrals) is prepared once in the constructor.
+:meth:`CoSimulation.advance` is that order, in one screen, one method per stage (which
+``run_sim.py bench`` times one by one); :meth:`CoSimulation.step` returns its row as a dict.
+Everything a step needs (ids, tables, modal integrals, views of MuJoCo's arrays) is prepared
+once in the constructor, and the per-step path works on Python floats: for a handful of
+numbers, numpy's per-call overhead would cost more than MuJoCo's step itself.
 """
 
 from __future__ import annotations
@@ -146,6 +149,16 @@ class CoSimulation:
         self._contact_adr = {pad: m.sensor(f"{pad.removesuffix('_pad')}_finger_contact").adr[0] + 1 for pad in self.pads}
         self._prepare_step()
 
+    #: Live views of the model's and data's arrays (see _prepare_step): rebuilt, not copied.
+    _VIEWS = ("_qpos", "_actuator_force", "_qvel", "_sensordata", "_ctrl", "_forcerange", "_warning_number", "_xpos")
+
+    def __getstate__(self) -> dict:
+        return {k: v for k, v in self.__dict__.items() if k not in self._VIEWS}
+
+    def __setstate__(self, state: dict) -> None:  # a copy gets views of its own model and data
+        self.__dict__.update(state)
+        self._prepare_step()
+
     def _prepare_step(self) -> None:
         """Everything the per-step path reads, as Python scalars, lists and live array views."""
         m, d = self.model, self.data
@@ -154,9 +167,11 @@ class CoSimulation:
         # flat list (pads in PAD_NAMES order, strips distal first), and its channel's cells.
         self._profile_index = [[row * n + n - 1 - k for k in range(n)] for row in self._pad_rows]
         self._cells = [int(i) for i in self._cell_strip]
+        self._cells_are_strips = self._cells == list(range(n))  # the profile is the channel's input as is
         self._channel_list = [self.channels[pad] for pad in self.pads]
         self._qpos, self._actuator_force = memoryview(d.qpos), memoryview(d.actuator_force)
         self._qvel, self._sensordata = d.qvel, d.sensordata
+        self._ctrl, self._forcerange = d.ctrl, m.actuator_forcerange
         self._warning_number = d.warning.number  # a live view of the warnings' counters
         self._xpos, self._object_body = d.xpos, m.body("object").id
         self._contact_list = [int(self._contact_adr[pad]) for pad in self.pads]
@@ -207,8 +222,9 @@ class CoSimulation:
 
     def _sense(self, profiles: list[list[float]]) -> list[Reading]:
         cells, dt = self._cells, self.dt
-        channels = self._channel_list
-        return [channel.update_trusted([profile[i] for i in cells], dt) for channel, profile in zip(channels, profiles, strict=True)]
+        if not self._cells_are_strips:
+            profiles = [[profile[i] for i in cells] for profile in profiles]
+        return [channel.update_trusted(profile, dt) for channel, profile in zip(self._channel_list, profiles, strict=True)]
 
     def _readout(self, readings: list[Reading]) -> dict[str, PadSignal]:
         return {
@@ -228,11 +244,13 @@ class CoSimulation:
         )
 
     def _actuate(self, command: Command) -> None:
-        m, d = self.model, self.data
-        d.ctrl[self._lift_act] = command.lift_m
-        d.ctrl[self._finger_act] = command.opening_m
+        ctrl = self._ctrl
+        ctrl[self._lift_act] = command.lift_m
+        ctrl[self._finger_act] = command.opening_m
         limit = min(max(command.grip_force_limit_n, 0.0), self._finger_limit)
-        m.actuator_forcerange[self._finger_act] = (-limit, limit)
+        forcerange = self._forcerange
+        forcerange[self._finger_act, 0] = -limit
+        forcerange[self._finger_act, 1] = limit
         for pad, mode in command.modes.items():
             self.channels[pad].select_mode(mode)
 

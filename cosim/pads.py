@@ -421,27 +421,24 @@ class _TableLookup:
     not fuse the multiply-add, the results are bitwise np.interp's (tests/test_models.py checks).
     """
 
-    __slots__ = ("_grid", "_inv_step", "_last", "_p", "_p_slope", "_t", "_t_slope", "_x0", "_xn")
+    __slots__ = ("_grid", "_inv_step", "_p", "_p_slope", "_t", "_t_slope", "_x0", "_xn")
 
     def __init__(self, table: _GelTable) -> None:
         grid, p, t = table.grid_m, table.pressure_pa, table.tangent_pa_m
         dx = grid[1:] - grid[:-1]
-        self._grid = grid.tolist()
+        self._grid = [*grid.tolist(), math.inf]  # a sentinel past the end: grid[j + 1] always exists
         self._p, self._t = p.tolist(), t.tolist()
         self._p_slope = ((p[1:] - p[:-1]) / dx).tolist()
         self._t_slope = ((t[1:] - t[:-1]) / dx).tolist()
-        self._x0, self._xn = self._grid[0], self._grid[-1]
-        self._last = len(self._grid) - 2  # last interval
-        self._inv_step = self._last + 1 if self._xn == self._x0 else (len(self._grid) - 1) / (self._xn - self._x0)
+        self._x0, self._xn = float(grid[0]), float(grid[-1])
+        self._inv_step = (len(grid) - 1) / (self._xn - self._x0)
 
     def at(self, q: float) -> tuple[float, float]:
         """(P, dP/dq) at indentation ``q`` (m): exactly ``np.interp`` of the table's two columns."""
         if q > self._x0:
             if q < self._xn:
                 grid = self._grid
-                j = int((q - self._x0) * self._inv_step)
-                if j > self._last:
-                    j = self._last
+                j = int((q - self._x0) * self._inv_step)  # at most one past the last interval
                 while q < grid[j]:
                     j -= 1
                 while q >= grid[j + 1]:
@@ -569,14 +566,36 @@ class PadBridge:
         implicitly) and ``qfrc_applied`` = -A P(q) + A dP/dq (q - q_spring), so that the
         explicit force on the joint is exactly -A P(q).  Touches only the pad joints' entries.
         """
-        qpos, qfrc = self._data_views(data)
-        stiffness, lookup = self._stiffness, self._lookup.at
+        if data is not self._views_of:
+            self._data_views(data)
+        qpos, qfrc = self._views
+        stiffness, table = self._stiffness, self._lookup
+        # table.at(q), inlined for the common case (q inside the table; this runs 6 x per substep)
+        grid, p, p_slope, t, t_slope = table._grid, table._p, table._p_slope, table._t, table._t_slope
+        x0, xn, inv_step = table._x0, table._xn, table._inv_step
         for qadr, dof, jnt, area, qspring in self._strips:
             q = qpos[qadr]
-            pressure, tangent = lookup(q)
+            if x0 < q < xn:
+                j = int((q - x0) * inv_step)  # at most one past the last interval: the loops fix it
+                while q < grid[j]:
+                    j -= 1
+                while q >= grid[j + 1]:
+                    j += 1
+                dq = q - grid[j]
+                pressure, tangent = p_slope[j] * dq + p[j], t_slope[j] * dq + t[j]
+            else:
+                pressure, tangent = table.at(q)
             k = area * tangent
             stiffness[jnt] = k
             qfrc[dof] = k * (q - qspring) - area * pressure
+
+    def __getstate__(self) -> dict:  # memoryviews are not copied: a copy makes its own
+        return {k: v for k, v in self.__dict__.items() if k not in ("_stiffness", "_views", "_views_of")}
+
+    def __setstate__(self, state: dict) -> None:
+        self.__dict__.update(state)
+        self._stiffness = memoryview(self.model.jnt_stiffness)
+        self._views_of = None
 
     def _data_views(self, data: mujoco.MjData) -> tuple[memoryview, memoryview]:
         """memoryviews of ``data.qpos`` and ``data.qfrc_applied`` (kept while the same MjData comes back)."""

@@ -78,7 +78,7 @@ class Recorder:
         elif columns is not None and columns is not self._column_source and list(columns) != self._columns:
             differ = self._column_set ^ set(columns)
             raise ValueError(f"row columns differ from the first row's: {sorted(differ) or 'their order'}")
-        row = [float(v) for v in values]
+        row = list(map(float, values))
         if len(row) != len(self._columns):
             raise ValueError(f"row has {len(row)} values for {len(self._columns)} columns")
         self._chunk.append(row)
