@@ -122,9 +122,13 @@ class ModeSelector:
         i = self.modes.index(self.mode)
         return self.modes[i - 1] if i > 0 else None
 
-    def update(self, estimate, settled: bool) -> tuple[int, str]:
-        """Take one readout estimate; return (mode to drive next, why)."""
-        if not settled or estimate.status == "settling":
+    def update(self, estimate) -> tuple[int, str]:
+        """Take one readout estimate; return (mode to drive next, why).
+
+        A "settling" estimate (the readout cannot yet tell the new mode's steady reading) is
+        not used: the last trusted estimate is held and no switch is made.
+        """
+        if estimate.status == "settling":
             self.trusted = False
             return self.mode, f"mode {self.mode}: settling after switch, holding {self.estimate_pa:.3g} Pa"
         self.trusted = True
@@ -268,7 +272,7 @@ class MultimodeGrasp:
             v1 = sig.reading.v1
             if not (-OUT_OF_RANGE_SIGMA * sigma <= v1 <= 1 + OUT_OF_RANGE_SIGMA * sigma) or math.isnan(v1):
                 self._fault(t, pad, "out_of_range", f"{pad}: reading {v1!r} outside [0, 1] by more than {OUT_OF_RANGE_SIGMA:g} sigma")
-            mode, why = sel.update(sig.estimate, sig.reading.settled)
+            mode, why = sel.update(sig.estimate)
             if mode != sig.reading.mode:
                 self.events.append(Event(t, pad, "mode_switch", why))
             if "no higher mode" in why and pad not in self._saturated_logged:

@@ -23,14 +23,29 @@ from __future__ import annotations
 import cmath
 import math
 from bisect import bisect_right
+from collections import deque
 from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
+from .carrier import CarrierResonator
 from .fingertip import Fingertip
+from .readout import relaxation_steady, ring_up_steady
 
-DYNAMICS = ("steady", "envelope")
+DYNAMICS = ("steady", "envelope", "carrier")
+#: A ring-up inversion is trusted while it amplifies the reading's noise at most this much
+#: (the estimate's uncertainty is multiplied by the gain, so the controller sees the cost).
+RINGUP_MAX_GAIN = 10.0
+#: After a switch the readout inverts the ring-up for this many (estimated) time constants,
+#: then reads the envelope as settled.
+RINGUP_WINDOW_TAUS = 8.0
+#: Windows (s) over which the readout fits a relaxation to two readings after a load change.
+RELAXATION_WINDOWS_S = (0.02, 0.05, 0.1, 0.2, 0.4)
+#: Readings kept for those fits (at least the longest window at the finest control period).
+_HISTORY = 512
+#: Noise is drawn in blocks (one generator call per block, not per reading).
+_NOISE_BLOCK = 4096
 #: Pressure table for the fast path, Pa: log-spaced, 60 points per decade.
 _TABLE_P = np.logspace(-3, 7, 601)
 #: A reading is "settled" once the transient has decayed below this fraction.
@@ -80,9 +95,13 @@ class Reading:
     phase_rad : phase change relative to the unloaded pi/2 (noise-free), rad.
     time_in_mode_s : time since the drive entered this mode, s.
     tau_s : the envelope's current time constant 1 / Re(lambda), s.
-    settled : whether a ring-up or load step has decayed below SETTLE_FRACTION
-        (time_in_mode_s >= tau_s ln(1 / SETTLE_FRACTION)); always True for steady dynamics.
+    settled : whether a ring-up has decayed below SETTLE_FRACTION by the simulator's own
+        knowledge of the load (time_in_mode_s >= tau_s ln(1 / SETTLE_FRACTION)); ground truth
+        for diagnostics and tests; the readout decides by itself (:meth:`SensorChannel.estimate`).
+        Always True for steady dynamics.
     kappa, gamma : the generalized gel load on the driven mode, N/m^2 and N s/m^2.
+    iq : the lock-in's complex output (in-phase + j quadrature, noisy), normalized like the
+        envelope; v1 = |iq|.
     """
 
     mode: int
@@ -94,12 +113,13 @@ class Reading:
     settled: bool
     kappa: float
     gamma: float
+    iq: complex = 0j
 
 
 _new = object.__new__
 
 
-def _reading(mode, v1, v1_true, phase_rad, time_in_mode_s, tau_s, settled, kappa, gamma) -> Reading:
+def _reading(mode, v1, v1_true, phase_rad, time_in_mode_s, tau_s, settled, kappa, gamma, iq) -> Reading:
     """``Reading(...)`` for the per-step path, at half the cost: a frozen dataclass's __init__
     sets each field through object.__setattr__; this fills the instance's dict at once.  The
     result is an ordinary, frozen Reading (tests check it equals the constructor's)."""
@@ -114,6 +134,7 @@ def _reading(mode, v1, v1_true, phase_rad, time_in_mode_s, tau_s, settled, kappa
         settled=settled,
         kappa=kappa,
         gamma=gamma,
+        iq=iq,
     )
     return r
 
@@ -251,7 +272,8 @@ class SensorChannel:
     fingertip : the Fingertip (element, gel, coverage, noise).
     edges_m : cell edges along the element (m) of the pressure profile the pad supplies;
         default one cell over the gel coverage (a uniform pressure).
-    dynamics : "steady" or "envelope".
+    dynamics : "steady", "envelope" (first-order complex envelope, exact per step) or
+        "carrier" (the reference: the modal equation through every drive cycle, demodulated).
     mode : the initial drive mode.
     noise : whether readings carry noise.
     rng : noise generator.
@@ -296,12 +318,29 @@ class SensorChannel:
             for m in used
         }
         self._rho_a_f, self._c_f = float(self._rho_a), float(self._c)
+        self._tau0 = 2.0 * self._rho_a_f / self._c_f  # unloaded envelope time constant, s
         self.shadow_modes = tuple(shadow_modes)
         self.evaluations = 0  # gel/sensor evaluations, counted for "compute only what is needed" tests
         self.mode = fingertip.modes[0] if mode is None else fingertip._mode(mode)
         # The instrument has been running unloaded before the scene starts: steady, settled.
         self.envelope = 1 + 0j
         self.time_in_mode_s = math.inf
+        self._carrier: CarrierResonator | None = None
+        if dynamics == "carrier":
+            self._carrier = self._new_carrier(self.mode)
+            self._carrier.start_steady()
+        self._noise: list[float] = []
+        self._rate_estimate: complex | None = None  # the readout's tracked ring-up rate, 1/s
+        self._history: deque[tuple[float, complex]] = deque(maxlen=_HISTORY)  # (time in mode, iq)
+
+    def _new_carrier(self, mode: int) -> CarrierResonator:
+        return CarrierResonator(self._rho_a_f, self._c_f, float(self._omega[mode]))
+
+    def _normal(self) -> float:
+        """One standard normal draw (from a block drawn ahead)."""
+        if not self._noise:
+            self._noise = self.rng.standard_normal(_NOISE_BLOCK).tolist()
+        return self._noise.pop()
 
     @property
     def n_cells(self) -> int:
@@ -315,8 +354,12 @@ class SensorChannel:
         if mode != self.mode:
             self.mode = mode
             self.time_in_mode_s = 0.0
+            self._rate_estimate = None
+            self._history.clear()
             if self.dynamics == "envelope":
                 self.envelope = 0j
+            elif self.dynamics == "carrier":
+                self._carrier = self._new_carrier(mode)  # the new mode starts from rest
 
     def _foundation(self, pressure_cells_pa: np.ndarray, mode: int) -> tuple[np.ndarray, np.ndarray]:
         self.evaluations += 1
@@ -372,17 +415,89 @@ class SensorChannel:
         if self.dynamics == "envelope":
             self.envelope = envelope = _step(self.envelope, steady, dt_s, rate)
             settled = self.time_in_mode_s >= tau * _SETTLE_TAUS
+        elif self.dynamics == "carrier":
+            self.envelope = envelope = self._carrier.step(kappa, gamma, dt_s)
+            settled = self.time_in_mode_s >= tau * _SETTLE_TAUS
         else:
             self.envelope = envelope = steady
             settled = True
         v1_true = abs(envelope)
-        v1 = v1_true + (self.rng.normal(0.0, sigma) if self.noise else 0.0)
+        # The lock-in's in-phase and quadrature outputs each carry the readout's noise.
+        iq = envelope + complex(self._normal() * sigma, self._normal() * sigma) if self.noise else envelope
+        v1 = abs(iq)
         phase = -math.atan2(envelope.imag, envelope.real) if v1_true > 0 else 0.0
-        return _reading(mode, v1, v1_true, phase, self.time_in_mode_s, tau, settled, kappa, gamma)
+        return _reading(mode, v1, v1_true, phase, self.time_in_mode_s, tau, settled, kappa, gamma, iq)
 
     def estimate(self, reading: Reading) -> Estimate:
-        """The readout's inverse of ``reading`` in its mode (uniform-pressure calibration)."""
-        return self._inverse[reading.mode](reading.v1, reading.settled)
+        """The readout's pressure estimate from ``reading`` (uniform-pressure calibration).
+
+        Steady dynamics: the inverse of the reading.  Resonator dynamics: for a while after a
+        mode switch the envelope is still ringing up, and the readout infers the steady
+        reading from the ring-up itself (:func:`sensor.readout.ring_up_steady`, tracking the
+        physical root from reading to reading, assuming the load held since the switch).
+        The estimate is "settling" until that inference amplifies the noise at most
+        ``RINGUP_MAX_GAIN`` times; its uncertainty carries that gain.  Once the switch is
+        ``RINGUP_WINDOW_TAUS`` of the reading's own time constants ago, the reading is read
+        as it is (settled).
+        The readout uses only what a lock-in gives (I, Q, the time since its own switch) and
+        the unloaded time constant from calibration, never the simulator's load.
+        """
+        inverse = self._inverse[reading.mode]
+        if self.dynamics == "steady" or reading.time_in_mode_s == math.inf:
+            return inverse(reading.v1)
+        t, iq = reading.time_in_mode_s, reading.iq
+        history = self._history
+        if not history or history[-1][0] != t:
+            history.append((t, iq))
+        # The reading's own time constant, were it steady (tau = 1 / Re(1 / (tau0 a))): once the
+        # switch is that many of them ago, the ring-up is over (conservative: a ring-up still
+        # in progress reads a longer time constant than it has elapsed).
+        tau_plain = self._tau0 * abs(iq) ** 2 / iq.real if iq.real > 0 else math.inf
+        if t >= RINGUP_WINDOW_TAUS * tau_plain:
+            return inverse(reading.v1)
+        best, best_gain = self._ring_up(t, iq)
+        if not best_gain <= RINGUP_MAX_GAIN:
+            best, best_gain = self._relaxation(t, iq, reading.mode)
+        if not best_gain <= RINGUP_MAX_GAIN:
+            return _estimate(math.nan, math.nan, "settling")
+        est = inverse(abs(best))
+        if est.status == "ok" and best_gain > 1.0:
+            return _estimate(est.pressure_pa, est.uncertainty_pa * best_gain, "ok")
+        return est
+
+    def _ring_up(self, t: float, iq: complex) -> tuple[complex, float]:
+        """The steady reading from the ring-up since the switch (load held since), tracked."""
+        a_ss, gain = ring_up_steady(iq, t, self._tau0, self._rate_estimate)
+        self._rate_estimate = None if math.isnan(a_ss.real) else 1.0 / (self._tau0 * a_ss)
+        return a_ss, gain
+
+    def _relaxation(self, t: float, iq: complex, mode: int) -> tuple[complex, float]:
+        """The steady reading from a relaxation over a recent window (load held over it).
+
+        Tries the windows of RELAXATION_WINDOWS_S that the history covers; a fit counts only if
+        it also predicts the reading halfway through the window to within 4 sigma (the load
+        did not change inside it, the root is the physical one); the smallest gain wins.
+        """
+        history, sigma = self._history, self._sigma[mode]
+        times = [h[0] for h in history]
+        best, best_gain = complex(math.nan, math.nan), math.inf
+        for window in RELAXATION_WINDOWS_S:
+            i0 = bisect_right(times, t - window) - 1
+            if i0 < 0:
+                break
+            t0, a0 = history[i0]
+            im = bisect_right(times, t0 + 0.5 * (t - t0)) - 1
+            if im <= i0 or im >= len(history) - 1:
+                continue
+            a_ss, gain = relaxation_steady(a0, iq, t - t0, self._tau0)
+            if not gain < best_gain:
+                continue
+            lam = 1.0 / (self._tau0 * a_ss)
+            tm, am = history[im]
+            predicted = a_ss + (a0 - a_ss) * cmath.exp(-lam * (tm - t0))
+            if abs(predicted - am) <= 4.0 * math.sqrt(2.0) * sigma:
+                best, best_gain = a_ss, gain
+        return best, best_gain
 
     def inverse(self, mode: int) -> ModeInverse:
         """The fast inverse of ``mode`` (its P_min, P_max, sigma)."""

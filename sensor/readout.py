@@ -134,10 +134,10 @@ def ring_up_steady(envelope: complex, time_s: float, tau0_s: float, rate_guess: 
 
         (1 - exp(-z)) / z = a tau0 / t,
 
-    solved here by Newton's method; then a_ss = t / (tau0 z).  The returned gain
-    |d a_ss / d a| = 1 / |z^2 g'(z)| (g the left-hand side) is how much the reading's noise
-    is amplified: about 2 / |z|^2 early in the ring-up, 1 once it has settled.  A reading
-    that cannot be inverted yet (noise larger than the rise) returns (nan, inf).
+    solved by Newton's method; then a_ss = t / (tau0 z).  The returned gain |d a_ss / d a|
+    is how much the reading's noise is amplified: about 2 / |z|^2 early in the ring-up, 1
+    once it has settled.  A reading that cannot be inverted yet (noise larger than the rise)
+    returns (nan, inf).  This is :func:`relaxation_steady` from rest.
 
     A stiff load detunes the mode (Im lambda = -kappa / (2 omega rho A)) and the envelope
     spirals in; then the equation has other roots, and only the physical one has
@@ -146,34 +146,61 @@ def ring_up_steady(envelope: complex, time_s: float, tau0_s: float, rate_guess: 
     physical quadrant, past half a beat (|Im z| > pi) without a guess, or more than one
     radian from the guessed branch, returns (nan, inf).
     """
-    if time_s <= 0 or tau0_s <= 0:
-        return complex(math.nan, math.nan), math.inf
-    w = complex(envelope) * tau0_s / time_s
-    if not 1e-12 < abs(w) < 1.0:  # |g(z)| < 1 for every physical z: noise has outrun the rise
-        return complex(math.nan, math.nan), math.inf
-    if rate_guess is not None and math.isfinite(abs(rate_guess)):
-        z = complex(rate_guess) * time_s
+    return relaxation_steady(0j, envelope, time_s, tau0_s, rate_guess)
+
+
+def relaxation_steady(
+    start: complex, now: complex, window_s: float, tau0_s: float, rate_guess: complex | None = None
+) -> tuple[complex, float]:
+    """Steady envelope inferred from two readings ``window_s`` apart under a constant load.
+
+    Between them a(t) relaxes as a1 = a_ss + (a0 - a_ss) e^(-z), z = lambda W, and
+    a_ss = 1 / (tau0 lambda) (see :func:`ring_up_steady`, the case a0 = 0), so
+
+        F(z) = (W / tau0) (1 - e^(-z)) / z + a0 e^(-z) - a1 = 0
+
+    is one complex equation in z, solved by Newton's method; a_ss = W / (tau0 z).  The gain
+    is |d a_ss| per unit of independent noise on both readings:
+    W / (tau0 |z|^2) sqrt(1 + |e^(-z)|^2) / |F'(z)|.  Roots are checked as in
+    :func:`ring_up_steady` (physical quadrant, the branch).  Returns (nan, inf) when there is
+    no usable root.
+    """
+    nan = complex(math.nan, math.nan), math.inf
+    if not (window_s > 0 and tau0_s > 0):
+        return nan
+    a0, a1 = complex(start), complex(now)
+    scale = window_s / tau0_s
+    if a0 == 0:
+        w = a1 / scale
+        if not 1e-12 < abs(w) < 1.0:  # |g(z)| < 1 for every physical z: noise has outrun the rise
+            return nan
+        default = 2.0 * (1.0 - w) if abs(w) > 0.5 else 1.0 / w  # small- and large-z asymptotes of g
     else:
-        z = 2.0 * (1.0 - w) if abs(w) > 0.5 else 1.0 / w  # small- and large-z asymptotes of g
+        if abs(a1) < 1e-12:
+            return nan
+        default = scale / a1  # the settled reading's own rate, lambda = 1 / (tau0 a1)
+    z = complex(rate_guess) * window_s if rate_guess is not None and math.isfinite(abs(rate_guess)) else default
     for _ in range(60):
-        if abs(z) < 1e-8:
-            return complex(math.nan, math.nan), math.inf
+        if abs(z) < 1e-8 or z.real < -30.0:  # diverging to an unphysical, growing solution
+            return nan
         ez = cmath.exp(-z)
-        g = (1.0 - ez) / z
         dg = (ez * (1.0 + z) - 1.0) / (z * z)
-        if dg == 0:
-            return complex(math.nan, math.nan), math.inf
-        step = (g - w) / dg
+        f = scale * (1.0 - ez) / z + a0 * ez - a1
+        df = scale * dg - a0 * ez
+        if df == 0:
+            return nan
+        step = f / df
         z -= step
         if abs(step) <= 1e-13 * max(1.0, abs(z)):
             break
     else:
-        return complex(math.nan, math.nan), math.inf
-    unphysical = z.real < (1.0 - 1e-9) * time_s / tau0_s or z.imag > 1e-9 * abs(z)
+        return nan
+    unphysical = z.real < (1.0 - 1e-9) * scale or z.imag > 1e-9 * abs(z)
     # Past half a beat the spiral's other turns are roots too: only a tracked root is kept.
-    ambiguous = abs(z.imag) > math.pi if rate_guess is None else abs(z - complex(rate_guess) * time_s) > 1.0
+    ambiguous = abs(z.imag) > math.pi if rate_guess is None else abs(z - complex(rate_guess) * window_s) > 1.0
     if unphysical or ambiguous:
-        return complex(math.nan, math.nan), math.inf
+        return nan
     ez = cmath.exp(-z)
-    dg = (ez * (1.0 + z) - 1.0) / (z * z)
-    return time_s / (tau0_s * z), 1.0 / abs(z * z * dg)
+    df = scale * (ez * (1.0 + z) - 1.0) / (z * z) - a0 * ez
+    gain = scale / abs(z * z) * math.sqrt(1.0 + abs(ez) ** 2 * (a0 != 0)) / abs(df)
+    return scale / z, gain

@@ -114,7 +114,7 @@ def test_mode_inverse_equals_its_np_interp_form(tip):
 
 def test_fast_constructors_build_ordinary_frozen_records():
     fields = [f.name for f in dataclasses.fields(Reading)]
-    values = (2, 0.5, 0.49, 0.1, 1.5, 0.6, True, 3.0, 0.02)
+    values = (2, 0.5, 0.49, 0.1, 1.5, 0.6, True, 3.0, 0.02, 0.4 + 0.3j)
     r = _reading(*values)
     assert r == Reading(*values) and [getattr(r, f) for f in fields] == list(values)
     assert _estimate(1.0, 2.0, "ok") == Estimate(1.0, 2.0, "ok")
@@ -166,7 +166,6 @@ def test_channel_samples_equal_the_reference(tip, dynamics, cells, exact):
     rng = np.random.default_rng(7)
     ch = SensorChannel(tip, edges_m=edges, dynamics=dynamics, rng=np.random.default_rng(3), exact=exact)
     ref = ReferenceChannel(ch)
-    noise = np.random.default_rng(3)
     for step in range(300):
         if step % 60 == 59:
             mode = int(rng.choice(tip.modes))
@@ -179,7 +178,9 @@ def test_channel_samples_equal_the_reference(tip, dynamics, cells, exact):
         assert (r.mode, r.settled, r.time_in_mode_s) == (mode, settled, t)
         assert_allclose([r.v1_true, r.tau_s, r.kappa, r.gamma], [v1_true, tau, kappa, gamma], rtol=RTOL, atol=0)
         assert_allclose(r.phase_rad, phase, rtol=RTOL, atol=1e-15)
-        assert r.v1 - r.v1_true == pytest.approx(noise.normal(0.0, ch._sigma[mode]), rel=1e-9, abs=1e-15)
+        # The reading is the noisy lock-in output's magnitude; the noise moves it by O(sigma).
+        assert r.v1 == abs(r.iq)
+        assert abs(r.v1 - r.v1_true) <= 8 * ch._sigma[mode]
     assert ch.evaluations == 300
 
 

@@ -1,0 +1,198 @@
+"""Mode switching and the dynamic range in use: the multimode controller's parts and whole grasps."""
+
+import itertools
+import math
+
+import numpy as np
+import pytest
+
+import scenarios
+from cosim.grasp import HYSTERESIS, ModeSelector, TouchDetector
+from cosim.loop import make_fingertip
+from sensor.channel import SensorChannel
+
+DT = 0.005
+
+
+@pytest.fixture(scope="module")
+def tip():
+    """The grasp scenarios' fingertip: Table I element, gel over the tip, modes 1-4."""
+    return make_fingertip(scenarios.get("grasp"))
+
+
+def drive(tip, pressures, dynamics="steady", seed=0, modes=(1, 2, 3, 4)):
+    """Feed a pressure sequence through a channel and a selector; return per-step records."""
+    ch = SensorChannel(tip, dynamics=dynamics, mode=min(modes), rng=np.random.default_rng(seed))
+    sel = ModeSelector(tip, modes)
+    out = []
+    for p in pressures:
+        reading = ch.update([p], DT)
+        est = ch.estimate(reading)
+        mode, why = sel.update(est)
+        out.append((p, reading.mode, mode, sel.estimate_pa, sel.uncertainty_pa, sel.trusted, why))
+        ch.select_mode(mode)
+    return out, sel
+
+
+def test_switch_pressures_come_from_the_readout(tip):
+    """The selector's switch pressures are the fingertip's resolution crossings, not constants."""
+    sel = ModeSelector(tip, (1, 2, 3, 4))
+    np.testing.assert_allclose([sel.switch_pa[(1, 2)], sel.switch_pa[(2, 3)], sel.switch_pa[(3, 4)]], tip.switch_pressures(), rtol=1e-12)
+    # A subset of modes gets its own crossings (mode 1 to mode 3 directly).
+    sub = ModeSelector(tip, (1, 3))
+    res1, res3 = tip.resolution(sub.switch_pa[(1, 3)], 1), tip.resolution(sub.switch_pa[(1, 3)], 3)
+    np.testing.assert_allclose(res1, res3, rtol=1e-6)
+
+
+def test_slow_ramp_switches_up_in_order_at_the_switch_pressures(tip):
+    pressures = np.geomspace(1.0, 3e5, 6000)
+    records, _sel = drive(tip, pressures)
+    switches = [(r[0], r[1], r[2]) for r in records if r[2] != r[1]]
+    assert [(a, b) for _, a, b in switches] == [(1, 2), (2, 3), (3, 4)]
+    for (p, a, b), s in zip(switches, tip.switch_pressures(), strict=True):
+        # Up-switches happen once the estimate passes s (1 + h); the estimate's noise allows 10 %.
+        assert s * (1 + HYSTERESIS) * 0.9 <= p <= s * (1 + HYSTERESIS) * 1.1, (a, b, p, s)
+
+
+def test_slow_ramp_down_switches_back_in_order(tip):
+    pressures = np.concatenate([np.full(400, 1e5), np.geomspace(1e5, 2.0, 6000)])
+    records, _ = drive(tip, pressures, modes=(1, 2, 3, 4))
+    modes = [r[2] for r in records]
+    changes = [(a, b) for a, b in itertools.pairwise(modes) if a != b]
+    assert changes[-3:] == [(4, 3), (3, 2), (2, 1)]
+
+
+@pytest.mark.parametrize("pair", [(1, 2), (2, 3), (3, 4)])
+def test_hysteresis_prevents_chatter_at_a_threshold(tip, pair):
+    """A noisy pressure held exactly at a switch pressure, and wobbling +-10 % around it."""
+    s = tip.switch_pressures()[pair[0] - 1]
+    rng = np.random.default_rng(1)
+    held = s * (1 + 0.1 * np.sin(np.arange(3000) * 0.05)) * (1 + 0.02 * rng.standard_normal(3000))
+    start = np.full(200, s * 1.5 if pair[0] > 1 else s)  # arrive from above for the upper pairs
+    records, _ = drive(tip, np.concatenate([start, held]), modes=(1, 2, 3, 4))
+    modes = [r[2] for r in records[200:]]
+    switches = sum(a != b for a, b in itertools.pairwise(modes))
+    assert switches <= 1
+
+
+def test_estimate_is_continuous_across_a_switch(tip):
+    """On a slow ramp through the first switch pressure (resonator dynamics, Table I's Q),
+    the new mode's first trusted estimate agrees with the old mode's last one."""
+    s = tip.switch_pressures()[0]
+    ramp = np.geomspace(0.6 * s, 1.6 * s, 4000)  # 20 s: slow against tau0 = 0.66 s
+    records, _ = drive(tip, ramp, dynamics="envelope", modes=(1, 2, 3, 4))
+    switch = next(i for i, r in enumerate(records) if r[2] != r[1])
+    before = records[switch]
+    after = next(r for r in records[switch + 1 :] if r[5] and r[1] == 2)
+    p1, u1 = before[3], before[4]
+    p2, u2 = after[3], after[4]
+    drift = after[0] - before[0]  # the true pressure moved this much meanwhile
+    assert abs(p2 - p1) <= 3 * math.hypot(u1, u2) + drift, (p1, u1, p2, u2, drift)
+    assert abs(p2 - after[0]) <= 3 * u2
+
+
+def test_reading_not_used_before_the_new_mode_settles(tip):
+    """After a switch the new mode rings up; until the readout can infer its steady reading the
+    held estimate does not move, and the first estimate it trusts is right."""
+    s = tip.switch_pressures()[0]
+    p = 1.4 * s
+    records, _ = drive(tip, np.full(600, p), dynamics="envelope")
+    switch = next(i for i, r in enumerate(records) if r[2] != r[1])
+    held = records[switch][3]
+    settling = list(itertools.takewhile(lambda r: not r[5], records[switch + 1 :]))
+    assert settling, "a ring-up from rest cannot be read at once"
+    assert all(r[3] == held for r in settling)
+    first = records[switch + 1 + len(settling)]
+    assert first[1] == 2 and first[5]
+    assert abs(first[3] - p) <= 3 * first[4]
+
+
+def test_ring_up_is_read_long_before_it_settles(tip):
+    """With Table I's damping a ring-up takes seconds to settle (7 tau0 = 4.6 s); the readout
+    infers the steady reading from the ring-up within half of tau0."""
+    s = tip.switch_pressures()[0]
+    records, _ = drive(tip, np.full(600, 1.4 * s), dynamics="envelope")
+    switch = next(i for i, r in enumerate(records) if r[2] != r[1])
+    trusted = next(i for i, r in enumerate(records[switch + 1 :]) if r[5])
+    assert (trusted + 1) * DT < 0.33
+
+
+@pytest.mark.parametrize(("pressure_pa", "within_s"), [(5.0, 0.25), (10.0, 0.15), (30.0, 0.06)])
+def test_touch_of_a_few_pascals_is_detected_within_stated_time(tip, pressure_pa, within_s):
+    """Table I damping (ring time constant 0.66 s): a 5 Pa touch is felt within 0.25 s."""
+    for seed in range(10):
+        ch = SensorChannel(tip, dynamics="envelope", rng=np.random.default_rng(seed))
+        touch = TouchDetector(tip.sigma(1))
+        for _ in range(20):
+            touch.learn(ch.update([0.0], DT).v1)
+        t = 0.0
+        while not touch.update(ch.update([pressure_pa], DT).v1):
+            t += DT
+            assert t <= within_s, f"{pressure_pa} Pa not felt within {within_s} s (seed {seed})"
+
+
+def test_no_false_touch_on_noise(tip):
+    ch = SensorChannel(tip, dynamics="envelope", rng=np.random.default_rng(3))
+    touch = TouchDetector(tip.sigma(1))
+    for _ in range(20):
+        touch.learn(ch.update([0.0], DT).v1)
+    assert not any(touch.update(ch.update([0.0], DT).v1) for _ in range(4000))
+
+
+def test_saturation_in_the_only_mode_is_reported(tip):
+    records, _sel = drive(tip, np.full(50, 2e4), modes=(1,))
+    assert all(r[2] == 1 for r in records)
+    assert "no higher mode" in records[-1][6]
+
+
+# ---------------------------------------------------------------------------------------
+# Whole grasps (the co-simulation with the multimode controller).
+# ---------------------------------------------------------------------------------------
+
+
+def grasp(tmp_path, name, *overrides):
+    from analysis.runner import run_scenario
+
+    return run_scenario(name, list(overrides), tmp_path, plot=False, quiet=True)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", ["grasp-light", "grasp-fragile", "grasp-heavy", "grasp-10kg"])
+def test_multimode_grasps_light_fragile_and_heavy(tmp_path, name):
+    summary, _ = grasp(tmp_path, name)
+    assert summary["success"], summary
+    assert not summary["crushed"] and not summary["slipped"]
+
+
+@pytest.mark.slow
+def test_heavy_object_held_without_losing_the_estimate(tmp_path):
+    summary, data = grasp(tmp_path, "grasp-10kg")
+    hold = data["phase"] == 4.0
+    assert hold.sum() > 100
+    for side in ("left", "right"):
+        ok = data[f"{side}_status"][hold] == 0.0
+        assert ok.mean() > 0.95
+        est, true = data[f"{side}_estimate_pa"][hold][ok], data[f"{side}_true_pressure_pa"][hold][ok]
+        assert np.median(np.abs(est / true - 1)) < 0.05
+        assert true.max() > 1e5  # a grip of hundreds of kPa, still read
+    assert 4 in summary["modes_used"]
+
+
+@pytest.mark.slow
+def test_single_mode_baselines_fail_where_the_multimode_succeeds(tmp_path):
+    raspberry = ("object.shape=sphere", "object.mass_kg=0.004", "object.size_m=0.02", "object.friction=0.9", "object.crush_force_n=1.5")
+    late, _ = grasp(tmp_path / "a", "grasp", *raspberry, "controller.modes=[4]")
+    assert late["crushed"] and not late["success"]
+    blind, _ = grasp(tmp_path / "b", "grasp-heavy", "controller.modes=[1]")
+    assert not blind["success"]
+    assert any(e["kind"] == "blind" for e in blind["events"])
+    good, _ = grasp(tmp_path / "c", "grasp", *raspberry)
+    assert good["success"]
+
+
+@pytest.mark.slow
+def test_failed_self_test_stops_the_grasp(tmp_path):
+    summary, _ = grasp(tmp_path, "grasp", "sensor.damage_coupling=0.7")
+    assert not summary["success"]
+    faults = [e for e in summary["events"] if e["kind"] == "self_test"]
+    assert faults and "coupling" in faults[0]["message"]
