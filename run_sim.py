@@ -2,8 +2,12 @@
 """piezotip's command line.
 
     python run_sim.py list                       the registered scenarios
-    python run_sim.py run SCENARIO [--set KEY=VALUE ...] [--out DIR] [--json] [--csv] [--render]
+    python run_sim.py run SCENARIO [--set KEY=VALUE ...] [--preset NAME] [--out DIR] [--json] [--csv] [--render]
                                                  a scenario, headless: summary, plots, recording
+    python run_sim.py experiment grasp-range [--json] [--out DIR] [--preset NAME]
+                                                 objects 1 g to 10 kg, multimode vs each mode alone
+    python run_sim.py bench [--json] [--out DIR] [--no-presets]
+                                                 cost (vs bare mj_step) and each preset's error
     python run_sim.py figures [--out DIR]        the paper's analysis figures + crossovers.json
     python run_sim.py range [--coverage X1_MM X2_MM] [--json] [--out DIR]
                                                  the fingertip's dynamic range and switch pressures
@@ -16,13 +20,14 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 import os
 import sys
 from pathlib import Path
 
 # Headless rendering: MuJoCo reads MUJOCO_GL when it is first imported (commands import it lazily).
 os.environ.setdefault("MUJOCO_GL", "egl")
+
+PRESET_NAMES = ("fast", "balanced", "accurate", "reference")
 
 
 def _cmd_figures(args: argparse.Namespace) -> int:
@@ -36,14 +41,9 @@ def _cmd_figures(args: argparse.Namespace) -> int:
 
 
 def _json_safe(value):
-    """Replace non-finite floats by None so the output is strict JSON."""
-    if isinstance(value, float) and not math.isfinite(value):
-        return None
-    if isinstance(value, dict):
-        return {k: _json_safe(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [_json_safe(v) for v in value]
-    return value
+    from analysis.runner import json_safe
+
+    return json_safe(value)
 
 
 def _cmd_range(args: argparse.Namespace) -> int:
@@ -84,45 +84,12 @@ def _cmd_list(args: argparse.Namespace) -> int:
     return 0
 
 
-def run_scenario(name: str, overrides: list[str], out: Path, csv: bool = False, render: bool = False, quiet: bool = False) -> dict:
-    """Run one scenario headless; write its recording, plot and summary.json into ``out``."""
-    import scenarios
-    from analysis.run_report import plot_run, summary
-    from cosim.loop import CoSimulation
-    from cosim.recorder import Recorder
-
-    config = scenarios.get(name, overrides)
-    sim = CoSimulation(config)
-    out.mkdir(parents=True, exist_ok=True)
-    recorder = Recorder(out / "run", csv=csv, metadata={"scenario": name, "overrides": overrides, "units": "in column names"})
-    total = math.ceil(config.duration_s / config.physics.control_period_s - 1e-9)
-    strip = None
-    if render:
-        from analysis.render import FrameStrip
-
-        strip = FrameStrip(sim.model, total)
-    from tqdm import tqdm
-
-    with tqdm(total=total, desc=name, unit="step", disable=quiet, leave=False) as bar:
-        result = sim.run(recorder, progress=bar, on_step=strip)
-    data = recorder.data()
-    files = [str(f) for f in result.files]
-    if data:
-        files.append(str(plot_run(config, sim.fingertip, data, out)))
-    if strip is not None and strip.images:
-        files.append(str(strip.save(out / "frames.png")))
-    report = summary(config, data, result.wall_time_s, files, result.error)
-    summary_path = out / "summary.json"
-    report["files"].append(str(summary_path))
-    summary_path.write_text(json.dumps(_json_safe(report), indent=2) + "\n")
-    return report
-
-
 def _cmd_run(args: argparse.Namespace) -> int:
     from analysis.run_report import format_summary
+    from analysis.runner import run_scenario
 
     out = Path(args.out or f"out/{args.scenario}")
-    report = run_scenario(args.scenario, args.set or [], out, csv=args.csv, render=args.render, quiet=args.json)
+    report, _ = run_scenario(args.scenario, args.set or [], out, csv=args.csv, render=args.render, quiet=args.json, preset=args.preset)
     if args.json:
         print(json.dumps(_json_safe(report), indent=2))
     else:
@@ -130,23 +97,64 @@ def _cmd_run(args: argparse.Namespace) -> int:
     return 1 if report.get("error") else 0
 
 
+def _cmd_experiment(args: argparse.Namespace) -> int:
+    from tqdm import tqdm
+
+    from analysis.experiment import CONTROLLERS, OBJECTS, format_table, run_grid, write_outputs
+    from analysis.runner import run_scenario
+
+    if args.name != "grasp-range":
+        raise ValueError(f"unknown experiment {args.name!r}; valid experiments: grasp-range")
+    out = Path(args.out or "out/grasp-range")
+    counter = iter(range(10**6))
+
+    def run_one(overrides: list[str]):
+        return run_scenario("grasp", overrides, out / "runs" / f"{next(counter):02d}", plot=False, quiet=True, preset=args.preset)
+
+    with tqdm(total=len(OBJECTS) * len(CONTROLLERS), desc="grasp-range", unit="grasp", disable=args.json, leave=False) as bar:
+        rows = run_grid(run_one, base_overrides=tuple(args.set or ()), progress=bar)
+    files = [str(p) for p in write_outputs(rows, out)]
+    if args.json:
+        print(json.dumps(_json_safe({"rows": rows, "files": files}), indent=2))
+    else:
+        print(format_table(rows))
+        for f in files:
+            print(f"wrote {f}")
+    multimode_ok = all(r["success"] for r in rows if r["controller"] == "multimode")
+    return 0 if multimode_ok else 1
+
+
 def _cmd_bench(args: argparse.Namespace) -> int:
     from analysis.bench import bench_report, format_report, grasp_cases, write_report
 
     if args.repeats < 1:
         raise ValueError(f"--repeats must be at least 1, got {args.repeats}")
-    cases = grasp_cases(all_scenes=args.all_scenes, overrides=args.set or [])
+    from scenarios.presets import preset_overrides
+
+    cases = grasp_cases(all_scenes=args.all_scenes, overrides=[*preset_overrides(args.preset), *(args.set or [])])
     progress = None if args.json else (lambda name: print(f"benchmarking {name} ...", file=sys.stderr, flush=True))
     try:
         report = bench_report(cases, repeats=args.repeats, duration_s=args.duration, progress=progress)
     except RuntimeError as err:  # a run diverged or was not deterministic: no numbers to report
         print(f"error: {err}", file=sys.stderr)
         return 1
+    if not args.no_presets:
+        from analysis.fidelity import fidelity_report, format_fidelity, plot_pareto
+
+        fidelity = fidelity_report(progress=progress)
+        report["presets"] = fidelity["presets"]
+        report["convergence"] = fidelity["convergence"]
+        report["fidelity_checks"] = fidelity["checks"]
     files = [str(p) for p in write_report(report, Path(args.out))] if args.out else []
+    if args.out and not args.no_presets:
+        files.append(str(plot_pareto(fidelity, Path(args.out) / "pareto.png")))
     if args.json:
         print(json.dumps(_json_safe(report), indent=2))
     else:
         print(format_report(report))
+        if not args.no_presets:
+            print()
+            print(format_fidelity(fidelity))
         for f in files:
             print(f"wrote {f}")
     return 0
@@ -168,7 +176,16 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--json", action="store_true", help="print the summary as JSON")
     p.add_argument("--csv", action="store_true", help="also write the recording as CSV")
     p.add_argument("--render", action="store_true", help="save a strip of frames from MuJoCo's offscreen renderer (MUJOCO_GL=egl)")
+    p.add_argument("--preset", choices=PRESET_NAMES, help="fidelity preset (default: the scenario's own settings, = balanced)")
     p.set_defaults(func=_cmd_run)
+
+    p = sub.add_parser("experiment", help="grasp experiments: grasp-range (objects 1 g to 10 kg, multimode vs single-mode)")
+    p.add_argument("name", help="experiment name: grasp-range")
+    p.add_argument("--json", action="store_true", help="print the table as JSON")
+    p.add_argument("--out", help="output directory (default: out/grasp-range)")
+    p.add_argument("--preset", choices=PRESET_NAMES, help="fidelity preset for every run")
+    p.add_argument("--set", action="append", metavar="KEY=VALUE", help="override a config value of every run (repeatable)")
+    p.set_defaults(func=_cmd_experiment)
 
     p = sub.add_parser("figures", help="the paper's analysis figures (V_1 and sensitivities against k_e, c_e)")
     p.add_argument("--out", default="out/figures", help="output directory (default: out/figures)")
@@ -189,6 +206,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--duration", type=float, metavar="SECONDS", help="simulated seconds per run (default: the scenario's)")
     p.add_argument("--all-scenes", action="store_true", help="also the other registered grasp scenes")
     p.add_argument("--set", action="append", metavar="KEY=VALUE", help="override a config value of every benchmarked scene (repeatable)")
+    p.add_argument("--preset", choices=PRESET_NAMES, help="fidelity preset of the benchmarked scenes (the overhead part)")
+    p.add_argument("--no-presets", action="store_true", help="skip the fidelity presets' cost and error table")
     p.set_defaults(func=_cmd_bench)
     return parser
 

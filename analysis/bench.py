@@ -398,7 +398,7 @@ def format_report(report: dict) -> str:
         f"{'case':<16} {'dt ms':>6} {'ctrl ms':>7} {'sim s':>6} {'wall s/sim s':>12} {'RT factor':>9} "
         f"{'cosim us':>9} {'bare us':>8} {'ratio':>6}  ok",
     ]
-    for entries in (report["scenes"], report.get("presets", [])):
+    for entries in (report["scenes"],):
         for e in entries:
             lines.append(
                 f"{e['name']:<16} {1e3 * e['timestep_s']:>6.3g} {1e3 * e['control_period_s']:>7.3g} {e['sim_time_s']:>6.2f} "
@@ -440,7 +440,7 @@ def plot_report(report: dict, path: Path) -> Path:
     ax.legend(fontsize=7, loc="lower right")
 
     ax = axes[0][1]
-    entries = [*report["scenes"], *report.get("presets", [])]
+    entries = report["scenes"]
     for e in entries:
         ax.scatter(e["wall_s_per_sim_s"], e["realtime_factor"], s=30)
         ax.annotate(e["name"], (e["wall_s_per_sim_s"], e["realtime_factor"]), fontsize=7, xytext=(3, 3), textcoords="offset points")

@@ -31,6 +31,7 @@ def run_scenario(
     render: bool = False,
     plot: bool = True,
     quiet: bool = False,
+    preset: str | None = None,
 ) -> tuple[dict, dict[str, np.ndarray]]:
     """Run scenario ``name`` with ``overrides``; write into ``out``; return (summary, recorded data).
 
@@ -44,11 +45,12 @@ def run_scenario(
 
     from .run_report import plot_run, summary
 
-    config = scenarios.get(name, overrides)
+    config = scenarios.get(name, overrides, preset)
     sim = CoSimulation(config)
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    recorder = Recorder(out / "run", csv=csv, metadata={"scenario": name, "overrides": list(overrides), "units": "in column names"})
+    meta = {"scenario": name, "preset": preset, "overrides": list(overrides), "units": "in column names"}
+    recorder = Recorder(out / "run", csv=csv, metadata=meta)
     total = math.ceil(config.duration_s / config.physics.control_period_s - 1e-9)
     strip = None
     if render:
@@ -70,6 +72,7 @@ def run_scenario(
     report["events"] = events
     report["touch_time_s"] = getattr(sim.controller, "touch_time_s", math.nan)
     report["overrides"] = list(overrides)
+    report["preset"] = preset
     summary_path = out / "summary.json"
     report["files"].append(str(summary_path))
     summary_path.write_text(json.dumps(json_safe(report), indent=2) + "\n")

@@ -59,11 +59,13 @@ HYSTERESIS = 0.25
 #: CUSUM touch detector: drift allowance and alarm threshold, in sigmas of the reading.
 CUSUM_DRIFT_SIGMA = 0.5
 CUSUM_ALARM_SIGMA = 8.0
+#: Time constant of the low-pass on the lift load the grip follows, s.
+LOAD_FILTER_S = 0.05
 #: The lift servo's stiffness, N/m (the robot's own design: gripper.xml lift_actuator kp).
 LIFT_SERVO_KP_N_M = 2.0e4
-#: Consecutive empty readings (both fingertips below detection in the lowest mode) that mean
-#: the object is gone.
-LOST_READINGS = 10
+#: How long both fingertips must read no load (below detection in the lowest mode) before the
+#: object counts as gone, s.
+LOST_S = 0.05
 #: Readings outside [-OUT_OF_RANGE_SIGMA sigma, 1 + OUT_OF_RANGE_SIGMA sigma] are faults.
 OUT_OF_RANGE_SIGMA = 6.0
 
@@ -229,21 +231,23 @@ class MultimodeGrasp:
         self._lift_baseline_n = 0.0
         self._blind = False
         self._held_load_n = 0.0
+        self._load_n = 0.0
         self._lift_goal = home_lift_m
         self._last_step = 0.0
         self._last_load = 0.0
         self._steady_load_steps = 0
         self._last_lift_pos = home_lift_m
         self._empty_count = 0
+        self._dt_s = 0.005
         self._saturated_logged: set[str] = set()
         if self_test_message is not None:
             self._fault(0.0, "", "self_test", self_test_message)
 
     def _object_lost(self, obs: Observation) -> bool:
-        """Both fingertips read no load for ``LOST_READINGS`` readings in a row."""
+        """Both fingertips have read no load for ``LOST_S`` seconds."""
         empty = all(sig.estimate.status == "below_detection" and sig.reading.mode == min(self.cfg.modes) for sig in obs.pads.values())
         self._empty_count = self._empty_count + 1 if empty else 0
-        return self._empty_count >= LOST_READINGS
+        return self._empty_count * self._dt_s >= LOST_S
 
     @property
     def finished(self) -> bool:
@@ -263,6 +267,7 @@ class MultimodeGrasp:
 
     def step(self, obs: Observation, dt_s: float) -> Command:
         t, cfg = obs.time_s, self.cfg
+        self._dt_s = dt_s
         reasons = []
         modes = {}
         # Readout: check range, choose each fingertip's mode.
@@ -304,7 +309,11 @@ class MultimodeGrasp:
                 self._lift_baseline_n = obs.lift_force_n
                 self._enter("lift", t, f"grip {self.grip_n:.2f} N")
         elif self.phase in ("lift", "hold"):
-            load = max(obs.lift_force_n - self._lift_baseline_n, 0.0)
+            raw_load = max(obs.lift_force_n - self._lift_baseline_n, 0.0)
+            # The load the grip answers to is low-passed: the servo's force spikes while the
+            # object accelerates, and the grip ratchets, so a spike would set it for good.
+            self._load_n += (raw_load - self._load_n) * min(1.0, dt_s / LOAD_FILTER_S)
+            load = self._load_n
             wanted = max(MIN_GRIP_N, SAFETY * load / (2 * MU_DESIGN))
             if wanted > self.grip_cap_n and not self._blind:
                 self._blind = True
@@ -333,8 +342,9 @@ class MultimodeGrasp:
                 # friction: the servo turns a goal step into load at kp N/m.
                 # Once the load stops growing with the goal, the object has left the table and
                 # raising it further adds no load: full speed.
-                carry = 2 * MU_DESIGN * self.grip_n - load
-                if self._last_step > 0 and load - self._last_load < 0.3 * LIFT_SERVO_KP_N_M * self._last_step:
+                # (These use the raw load: the filter's lag would read as "no longer growing".)
+                carry = 2 * MU_DESIGN * self.grip_n - raw_load
+                if self._last_step > 0 and raw_load - self._last_load < 0.3 * LIFT_SERVO_KP_N_M * self._last_step:
                     self._steady_load_steps += 1
                 else:
                     self._steady_load_steps = 0
@@ -342,7 +352,7 @@ class MultimodeGrasp:
                 full = cfg.lift_speed_m_s * dt_s
                 step = full if airborne else min(full, max(carry, 0.0) / LIFT_SERVO_KP_N_M)
                 self._lift_goal = min(top, self._lift_goal + step)
-                self._last_step, self._last_load = step, load
+                self._last_step, self._last_load = step, raw_load
                 # The lift servo sags by load / kp under the object (the robot knows its gain).
                 self.lift_target = self._lift_goal + load / LIFT_SERVO_KP_N_M
                 moving = abs(obs.lift_pos_m - self._last_lift_pos) > 1e-4

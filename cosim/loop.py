@@ -131,6 +131,8 @@ class CoSimulation:
                 mode=min(config.controller.modes),
                 noise=config.sensor.noise,
                 rng=np.random.default_rng(rng.integers(2**63)),
+                exact=config.sensor.exact_gel,
+                carrier_samples_per_cycle=config.sensor.carrier_samples_per_cycle,
             )
             for pad in self.pads
         }

@@ -11,6 +11,7 @@ from __future__ import annotations
 from collections.abc import Callable
 
 from .config import ControllerConfig, ObjectConfig, PhysicsConfig, ScenarioConfig, SensorConfig, valid_keys, with_overrides
+from .presets import PRESETS, preset_overrides
 
 _REGISTRY: dict[str, Callable[[], ScenarioConfig]] = {}
 
@@ -29,16 +30,17 @@ def names() -> list[str]:
     return sorted(_REGISTRY)
 
 
-def get(name: str, overrides: list[str] | None = None) -> ScenarioConfig:
-    """The named scenario's config with ``key=value`` overrides applied and validated."""
+def get(name: str, overrides: list[str] | None = None, preset: str | None = None) -> ScenarioConfig:
+    """The named scenario's config: the fidelity ``preset``'s settings, then ``key=value`` overrides."""
     if name not in _REGISTRY:
         raise ValueError(f"unknown scenario {name!r}; valid scenarios: {', '.join(names())}")
-    return with_overrides(_REGISTRY[name](), list(overrides or []))
+    return with_overrides(_REGISTRY[name](), [*preset_overrides(preset), *(overrides or [])])
 
 
 from . import library  # noqa: E402,F401  (registers the scenarios)
 
 __all__ = [
+    "PRESETS",
     "ControllerConfig",
     "ObjectConfig",
     "PhysicsConfig",

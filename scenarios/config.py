@@ -115,6 +115,9 @@ class SensorConfig:
         10 kg grip needs; the whole beam (0-7.5) is 1 Pa to 110 kPa.
     noise : whether readings carry the readout noise.
     seed : seed of the readout noise.
+    exact_gel : evaluate the gel model exactly every sample (True) or through per-mode
+        tables of (k_e, c_e) against pressure (False: 1e-4 relative error, several times faster).
+    carrier_samples_per_cycle : carrier samples per drive cycle for the "carrier" dynamics.
     damage_stiffness, damage_coupling, damage_damping : injected element damage, factors on
         the healthy stiffness, d31 and damping (sensor.selftest.damaged); the multimode
         controller's start-up self-test must catch them.
@@ -131,8 +134,12 @@ class SensorConfig:
     damage_stiffness: float = 1.0
     damage_coupling: float = 1.0
     damage_damping: float = 1.0
+    exact_gel: bool = False
+    carrier_samples_per_cycle: int = 16
 
     def validate(self) -> None:
+        if not isinstance(self.carrier_samples_per_cycle, int) or not 4 <= self.carrier_samples_per_cycle <= 256:
+            raise ValueError(f"sensor.carrier_samples_per_cycle must be an integer in 4..256, got {self.carrier_samples_per_cycle!r}")
         for name in ("damage_stiffness", "damage_coupling", "damage_damping"):
             _positive(f"sensor.{name}", getattr(self, name))
         for pad in self.pads:

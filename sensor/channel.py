@@ -280,6 +280,7 @@ class SensorChannel:
     exact : evaluate the gel model exactly each sample instead of the tables.
     shadow_modes : extra modes whose noise-free steady outputs are reported by
         :meth:`shadow_outputs` (for plots; a real readout cannot see them).
+    carrier_samples_per_cycle : carrier samples per drive cycle ("carrier" dynamics).
     """
 
     def __init__(
@@ -292,6 +293,7 @@ class SensorChannel:
         rng: np.random.Generator | None = None,
         exact: bool = False,
         shadow_modes: Sequence[int] = (),
+        carrier_samples_per_cycle: int = 16,
     ) -> None:
         if dynamics not in DYNAMICS:
             raise ValueError(f"unknown sensor dynamics {dynamics!r}; valid: {', '.join(DYNAMICS)}")
@@ -325,6 +327,7 @@ class SensorChannel:
         # The instrument has been running unloaded before the scene starts: steady, settled.
         self.envelope = 1 + 0j
         self.time_in_mode_s = math.inf
+        self._carrier_spc = int(carrier_samples_per_cycle)
         self._carrier: CarrierResonator | None = None
         if dynamics == "carrier":
             self._carrier = self._new_carrier(self.mode)
@@ -334,7 +337,7 @@ class SensorChannel:
         self._history: deque[tuple[float, complex]] = deque(maxlen=_HISTORY)  # (time in mode, iq)
 
     def _new_carrier(self, mode: int) -> CarrierResonator:
-        return CarrierResonator(self._rho_a_f, self._c_f, float(self._omega[mode]))
+        return CarrierResonator(self._rho_a_f, self._c_f, float(self._omega[mode]), self._carrier_spc)
 
     def _normal(self) -> float:
         """One standard normal draw (from a block drawn ahead)."""

@@ -20,7 +20,7 @@ def report(tmp_path_factory):
     out = tmp_path_factory.mktemp("bench")
     printed = io.StringIO()
     with contextlib.redirect_stdout(printed):
-        code = run_sim.main(["bench", "--json", "--duration", "0.05", "--repeats", "1", "--out", str(out)])
+        code = run_sim.main(["bench", "--json", "--duration", "0.05", "--repeats", "1", "--no-presets", "--out", str(out)])
     assert code == 0
     return out, json.loads(printed.getvalue())
 
@@ -40,7 +40,7 @@ def test_bench_json_has_the_keys(report):
 
 
 def test_bench_prints_a_table(capsys):
-    assert run_sim.main(["bench", "--duration", "0.02", "--repeats", "1", "--set", "controller.kind=scripted"]) == 0
+    assert run_sim.main(["bench", "--duration", "0.02", "--repeats", "1", "--no-presets", "--set", "controller.kind=scripted"]) == 0
     text = capsys.readouterr().out
     assert "grasp" in text and "bare mj_step" in text and "ratio" in text
 
@@ -64,3 +64,21 @@ def test_bench_rejects_bad_arguments(capsys):
     assert "repeats" in capsys.readouterr().err
     assert run_sim.main(["bench", "--duration", "-1", "--repeats", "1"]) == 2
     assert "duration" in capsys.readouterr().err
+
+
+@pytest.mark.slow
+def test_fidelity_presets_report_cost_and_errors_against_reference():
+    """The presets' table on one scene: every preset named, errors against reference, the
+    reference's halving check; the reference against itself has no error."""
+    from analysis.fidelity import fidelity_report
+
+    report = fidelity_report(scenes=("grasp",))
+    names = [e["name"] for e in report["presets"]]
+    assert names == ["fast", "balanced", "accurate", "reference"]
+    for e in report["presets"]:
+        assert e["wall_s_per_sim_s"] > 0 and e["realtime_factor"] > 0
+        assert {"pressure_estimate", "true_pressure", "output_v1", "touch_time_s", "outcome"} <= e["errors"].keys()
+    ref = report["presets"][-1]["errors"]
+    assert ref["pressure_estimate"] == 0 and ref["outcome"]
+    assert report["convergence"]["name"] == "reference-halved"
+    assert {"fast_speedup_over_accurate", "reference_converged", "targets_met"} <= report["checks"].keys()

@@ -1,0 +1,177 @@
+"""Each fidelity preset's price and error, side by side, from one run (``run_sim.py bench``).
+
+For every standard scene every preset (scenarios/presets.py) is run once with its recorder,
+as ``run_sim.py run`` does; its cost is its wall time per simulated second, and its errors
+are measured against the ``reference`` preset on the same scene:
+
+- ``pressure_estimate``: the relative difference of the median pressure estimate during the
+  hold (both pads), the number a grasp controller acts on;
+- ``true_pressure``: the same for the true pad pressure (the physics' share of the error);
+- ``output_v1``: the absolute difference of the median measured output V_1 during the hold,
+  when both drive the same mode (NaN otherwise);
+- ``touch_time_s``: the difference in the time touch was detected, s;
+- ``outcome``: whether success, crushed and slipped all agree with the reference.
+
+The reference's own convergence is shown the same way: ``reference-halved`` (half the
+physics step, twice the pad resolution and carrier sampling) against ``reference``; its
+differences must be smaller than the errors reported for the other presets.
+"""
+
+from __future__ import annotations
+
+import math
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+from scenarios.presets import PRESETS, REFERENCE_HALVED
+
+#: The standard scenes: a light grasp and the heaviest (all modes in use).
+STANDARD_SCENES = ("grasp", "grasp-10kg")
+HOLD = 4.0  # the recorded code of the "hold" phase (cosim.controller.PHASES)
+
+
+def _run(scene: str, overrides: list[str], preset: str | None) -> tuple[dict, dict, float]:
+    from .runner import run_scenario
+
+    with tempfile.TemporaryDirectory(prefix="piezotip-fidelity-") as tmp:
+        summary, data = run_scenario(scene, overrides, Path(tmp), plot=False, quiet=True, preset=preset)
+    # The loop's wall time (set-up, tables and modal integrals are paid once per scene).
+    return summary, data, summary["wall_time_s"]
+
+
+def _hold_median(data: dict, column: str) -> float:
+    hold = data["phase"] == HOLD
+    values = data[column][hold]
+    values = values[np.isfinite(values)]
+    return float(np.median(values)) if values.size else math.nan
+
+
+def _rel(a: float, b: float) -> float:
+    return abs(a - b) / abs(b) if b and math.isfinite(a) and math.isfinite(b) else math.nan
+
+
+def errors(run: tuple[dict, dict], ref: tuple[dict, dict]) -> dict:
+    """The error measures of the module docstring, of ``run`` against ``ref`` (summary, data)."""
+    (s, d), (rs, rd) = run, ref
+    pads = [c.removesuffix("_estimate_pa") for c in d if c.endswith("_estimate_pa")]
+    est = [_rel(_hold_median(d, f"{p}_estimate_pa"), _hold_median(rd, f"{p}_estimate_pa")) for p in pads]
+    true = [_rel(_hold_median(d, f"{p}_true_pressure_pa"), _hold_median(rd, f"{p}_true_pressure_pa")) for p in pads]
+    v1 = []
+    for p in pads:
+        same = _hold_median(d, f"{p}_mode") == _hold_median(rd, f"{p}_mode")
+        v1.append(abs(_hold_median(d, f"{p}_v1") - _hold_median(rd, f"{p}_v1")) if same else math.nan)
+    touch = (
+        abs(s["touch_time_s"] - rs["touch_time_s"]) if math.isfinite(s["touch_time_s"]) and math.isfinite(rs["touch_time_s"]) else math.nan
+    )
+    return {
+        "pressure_estimate": max(est) if est else math.nan,
+        "true_pressure": max(true) if true else math.nan,
+        "output_v1": max(v1) if v1 else math.nan,
+        "touch_time_s": touch,
+        "outcome": all(s[k] == rs[k] for k in ("success", "crushed", "slipped")),
+    }
+
+
+def fidelity_report(scenes=STANDARD_SCENES, presets=tuple(PRESETS), progress=None) -> dict:
+    """Run every preset on every scene; cost and errors per preset (worst over scenes)."""
+    runs: dict[tuple[str, str], tuple[dict, dict, float]] = {}
+    for scene in scenes:
+        for name in (*presets, "reference-halved"):
+            if progress is not None:
+                progress(f"{scene} / {name}")
+            if name == "reference-halved":
+                runs[(scene, name)] = _run(scene, list(REFERENCE_HALVED), None)
+            else:
+                runs[(scene, name)] = _run(scene, [], name)
+    entries = []
+    for name in (*presets, "reference-halved"):
+        per_scene = {}
+        wall = sim = 0.0
+        for scene in scenes:
+            s, d, w = runs[(scene, name)]
+            rs, rd, _ = runs[(scene, "reference")]
+            per_scene[scene] = errors((s, d), (rs, rd)) | {"success": s["success"], "sim_time_s": s["sim_time_s"], "wall_s": w}
+            wall += w
+            sim += s["sim_time_s"]
+        worst = {
+            k: max((e[k] for e in per_scene.values() if not (isinstance(e[k], float) and math.isnan(e[k]))), default=math.nan)
+            for k in ("pressure_estimate", "true_pressure", "output_v1", "touch_time_s")
+        }
+        worst["outcome"] = all(e["outcome"] for e in per_scene.values())
+        entries.append(
+            {
+                "name": name,
+                "settings": list(REFERENCE_HALVED if name == "reference-halved" else PRESETS[name]),
+                "wall_s_per_sim_s": wall / sim,
+                "realtime_factor": sim / wall,
+                "errors": worst,
+                "scenes": per_scene,
+            }
+        )
+    by_name = {e["name"]: e for e in entries}
+    fast, accurate, halved = by_name.get("fast"), by_name.get("accurate"), by_name["reference-halved"]
+    others = [e for e in entries if e["name"] not in ("reference", "reference-halved")]
+    smallest_other = min((e["errors"]["pressure_estimate"] for e in others if e["errors"]["pressure_estimate"] > 0), default=math.nan)
+    checks = {
+        "fast_speedup_over_accurate": accurate["wall_s_per_sim_s"] / fast["wall_s_per_sim_s"] if fast and accurate else math.nan,
+        "fast_pressure_estimate_error": fast["errors"]["pressure_estimate"] if fast else math.nan,
+        "accurate_pressure_estimate_error": accurate["errors"]["pressure_estimate"] if accurate else math.nan,
+        "reference_halving_change": halved["errors"]["pressure_estimate"],
+        "reference_converged": bool(halved["errors"]["pressure_estimate"] < smallest_other),
+    }
+    checks["targets_met"] = bool(
+        checks["fast_speedup_over_accurate"] >= 10
+        and checks["fast_pressure_estimate_error"] < 0.05
+        and checks["accurate_pressure_estimate_error"] < 0.01
+    )
+    return {
+        "scenes": list(scenes),
+        "presets": [e for e in entries if e["name"] != "reference-halved"],
+        "convergence": halved,
+        "checks": checks,
+    }
+
+
+def format_fidelity(report: dict) -> str:
+    """The price list as text."""
+    head = (
+        f"{'preset':<17} {'wall s/sim s':>12} {'RT factor':>9} {'P est err':>9} {'P true err':>10} {'V1 err':>8}"
+        f" {'touch dt ms':>11}  outcome"
+    )
+    lines = [f"fidelity presets on {', '.join(report['scenes'])} (errors: worst over scenes, against reference)", head]
+    for e in [*report["presets"], report["convergence"]]:
+        err = e["errors"]
+        lines.append(
+            f"{e['name']:<17} {e['wall_s_per_sim_s']:>12.4f} {e['realtime_factor']:>9.2f} {100 * err['pressure_estimate']:>8.2f}%"
+            f" {100 * err['true_pressure']:>9.2f}% {err['output_v1']:>8.1e} {1e3 * err['touch_time_s']:>11.1f}  "
+            f"{'same' if err['outcome'] else 'DIFFERS'}"
+        )
+    c = report["checks"]
+    lines.append(
+        f"fast is {c['fast_speedup_over_accurate']:.1f}x faster than accurate (target >= 10); pressure-estimate error: fast "
+        f"{100 * c['fast_pressure_estimate_error']:.2f} % (< 5 %), accurate {100 * c['accurate_pressure_estimate_error']:.2f} % (< 1 %); "
+        f"halving the reference's steps changes it by {100 * c['reference_halving_change']:.3f} % "
+        f"({'converged' if c['reference_converged'] else 'NOT converged'})"
+    )
+    return "\n".join(lines)
+
+
+def plot_pareto(report: dict, path: Path) -> Path:
+    """Error against cost, one point per preset (log-log)."""
+    from .plotting import new_figure, save_figure
+
+    fig, axes = new_figure(figsize=(7, 5))
+    ax = axes[0][0]
+    for e in [*report["presets"], report["convergence"]]:
+        err = max(e["errors"]["pressure_estimate"], 1e-6)
+        ax.loglog(e["wall_s_per_sim_s"], err, "o")
+        ax.annotate(e["name"], (e["wall_s_per_sim_s"], err), xytext=(4, 4), textcoords="offset points", fontsize=8)
+    ax.axhline(0.05, color="tab:red", ls=":", lw=1, label="5 % (fast's target)")
+    ax.axhline(0.01, color="tab:orange", ls=":", lw=1, label="1 % (accurate's target)")
+    ax.set(xlabel="cost: wall time per simulated second [s]", ylabel="pressure-estimate error vs reference [-]")
+    ax.set_title("fidelity presets: error against cost (1e-6 = no difference)")
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=8)
+    return save_figure(fig, path)

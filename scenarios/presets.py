@@ -1,0 +1,75 @@
+"""Fidelity presets: every knob that trades speed for accuracy, set together and named.
+
+A preset is a list of ``--set`` assignments applied before the user's own (so any knob stays
+overridable).  The control period (the controller's and lock-in's 5 ms) is the same in every
+preset: it is a design choice of the robot, not a fidelity knob.
+
+=========  ==========  ==========  ============  =============  =========  ==========
+preset     timestep    integrator  pad segments  sensor         gel        gel tables
+=========  ==========  ==========  ============  =============  =========  ==========
+fast       1.25 ms     discrete    1 (uniform)   steady state   one freq   tables
+balanced   1 ms        discrete    1 (uniform)   envelope       per mode   tables
+accurate   0.5 ms      discrete    5             envelope       per mode   exact
+reference  0.25 ms     discrete    9             carrier, 16/c  per mode   exact
+=========  ==========  ==========  ============  =============  =========  ==========
+
+``discrete`` is the only integrator that integrates the gel's stiff law stably at these steps
+(models/README.md); the others are refused before a run starts, with the largest timestep
+they would need.  The benchmark (``run_sim.py bench``) measures each preset's cost and its
+errors against ``reference``, and shows ``reference`` converged by halving its steps.
+"""
+
+from __future__ import annotations
+
+PRESETS: dict[str, tuple[str, ...]] = {
+    "fast": (
+        "physics.timestep_s=0.00125",
+        "physics.integrator=discrete",
+        "physics.pad_segments=1",
+        "sensor.dynamics=steady",
+        "sensor.gel_frequency_dependent=False",
+        "sensor.exact_gel=False",
+    ),
+    "balanced": (
+        "physics.timestep_s=0.001",
+        "physics.integrator=discrete",
+        "physics.pad_segments=1",
+        "sensor.dynamics=envelope",
+        "sensor.gel_frequency_dependent=True",
+        "sensor.exact_gel=False",
+    ),
+    "accurate": (
+        "physics.timestep_s=0.0005",
+        "physics.integrator=discrete",
+        "physics.pad_segments=5",
+        "sensor.dynamics=envelope",
+        "sensor.gel_frequency_dependent=True",
+        "sensor.exact_gel=True",
+    ),
+    "reference": (
+        "physics.timestep_s=0.00025",
+        "physics.integrator=discrete",
+        "physics.pad_segments=9",
+        "sensor.dynamics=carrier",
+        "sensor.carrier_samples_per_cycle=16",
+        "sensor.gel_frequency_dependent=True",
+        "sensor.exact_gel=True",
+    ),
+}
+
+#: The reference with its steps halved: the convergence check.
+REFERENCE_HALVED: tuple[str, ...] = (
+    *PRESETS["reference"],
+    "physics.timestep_s=0.000125",
+    "physics.pad_segments=17",
+    "sensor.carrier_samples_per_cycle=32",
+)
+
+
+def preset_overrides(name: str | None) -> list[str]:
+    """The ``--set`` assignments of preset ``name`` (none for None); unknown names list the valid ones."""
+    if name is None:
+        return []
+    if name not in PRESETS:
+        raise ValueError(f"unknown preset {name!r}; valid presets: {', '.join(PRESETS)}")
+    return list(PRESETS[name])
