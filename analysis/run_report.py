@@ -96,7 +96,32 @@ def summary(config: ScenarioConfig, data: dict[str, np.ndarray], wall_time_s: fl
         "error": error,
     }
     result.update(outcome(config, data, error))
+    result["limits"] = model_limits(config, result["max_pressure_pa"], data, pads)
     return result
+
+
+def model_limits(config: ScenarioConfig, max_pressure_pa: float, data: dict[str, np.ndarray], pads: tuple[str, ...]) -> dict:
+    """Where the run left the models' valid range: the gel's law, the housing stop, the ceramic.
+
+    ``gel_beyond_valid_strain``: the gel was compressed past ``GelParams.max_valid_strain``;
+    ``bottomed``: a pad's gel sat on its housing stop; ``element_on_backstop`` and
+    ``element_overstressed``: the element's static bending at the largest pressure
+    (sensor/stress.py, the fingertip's mounting).
+    """
+    from cosim.loop import make_fingertip
+
+    tip = make_fingertip(config)
+    state = tip.gel.state(max_pressure_pa)
+    stress = tip.stress(max_pressure_pa)
+    return {
+        "max_gel_strain": float(state.strain),
+        "gel_beyond_valid_strain": bool(state.beyond_valid_strain),
+        "bottomed": bool(any(np.any(data[f"{s}_bottomed"] > 0) for s in pads if f"{s}_bottomed" in data)),
+        "max_bending_stress_pa": float(stress.stress_pa),
+        "element_on_backstop": bool(stress.on_backstop),
+        "element_overstressed": bool(stress.overstressed),
+        "mounting": tip.mounting.kind,
+    }
 
 
 def format_summary(s: dict) -> str:
@@ -109,6 +134,23 @@ def format_summary(s: dict) -> str:
         f"  max pad pressure {s['max_pressure_pa']:.4g} Pa (true), {s['max_estimate_pa']:.4g} Pa (largest estimate)",
         f"  modes used {s['modes_used']}, {s['mode_switches']} switches",
     ]
+    lim = s.get("limits")
+    if lim:
+        flags = [
+            name
+            for name, on in (
+                ("gel past its law's valid strain", lim["gel_beyond_valid_strain"]),
+                ("gel bottomed on the housing", lim["bottomed"]),
+                ("element on its backstop", lim["element_on_backstop"]),
+                ("element OVERSTRESSED", lim["element_overstressed"]),
+            )
+            if on
+        ]
+        lines.append(
+            f"  model limits: gel strain {100 * lim['max_gel_strain']:.0f} %,"
+            f" PZT bending stress {lim['max_bending_stress_pa'] / 1e6:.1f} MPa"
+            f" ({lim['mounting']}){': ' + ', '.join(flags) if flags else ', all within range'}"
+        )
     if s.get("error"):
         lines.append(f"  STOPPED: {s['error']}")
     lines.extend(f"  wrote {f}" for f in s["files"])

@@ -178,10 +178,23 @@ class CoSimulation:
         self._xpos, self._object_body = d.xpos, m.body("object").id
         self._contact_list = [int(self._contact_adr[pad]) for pad in self.pads]
         self._lift_q, self._finger_q = int(self._lift_qpos), [int(a) for a in self._finger_qpos]
+        geometry = self.bridge.geometry
+        self._p_stop = float(self.fingertip.gel.pressure_from_indentation(geometry.stop_m)) * (1 - 1e-9)
         self.columns = ["time_s", "phase", "lift_m", "opening_m", "grip_force_n", "lift_force_n", "object_height_m"]
         for pad in self.pads:
             side = pad.removesuffix("_pad")
-            names = ("true_pressure_pa", "contact_force_n", "estimate_pa", "uncertainty_pa", "status", "mode", "v1", "v1_true", "settled")
+            names = (
+                "true_pressure_pa",
+                "contact_force_n",
+                "estimate_pa",
+                "uncertainty_pa",
+                "status",
+                "mode",
+                "v1",
+                "v1_true",
+                "settled",
+                "bottomed",
+            )
             self.columns += [f"{side}_{name}" for name in names]
             self.columns += [f"{side}_cell{k}_pressure_pa" for k in range(n)]
 
@@ -298,6 +311,9 @@ class CoSimulation:
                 r.v1,
                 r.v1_true,
                 float(r.settled),
+                # The gel is on its housing stop under the element: the pressure there is the
+                # stop's, and the housing carries the rest (the sensor model is told, here).
+                float(max(profile) >= self._p_stop),
             )
             row += profile
         return row

@@ -20,6 +20,10 @@ OBJECT_SHAPES = ("box", "cylinder", "sphere", "egg")
 INTEGRATORS = ("discrete", "implicitfast", "implicit", "Euler", "RK4")
 SENSOR_DYNAMICS = ("steady", "envelope", "carrier")
 CONTROLLERS = ("scripted", "multimode")
+#: The physics timesteps tested stable with the discrete integrator (tests/test_extremes.py): 0.1 ms
+#: (smaller only costs time) to 20 ms (the pads' contact time constant, 2 steps, is then 40 ms).
+MIN_TIMESTEP_S = 1e-5
+MAX_TIMESTEP_S = 0.02
 
 
 @dataclass(frozen=True)
@@ -79,6 +83,11 @@ class PhysicsConfig:
 
     def validate(self) -> None:
         _positive("physics.timestep_s", self.timestep_s)
+        if not MIN_TIMESTEP_S <= self.timestep_s <= MAX_TIMESTEP_S:
+            raise ValueError(
+                f"physics.timestep_s must be within {MIN_TIMESTEP_S:g}-{MAX_TIMESTEP_S:g} s (the range tested stable; "
+                f"explicit integrators need far less, checked when the scene is built), got {self.timestep_s!r}"
+            )
         _one_of("physics.integrator", self.integrator, INTEGRATORS)
         if not isinstance(self.pad_segments, int) or not 1 <= self.pad_segments <= 64:
             raise ValueError(f"physics.pad_segments must be an integer in 1..64, got {self.pad_segments!r}")

@@ -1,0 +1,90 @@
+"""Numerics at the extremes of the co-simulation: timesteps, integrators, long holds, divergence."""
+
+import math
+
+import numpy as np
+import pytest
+
+import scenarios
+from analysis.runner import run_scenario
+from cosim.loop import CoSimulation
+from cosim.recorder import Recorder
+
+
+@pytest.mark.parametrize("timestep", [1e-6, 0.05])
+def test_timesteps_outside_the_tested_range_are_refused_before_running(timestep):
+    with pytest.raises(ValueError, match=r"physics\.timestep_s must be within"):
+        scenarios.get("grasp", [f"physics.timestep_s={timestep}", f"physics.control_period_s={max(timestep, 0.005)}"])
+
+
+@pytest.mark.parametrize("integrator", ["implicitfast", "Euler", "RK4", "implicit"])
+def test_explicit_gel_stiffness_is_refused_before_running_with_the_step_it_needs(integrator):
+    """Under these integrators the gel's stiff law is explicit: the bridge says which timestep it needs."""
+    cfg = scenarios.get("grasp", [f"physics.integrator={integrator}"])
+    with pytest.raises(ValueError, match=r"needs timestep <= [0-9.e+-]+ s"):
+        CoSimulation(cfg)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(("timestep", "control"), [(1e-4, 0.005), (0.02, 0.02)])
+def test_smallest_and_largest_timesteps_grasp(tmp_path, timestep, control):
+    summary, _ = run_scenario(
+        "grasp", [f"physics.timestep_s={timestep}", f"physics.control_period_s={control}"], tmp_path, plot=False, quiet=True
+    )
+    assert summary["error"] is None and summary["success"], summary
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("mass_kg", [0.001, 10.0])
+def test_one_gram_and_ten_kilograms(tmp_path, mass_kg):
+    size = 0.03 if mass_kg < 1 else 0.08
+    summary, _ = run_scenario("grasp", [f"object.mass_kg={mass_kg}", f"object.size_m={size}"], tmp_path, plot=False, quiet=True)
+    assert summary["success"], summary
+
+
+@pytest.mark.slow
+def test_a_minute_long_hold_does_not_drift(tmp_path):
+    """10 kg held for 60 s (fast preset): no slip, the object's height and the estimate steady."""
+    summary, data = run_scenario("grasp-10kg", ["controller.hold_s=60", "duration_s=70"], tmp_path, plot=False, quiet=True, preset="fast")
+    assert summary["success"] and not summary["slipped"], summary
+    hold = data["phase"] == 4.0
+    t = data["time_s"][hold]
+    assert t[-1] - t[0] > 59
+    height = data["object_height_m"][hold]
+    assert np.ptp(height[t > t[0] + 1]) < 1e-3  # creep under 1 mm in a minute
+    est = data["left_estimate_pa"][hold]
+    first, last = np.nanmedian(est[t < t[0] + 5]), np.nanmedian(est[t > t[-1] - 5])
+    assert abs(last / first - 1) < 0.01
+
+
+def test_a_divergence_stops_with_a_clear_message_and_keeps_the_recording(tmp_path):
+    sim = CoSimulation(scenarios.get("grasp"))
+
+    def poison(s):
+        if s.steps == 40:
+            s.data.qvel[0] = math.nan
+
+    result = sim.run(Recorder(tmp_path / "run"), on_step=poison)
+    assert result.error is not None and "diverged" in result.error and "t = " in result.error
+    kept = np.load(tmp_path / "run.npz")
+    assert len(kept["time_s"]) == 40
+
+
+def test_run_command_reports_a_divergence_and_exits_nonzero(tmp_path, monkeypatch, capsys):
+    import run_sim
+    from cosim import loop
+
+    original = loop.CoSimulation._physics
+
+    def exploding(self):
+        original(self)
+        if self.steps == 10:
+            self.data.qpos[0] = math.inf
+            self._check_stable()
+
+    monkeypatch.setattr(loop.CoSimulation, "_physics", exploding)
+    code = run_sim.main(["run", "grasp", "--out", str(tmp_path), "--json"])
+    assert code == 1
+    out = capsys.readouterr().out
+    assert '"error": "simulation diverged' in out
+    assert (tmp_path / "run.npz").exists()
