@@ -56,7 +56,8 @@ class Command:
     grip_force_limit_n : the fingers' force limit, N per finger (sets the grip on contact).
     modes : per instrumented pad, the mode to drive.
     phase : the controller's phase ("approach", "close", ...).
-    reason : why this command (and this mode), in words.
+    reason : why this command (and this mode): ``str(reason)`` reads it in words (it may be
+        formatted lazily; the controller gives one every step).
     """
 
     lift_m: float
@@ -64,7 +65,7 @@ class Command:
     grip_force_limit_n: float
     modes: dict[str, int] = field(default_factory=dict)
     phase: str = ""
-    reason: str = ""
+    reason: object = ""
 
 
 #: Phase names, in order; recorded as their index.

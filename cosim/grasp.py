@@ -80,6 +80,31 @@ class Event:
     message: str
 
 
+class Why:
+    """A reason, formatted only when read (``str(why)``): a controller gives one every step,
+    and formatting numbers each step would cost more than deciding."""
+
+    __slots__ = ("args", "template")
+
+    def __init__(self, template: str, *args) -> None:
+        self.template, self.args = template, args
+
+    def __str__(self) -> str:
+        if self.template is None:  # a join of (pad, why) pairs
+            return "; ".join(f"{pad}: {why}" for pad, why in self.args)
+        return self.template.format(*self.args)
+
+    def __contains__(self, text: str) -> bool:
+        return text in str(self)
+
+    @classmethod
+    def join(cls, pairs: list) -> Why:
+        """'pad: why; pad: why', lazily."""
+        why = cls("")
+        why.template, why.args = None, tuple(pairs)
+        return why
+
+
 class ModeSelector:
     """Chooses one fingertip's drive mode from its readout, with hysteresis and settling.
 
@@ -112,6 +137,7 @@ class ModeSelector:
         self.mode = self.modes[0]
         self._saturated = 0
         self._below = 0
+        self.blind = False  # saturated in the highest allowed mode
         self.estimate_pa = 0.0  # last trusted estimate
         self.uncertainty_pa = math.nan
         self.trusted = True
@@ -132,8 +158,9 @@ class ModeSelector:
         """
         if estimate.status == "settling":
             self.trusted = False
-            return self.mode, f"mode {self.mode}: settling after switch, holding {self.estimate_pa:.3g} Pa"
+            return self.mode, Why("mode {}: settling after switch, holding {:.3g} Pa", self.mode, self.estimate_pa)
         self.trusted = True
+        self.blind = False
         status = estimate.status
         self._saturated = self._saturated + 1 if status == "saturated" else 0
         self._below = self._below + 1 if status == "below_detection" else 0
@@ -142,7 +169,10 @@ class ModeSelector:
         up, down = self._up(), self._down()
         if self._saturated >= self.persist:
             if up is None:
-                return self.mode, f"mode {self.mode}: saturated and no higher mode allowed (blind above {self.p_max_pa[self.mode]:.3g} Pa)"
+                self.blind = True
+                return self.mode, Why(
+                    "mode {}: saturated and no higher mode allowed (blind above {:.3g} Pa)", self.mode, self.p_max_pa[self.mode]
+                )
             return self._switch(up, f"mode {self.mode} saturated (P > {self.p_max_pa[self.mode]:.3g} Pa)")
         if self._below >= self.persist and down is not None:
             return self._switch(down, f"mode {self.mode} below detection (P < {self.p_min_pa[self.mode]:.3g} Pa)")
@@ -152,7 +182,7 @@ class ModeSelector:
                 return self._switch(up, f"P {p:.3g} Pa above switch {self.switch_pa[(self.mode, up)]:.3g} Pa x {1 + self.hysteresis:g}")
             if down is not None and p < self.switch_pa[(down, self.mode)] * (1 - self.hysteresis):
                 return self._switch(down, f"P {p:.3g} Pa below switch {self.switch_pa[(down, self.mode)]:.3g} Pa x {1 - self.hysteresis:g}")
-        return self.mode, f"mode {self.mode}: {status}, P {self.estimate_pa:.3g} Pa"
+        return self.mode, Why("mode {}: {}, P {:.3g} Pa", self.mode, status, self.estimate_pa)
 
     def _switch(self, mode: int, why: str) -> tuple[int, str]:
         old, self.mode = self.mode, mode
@@ -279,12 +309,12 @@ class MultimodeGrasp:
                 self._fault(t, pad, "out_of_range", f"{pad}: reading {v1!r} outside [0, 1] by more than {OUT_OF_RANGE_SIGMA:g} sigma")
             mode, why = sel.update(sig.estimate)
             if mode != sig.reading.mode:
-                self.events.append(Event(t, pad, "mode_switch", why))
-            if "no higher mode" in why and pad not in self._saturated_logged:
+                self.events.append(Event(t, pad, "mode_switch", str(why)))
+            if sel.blind and pad not in self._saturated_logged:
                 self._saturated_logged.add(pad)
-                self.events.append(Event(t, pad, "saturated", why))
+                self.events.append(Event(t, pad, "saturated", str(why)))
             modes[pad] = mode
-            reasons.append(f"{pad}: {why}")
+            reasons.append((pad, why))
         if self.phase == "fault":
             return Command(self.lift_target, self.home_opening_m, 0.0, modes, "fault", "; ".join(e.message for e in self.events[-1:]))
 
@@ -374,4 +404,4 @@ class MultimodeGrasp:
             if obs.opening_m > self.home_opening_m - 0.005:
                 self._enter("done", t)
         self._last_lift_pos = obs.lift_pos_m
-        return Command(self.lift_target, self.opening_target, self.grip_n, modes, self.phase, "; ".join(reasons))
+        return Command(self.lift_target, self.opening_target, self.grip_n, modes, self.phase, Why.join(reasons))

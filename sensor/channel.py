@@ -44,6 +44,8 @@ RINGUP_WINDOW_TAUS = 8.0
 RELAXATION_WINDOWS_S = (0.02, 0.05, 0.1, 0.2, 0.4)
 #: Readings kept for those fits (at least the longest window at the finest control period).
 _HISTORY = 512
+#: A settled reading stays settled while it moves by at most this many sigmas (per I/Q, x sqrt 2).
+_LATCH_SIGMAS = 4.0 * math.sqrt(2.0)
 #: Noise is drawn in blocks (one generator call per block, not per reading).
 _NOISE_BLOCK = 4096
 #: Pressure table for the fast path, Pa: log-spaced, 60 points per decade.
@@ -334,7 +336,12 @@ class SensorChannel:
             self._carrier.start_steady()
         self._noise: list[float] = []
         self._rate_estimate: complex | None = None  # the readout's tracked ring-up rate, 1/s
-        self._history: deque[tuple[float, complex]] = deque(maxlen=_HISTORY)  # (time in mode, iq)
+        self._hist_t: deque[float] = deque(maxlen=_HISTORY)  # recent readings: time in mode, s
+        self._hist_a: deque[complex] = deque(maxlen=_HISTORY)  # and the lock-in output
+        self._last_window: float | None = None
+        self._ring_up_valid = True  # the ring-up since the switch still fits one steady load
+        self._ring_up_seen = False
+        self._settled_at: complex | None = None
 
     def _new_carrier(self, mode: int) -> CarrierResonator:
         return CarrierResonator(self._rho_a_f, self._c_f, float(self._omega[mode]), self._carrier_spc)
@@ -358,7 +365,11 @@ class SensorChannel:
             self.mode = mode
             self.time_in_mode_s = 0.0
             self._rate_estimate = None
-            self._history.clear()
+            self._hist_t.clear()
+            self._hist_a.clear()
+            self._last_window = None
+            self._ring_up_valid, self._ring_up_seen = True, False
+            self._settled_at = None
             if self.dynamics == "envelope":
                 self.envelope = 0j
             elif self.dynamics == "carrier":
@@ -449,20 +460,32 @@ class SensorChannel:
         if self.dynamics == "steady" or reading.time_in_mode_s == math.inf:
             return inverse(reading.v1)
         t, iq = reading.time_in_mode_s, reading.iq
-        history = self._history
-        if not history or history[-1][0] != t:
-            history.append((t, iq))
         # The reading's own time constant, were it steady (tau = 1 / Re(1 / (tau0 a))): once the
         # switch is that many of them ago, the ring-up is over (conservative: a ring-up still
         # in progress reads a longer time constant than it has elapsed).
-        tau_plain = self._tau0 * abs(iq) ** 2 / iq.real if iq.real > 0 else math.inf
-        if t >= RINGUP_WINDOW_TAUS * tau_plain:
+        if iq.real > 0 and t * iq.real >= RINGUP_WINDOW_TAUS * self._tau0 * (iq.real * iq.real + iq.imag * iq.imag):
             return inverse(reading.v1)
-        best, best_gain = self._ring_up(t, iq)
+        if not self._hist_t or self._hist_t[-1] != t:
+            self._hist_t.append(t)
+            self._hist_a.append(iq)
+        # Latched settled: the envelope reached its steady value and has not moved by more than
+        # the noise since; a step that moves it (a load change) releases the latch.
+        bound = _LATCH_SIGMAS * self._sigma[reading.mode]
+        if self._settled_at is not None:
+            if abs(iq - self._settled_at) <= bound:
+                self._settled_at = iq
+                return inverse(reading.v1)
+            self._settled_at = None
+        best, best_gain = self._ring_up(t, iq) if self._ring_up_valid else (complex(math.nan, math.nan), math.inf)
+        if self._ring_up_valid and not best_gain <= RINGUP_MAX_GAIN and self._ring_up_seen:
+            self._ring_up_valid = False  # it fitted, then stopped fitting: the load has changed since
+        self._ring_up_seen = self._ring_up_seen or best_gain <= RINGUP_MAX_GAIN
         if not best_gain <= RINGUP_MAX_GAIN:
             best, best_gain = self._relaxation(t, iq, reading.mode)
         if not best_gain <= RINGUP_MAX_GAIN:
             return _estimate(math.nan, math.nan, "settling")
+        if abs(best - iq) <= 0.5 * bound:  # the inferred steady value is where the reading is
+            self._settled_at = iq
         est = inverse(abs(best))
         if est.status == "ok" and best_gain > 1.0:
             return _estimate(est.pressure_pa, est.uncertainty_pa * best_gain, "ok")
@@ -481,25 +504,29 @@ class SensorChannel:
         it also predicts the reading halfway through the window to within 4 sigma (the load
         did not change inside it, the root is the physical one); the smallest gain wins.
         """
-        history, sigma = self._history, self._sigma[mode]
-        times = [h[0] for h in history]
+        times, values, sigma = self._hist_t, self._hist_a, self._sigma[mode]
         best, best_gain = complex(math.nan, math.nan), math.inf
-        for window in RELAXATION_WINDOWS_S:
+        # The window that fitted last time first: under a steady load it fits again, and a
+        # good enough fit ends the search (the per-step cost of a settled hold).
+        windows = (self._last_window, *RELAXATION_WINDOWS_S) if self._last_window else RELAXATION_WINDOWS_S
+        for window in windows:
             i0 = bisect_right(times, t - window) - 1
             if i0 < 0:
-                break
-            t0, a0 = history[i0]
+                continue
+            t0, a0 = times[i0], values[i0]
             im = bisect_right(times, t0 + 0.5 * (t - t0)) - 1
-            if im <= i0 or im >= len(history) - 1:
+            if im <= i0 or im >= len(times) - 1:
                 continue
             a_ss, gain = relaxation_steady(a0, iq, t - t0, self._tau0)
             if not gain < best_gain:
                 continue
             lam = 1.0 / (self._tau0 * a_ss)
-            tm, am = history[im]
-            predicted = a_ss + (a0 - a_ss) * cmath.exp(-lam * (tm - t0))
-            if abs(predicted - am) <= 4.0 * math.sqrt(2.0) * sigma:
+            predicted = a_ss + (a0 - a_ss) * cmath.exp(-lam * (times[im] - t0))
+            if abs(predicted - values[im]) <= 4.0 * math.sqrt(2.0) * sigma:
                 best, best_gain = a_ss, gain
+                if window == self._last_window and gain <= 1.5:
+                    break
+                self._last_window = window
         return best, best_gain
 
     def inverse(self, mode: int) -> ModeInverse:
