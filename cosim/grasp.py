@@ -266,6 +266,7 @@ class MultimodeGrasp:
         self._last_step = 0.0
         self._last_load = 0.0
         self._steady_load_steps = 0
+        self._carried = False
         self._last_lift_pos = home_lift_m
         self._empty_count = 0
         self._dt_s = 0.005
@@ -378,13 +379,18 @@ class MultimodeGrasp:
                     self._steady_load_steps += 1
                 else:
                     self._steady_load_steps = 0
-                airborne = self._steady_load_steps >= 3
+                # ...and the grip is not at its friction limit (a slipping pad also stops the
+                # load from growing, at load = 2 mu grip, where carry is spent).
+                airborne = self._steady_load_steps >= 3 and carry > 0.2 * raw_load
                 full = cfg.lift_speed_m_s * dt_s
                 step = full if airborne else min(full, max(carry, 0.0) / LIFT_SERVO_KP_N_M)
                 self._lift_goal = min(top, self._lift_goal + step)
                 self._last_step, self._last_load = step, raw_load
-                # The lift servo sags by load / kp under the object (the robot knows its gain).
-                self.lift_target = self._lift_goal + load / LIFT_SERVO_KP_N_M
+                # The lift servo sags by load / kp under a carried object (the robot knows its
+                # gain); while the object still rests on the table that offset would only pull
+                # harder on the pads, so it waits until the object is carried.
+                self._carried = self._carried or airborne
+                self.lift_target = self._lift_goal + (load / LIFT_SERVO_KP_N_M if self._carried else 0.0)
                 moving = abs(obs.lift_pos_m - self._last_lift_pos) > 1e-4
                 if self._lift_goal >= top and abs(obs.lift_pos_m - top) < 0.002 and not moving:
                     self._enter("hold", t)

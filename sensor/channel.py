@@ -339,9 +339,12 @@ class SensorChannel:
         self._hist_t: deque[float] = deque(maxlen=_HISTORY)  # recent readings: time in mode, s
         self._hist_a: deque[complex] = deque(maxlen=_HISTORY)  # and the lock-in output
         self._last_window: float | None = None
-        self._ring_up_valid = True  # the ring-up since the switch still fits one steady load
+        # The readout's own clock: time since the channel started or last switched, s.  It starts
+        # settled on the unloaded reading; only a switch starts a ring-up from rest.
+        self._clock_s = 0.0
+        self._ring_up_valid = False  # the ring-up since the switch still fits one steady load
         self._ring_up_seen = False
-        self._settled_at: complex | None = None
+        self._settled_at: complex | None = complex(self.envelope)
 
     def _new_carrier(self, mode: int) -> CarrierResonator:
         return CarrierResonator(self._rho_a_f, self._c_f, float(self._omega[mode]), self._carrier_spc)
@@ -364,6 +367,7 @@ class SensorChannel:
         if mode != self.mode:
             self.mode = mode
             self.time_in_mode_s = 0.0
+            self._clock_s = 0.0
             self._rate_estimate = None
             self._hist_t.clear()
             self._hist_a.clear()
@@ -425,6 +429,7 @@ class SensorChannel:
         steady = _steady(omega, c, kappa, gamma)
         rate = _rate(self._rho_a_f, omega, c, kappa, gamma)
         self.time_in_mode_s += dt_s
+        self._clock_s += dt_s
         tau = 1.0 / rate.real
         if self.dynamics == "envelope":
             self.envelope = envelope = _step(self.envelope, steady, dt_s, rate)
@@ -457,9 +462,9 @@ class SensorChannel:
         the unloaded time constant from calibration, never the simulator's load.
         """
         inverse = self._inverse[reading.mode]
-        if self.dynamics == "steady" or reading.time_in_mode_s == math.inf:
+        if self.dynamics == "steady":
             return inverse(reading.v1)
-        t, iq = reading.time_in_mode_s, reading.iq
+        t, iq = self._clock_s, reading.iq
         # The reading's own time constant, were it steady (tau = 1 / Re(1 / (tau0 a))): once the
         # switch is that many of them ago, the ring-up is over (conservative: a ring-up still
         # in progress reads a longer time constant than it has elapsed).
