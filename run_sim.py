@@ -131,7 +131,15 @@ def _cmd_bench(args: argparse.Namespace) -> int:
         raise ValueError(f"--repeats must be at least 1, got {args.repeats}")
     from scenarios.presets import preset_overrides
 
-    cases = grasp_cases(all_scenes=args.all_scenes, overrides=[*preset_overrides(args.preset), *(args.set or [])])
+    base = [*preset_overrides(args.preset), *(args.set or [])]
+    cases = grasp_cases(all_scenes=args.all_scenes, overrides=base)
+    if not args.no_presets:
+        # The per-step cost grows with instrumented pads (x active modes, which is one each):
+        # the same scene with one fingertip instrumented, beside the default two.
+        import scenarios
+        from analysis.bench import BenchCase
+
+        cases.append(BenchCase("grasp, 1 pad", scenarios.get("grasp", [*base, "sensor.pads=['left']"])))
     progress = None if args.json else (lambda name: print(f"benchmarking {name} ...", file=sys.stderr, flush=True))
     try:
         report = bench_report(cases, repeats=args.repeats, duration_s=args.duration, progress=progress)

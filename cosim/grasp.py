@@ -381,7 +381,7 @@ class MultimodeGrasp:
                     self._steady_load_steps = 0
                 # ...and the grip is not at its friction limit (a slipping pad also stops the
                 # load from growing, at load = 2 mu grip, where carry is spent).
-                airborne = self._steady_load_steps >= 3 and carry > 0.2 * raw_load
+                airborne = self._carried or (self._steady_load_steps >= 3 and carry > 0.2 * raw_load)
                 full = cfg.lift_speed_m_s * dt_s
                 step = full if airborne else min(full, max(carry, 0.0) / LIFT_SERVO_KP_N_M)
                 self._lift_goal = min(top, self._lift_goal + step)
