@@ -22,12 +22,11 @@ Two mountings are modelled, and the report says which:
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
 
-from .element import SensorElement
+from .element import SensorElement, _require_positive
 from .modes import Boundary
 
 _MOUNTINGS = ("backed", "free-span")
@@ -56,10 +55,7 @@ class Mounting:
     def __post_init__(self) -> None:
         if self.kind not in _MOUNTINGS:
             raise ValueError(f"unknown mounting {self.kind!r}; valid: {', '.join(_MOUNTINGS)}")
-        for name in ("backstop_gap_m", "pzt_strength_pa"):
-            v = getattr(self, name)
-            if not (math.isfinite(v) and v > 0):
-                raise ValueError(f"Mounting.{name} must be positive and finite, got {v!r}")
+        _require_positive(self)
 
 
 @dataclass(frozen=True)
