@@ -61,6 +61,9 @@ CUSUM_DRIFT_SIGMA = 0.5
 CUSUM_ALARM_SIGMA = 8.0
 #: Time constant of the low-pass on the lift load the grip follows, s.
 LOAD_FILTER_S = 0.05
+#: Acceleration of the lift once the object is carried, m/s^2 (0.5 m/s^2: 5 % of g on top of
+#: the weight).
+LIFT_ACCEL_M_S2 = 0.5
 #: The lift servo's stiffness, N/m (the robot's own design: gripper.xml lift_actuator kp).
 LIFT_SERVO_KP_N_M = 2.0e4
 #: How long both fingertips must read no load (below detection in the lowest mode) before the
@@ -267,6 +270,7 @@ class MultimodeGrasp:
         self._last_load = 0.0
         self._steady_load_steps = 0
         self._carried = False
+        self._lift_speed = 0.0
         self._last_lift_pos = home_lift_m
         self._empty_count = 0
         self._dt_s = 0.005
@@ -382,7 +386,11 @@ class MultimodeGrasp:
                 # ...and the grip is not at its friction limit (a slipping pad also stops the
                 # load from growing, at load = 2 mu grip, where carry is spent).
                 airborne = self._carried or (self._steady_load_steps >= 3 and carry > 0.2 * raw_load)
-                full = cfg.lift_speed_m_s * dt_s
+                # Speed up gently (LIFT_ACCEL_M_S2): an abrupt start loads the pads with m a on
+                # top of m g, and the grip, which ratchets, would keep that peak for good.
+                if airborne:
+                    self._lift_speed = min(cfg.lift_speed_m_s, self._lift_speed + LIFT_ACCEL_M_S2 * dt_s)
+                full = (self._lift_speed if airborne else cfg.lift_speed_m_s) * dt_s
                 step = full if airborne else min(full, max(carry, 0.0) / LIFT_SERVO_KP_N_M)
                 self._lift_goal = min(top, self._lift_goal + step)
                 self._last_step, self._last_load = step, raw_load

@@ -315,11 +315,13 @@ def test_explicit_integrators_are_refused_at_this_timestep():
         PadBridge(model)
 
 
-def test_timestep_rescales_the_pad_time_constants():
-    model = build_model("light", timestep=5e-4)
-    assert model.opt.timestep == 5e-4
-    assert model.geom("left_pad_seg0_geom").solref[0] == pytest.approx(1e-3)
-    assert model.joint("right_pad_guard_upper_joint").solref[0] == pytest.approx(1e-3)
+@pytest.mark.parametrize(("timestep", "constant"), [(5e-4, 2e-3), (1e-3, 2e-3), (2.5e-3, 5e-3)])
+def test_timestep_keeps_the_pad_time_constant_above_two_steps(timestep, constant):
+    """The pads' contact time constant is the physical 2 ms, floored at 2 timesteps."""
+    model = build_model("light", timestep=timestep)
+    assert model.opt.timestep == timestep
+    assert model.geom("left_pad_seg0_geom").solref[0] == pytest.approx(constant)
+    assert model.joint("right_pad_guard_upper_joint").solref[0] == pytest.approx(constant)
 
 
 def test_broken_mjcf_names_its_file(tmp_path):
