@@ -345,6 +345,7 @@ class SensorChannel:
         self._ring_up_valid = False  # the ring-up since the switch still fits one steady load
         self._ring_up_seen = False
         self._settled_at: complex | None = complex(self.envelope)
+        self._fit: tuple | None = None  # (time, reading, a_ss, lambda, gain) of the last fit
 
     def _new_carrier(self, mode: int) -> CarrierResonator:
         return CarrierResonator(self._rho_a_f, self._c_f, float(self._omega[mode]), self._carrier_spc)
@@ -374,6 +375,7 @@ class SensorChannel:
             self._last_window = None
             self._ring_up_valid, self._ring_up_seen = True, False
             self._settled_at = None
+            self._fit = None
             if self.dynamics == "envelope":
                 self.envelope = 0j
             elif self.dynamics == "carrier":
@@ -481,6 +483,14 @@ class SensorChannel:
                 self._settled_at = iq
                 return inverse(reading.v1)
             self._settled_at = None
+        # A fit made earlier predicts where the envelope should be now; while the reading
+        # follows it (within the noise), its steady value still holds and no fit is needed.
+        fit = self._fit
+        if fit is not None:
+            t_fit, a_fit, a_ss, lam, gain = fit
+            if abs(iq - (a_ss + (a_fit - a_ss) * cmath.exp(-lam * (t - t_fit)))) <= bound:
+                return self._estimate_from(inverse, a_ss, gain, iq, bound)
+            self._fit = None
         best, best_gain = self._ring_up(t, iq) if self._ring_up_valid else (complex(math.nan, math.nan), math.inf)
         if self._ring_up_valid and not best_gain <= RINGUP_MAX_GAIN and self._ring_up_seen:
             self._ring_up_valid = False  # it fitted, then stopped fitting: the load has changed since
@@ -489,11 +499,17 @@ class SensorChannel:
             best, best_gain = self._relaxation(t, iq, reading.mode)
         if not best_gain <= RINGUP_MAX_GAIN:
             return _estimate(math.nan, math.nan, "settling")
-        if abs(best - iq) <= 0.5 * bound:  # the inferred steady value is where the reading is
+        self._fit = (t, iq, best, 1.0 / (self._tau0 * best), best_gain)
+        return self._estimate_from(inverse, best, best_gain, iq, bound)
+
+    def _estimate_from(self, inverse: ModeInverse, a_ss: complex, gain: float, iq: complex, bound: float) -> Estimate:
+        """The estimate of an inferred steady envelope, its uncertainty scaled by the fit's gain."""
+        if abs(a_ss - iq) <= 0.5 * bound:  # the inferred steady value is where the reading is
             self._settled_at = iq
-        est = inverse(abs(best))
-        if est.status == "ok" and best_gain > 1.0:
-            return _estimate(est.pressure_pa, est.uncertainty_pa * best_gain, "ok")
+            self._fit = None
+        est = inverse(abs(a_ss))
+        if est.status == "ok" and gain > 1.0:
+            return _estimate(est.pressure_pa, est.uncertainty_pa * gain, "ok")
         return est
 
     def _ring_up(self, t: float, iq: complex) -> tuple[complex, float]:
