@@ -154,7 +154,8 @@ def write_outputs(rows: list[dict], out_dir: Path) -> list[Path]:
     peak = np.full((len(objects), len(controllers)), np.nan)
     for r in rows:
         i, j = objects.index(r["object"]), controllers.index(r["controller"])
-        grid[i, j] = 1.0 if r["success"] else (0.5 if r["lifted"] else 0.0)
+        # green: success; yellow: lifted but the hold failed; red: not lifted or crushed
+        grid[i, j] = 1.0 if r["success"] else (0.5 if r["lifted"] and not r["crushed"] else 0.0)
         peak[i, j] = r["peak_pressure_pa"]
     fig, axes = new_figure(1, 2, figsize=(14, 5.5))
     ax, ax_p = axes[0]
@@ -165,7 +166,7 @@ def write_outputs(rows: list[dict], out_dir: Path) -> list[Path]:
         ax.text(j, i, label, ha="center", va="center", fontsize=8)
     ax.set_xticks(range(len(controllers)), controllers, rotation=20)
     ax.set_yticks(range(len(objects)), objects)
-    ax.set_title("grasp outcome (green: success)")
+    ax.set_title("grasp outcome (green: success, red: failed or crushed)")
     for j, c in enumerate(controllers):
         ax_p.semilogy(range(len(objects)), peak[:, j], "o-", label=c)
     ax_p.set_xticks(range(len(objects)), objects, rotation=30)
