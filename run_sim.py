@@ -57,7 +57,9 @@ def _cmd_range(args: argparse.Namespace) -> int:
         if not (0 <= x1_mm < x2_mm <= length_mm):
             raise ValueError(f"--coverage must satisfy 0 <= X1_MM < X2_MM <= {length_mm} (the element's length), got {x1_mm:g} {x2_mm:g}")
         coverage = (x1_mm * 1e-3, x2_mm * 1e-3)
-    tip = Fingertip(coverage=coverage)
+    from sensor import GelModel
+
+    tip = Fingertip(coverage=coverage, gel=GelModel(layer=args.gel_layer))
     report = tip.dynamic_range()
     files = []
     if args.out:
@@ -205,6 +207,9 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("--json", action="store_true", help="print the report as JSON")
     p.add_argument("--out", help="directory for plots, CSV and range.json")
+    p.add_argument(
+        "--gel-layer", choices=("winkler", "dynamic"), default="winkler", help="the gel layer's model (default winkler; see README)"
+    )
     p.set_defaults(func=_cmd_range)
 
     p = sub.add_parser("bench", help="the co-simulation's cost: real-time factor, overhead over bare mj_step, per-stage times")

@@ -39,7 +39,9 @@ def make_fingertip(config: ScenarioConfig) -> Fingertip:
     element = SensorElement(ElementParams())
     if s.quality_factor is not None:
         element = element.with_quality_factor(s.quality_factor)
-    gel = GelModel(frequency_dependent=s.gel_frequency_dependent, reference_freq_hz=element.natural_frequency_hz(s.modes[0]))
+    gel = GelModel(
+        frequency_dependent=s.gel_frequency_dependent, reference_freq_hz=element.natural_frequency_hz(s.modes[0]), layer=s.gel_layer
+    )
     coverage = (s.coverage_mm[0] * 1e-3, s.coverage_mm[1] * 1e-3)
     return Fingertip(element=element, gel=gel, coverage=coverage, modes=s.modes)
 
@@ -131,7 +133,7 @@ class CoSimulation:
                 mode=min(config.controller.modes),
                 noise=config.sensor.noise,
                 rng=np.random.default_rng(rng.integers(2**63)),
-                exact=config.sensor.exact_gel,
+                exact=config.sensor.exact_gel or config.sensor.gel_layer == "dynamic",  # tables need k_e > 0
                 carrier_samples_per_cycle=config.sensor.carrier_samples_per_cycle,
             )
             for pad in self.pads

@@ -127,6 +127,9 @@ class SensorConfig:
     exact_gel : evaluate the gel model exactly every sample (True) or through per-mode
         tables of (k_e, c_e) against pressure (False: 1e-4 relative error, several times faster).
     carrier_samples_per_cycle : carrier samples per drive cycle for the "carrier" dynamics.
+    gel_layer : "winkler" (the layer's low-frequency stiffness) or "dynamic" (its dynamic
+        stiffness, M k cot(k h): 100-4000x more damping, mass-like k_e; evaluated exactly).
+        README "The gel's two layer models" compares them.
     damage_stiffness, damage_coupling, damage_damping : injected element damage, factors on
         the healthy stiffness, d31 and damping (sensor.selftest.damaged); the multimode
         controller's start-up self-test must catch them.
@@ -145,8 +148,10 @@ class SensorConfig:
     damage_damping: float = 1.0
     exact_gel: bool = False
     carrier_samples_per_cycle: int = 16
+    gel_layer: str = "winkler"
 
     def validate(self) -> None:
+        _one_of("sensor.gel_layer", self.gel_layer, ("winkler", "dynamic"))
         if not isinstance(self.carrier_samples_per_cycle, int) or not 4 <= self.carrier_samples_per_cycle <= 256:
             raise ValueError(f"sensor.carrier_samples_per_cycle must be an integer in 4..256, got {self.carrier_samples_per_cycle!r}")
         for name in ("damage_stiffness", "damage_coupling", "damage_damping"):

@@ -151,6 +151,8 @@ class FoundationTable:
 
     def __init__(self, fingertip: Fingertip, mode: int) -> None:
         k, c = fingertip.foundation(_TABLE_P, mode)
+        if np.any(k <= 0):
+            raise ValueError("FoundationTable needs a positive k_e (the Winkler layer); use exact=True for the dynamic layer")
         self._log_p = np.log(_TABLE_P)
         self._log_k = np.log(k)
         self._log_c = np.log(c)
@@ -233,6 +235,11 @@ class ModeInverse:
         else:
             k, c = table(p)
             v = fingertip.element.normalized_output(k, c, mode, fingertip.coverage)
+        # The inverse exists while the output falls with pressure; past the first rise (the
+        # dynamic layer's resonances, deep in saturation) every reading counts as saturated.
+        rising = np.nonzero(np.diff(v) > 1e-12)[0]
+        if rising.size:
+            p, v = p[: rising[0] + 1], v[: rising[0] + 1]
         self._neg_v = -v  # increasing, for np.interp
         self._log_p = np.log(p)
         self._dv_dlogp = np.gradient(v, self._log_p)

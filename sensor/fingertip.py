@@ -86,17 +86,34 @@ class Fingertip:
         return self.gel.foundation(pressure_pa, self.freq_hz(mode))
 
     def modal_load(self, pressure_pa, mode: int = 1) -> tuple[np.ndarray, np.ndarray]:
-        """(kappa N/m^2, gamma N s/m^2) of a uniform pressure over the coverage."""
+        """(kappa N/m^2, gamma N s/m^2) of a uniform pressure over the coverage.
+
+        kappa = b k_e A_x / A_L, gamma = b c_e A_x / A_L; kappa carries the sign of k_e (the
+        dynamic layer's mass-like, negative k_e enters eq. 10 as it is).
+        """
         k_e, c_e = self.foundation(pressure_pa, mode)
-        return self.element.modal_load(k_e, c_e, mode, self.coverage)
+        b_ratio = self.element.params.width_m * self.element.coverage_ratio(mode, self.coverage)
+        return b_ratio * k_e, b_ratio * c_e
 
     def output(self, pressure_pa, mode: int = 1) -> np.ndarray:
         """Normalized output V_1 (eq. 19, dimensionless) at uniform ``pressure_pa`` (Pa)."""
-        k_e, c_e = self.foundation(pressure_pa, mode)
-        return self.element.normalized_output(k_e, c_e, mode, self.coverage)
+        kappa, gamma = self.modal_load(pressure_pa, mode)
+        return self.element.normalized_output_from_modal(kappa, gamma, mode)
 
     def output_slope(self, pressure_pa, mode: int = 1) -> np.ndarray:
-        """dV_1/dP, 1/Pa (negative): -(S_k dk_e/dP + S_c dc_e/dP), eqs. 20, 21 and the gel's slope."""
+        """dV_1/dP, 1/Pa (negative): -(S_k dk_e/dP + S_c dc_e/dP), eqs. 20, 21 and the gel's slope.
+
+        For the dynamic layer (k_e of either sign) the chain rule is taken on eq. 19 directly:
+        dV/dP = -V (kappa kappa' + omega^2 (gamma + c) gamma') / h^2, h = hypot(kappa, omega (gamma + c)).
+        """
+        if self.gel.layer == "dynamic":
+            kappa, gamma = self.modal_load(pressure_pa, mode)
+            dk, dc = self.gel.foundation_slope(pressure_pa, self.freq_hz(mode))
+            b_ratio = self.element.params.width_m * self.element.coverage_ratio(mode, self.coverage)
+            omega, c = self.element.natural_angular_frequency(mode), self.element.params.damping_n_s_per_m2
+            h2 = kappa**2 + (omega * (gamma + c)) ** 2
+            v = omega * c / np.sqrt(h2)
+            return -v * (kappa * b_ratio * dk + omega**2 * (gamma + c) * b_ratio * dc) / h2
         k_e, c_e = self.foundation(pressure_pa, mode)
         dk, dc = self.gel.foundation_slope(pressure_pa, self.freq_hz(mode))
         s_k = self.element.sensitivity_k(k_e, c_e, mode, self.coverage)

@@ -130,6 +130,9 @@ class GelParams:
         return float(real[0])
 
 
+LAYERS = ("winkler", "dynamic")
+
+
 def check_pressure(pressure_pa) -> np.ndarray:
     """Pressures as a float array; NaN, infinite or negative values raise a ValueError."""
     p = np.asarray(pressure_pa, dtype=float)
@@ -239,6 +242,31 @@ def modulus_ratio(freq_hz, gel: GelParams) -> np.ndarray:
     return ratio
 
 
+def layer_dynamic_stiffness(stretch, freq_hz: float, gel: GelParams, ratio: complex) -> np.ndarray:
+    """Part 5 (option): the gel column's dynamic stiffness per unit area, N/m^3, complex.
+
+    The contacted column (current height h = lambda h0, held at its top by the object, its
+    density rho) is driven at its base by the element: a one-dimensional wave in a layer of
+    complex modulus M = T(lambda) lambda R(omega), so that M / h is exactly the Winkler
+    stiffness K R of part 3 (T = -dP/dlambda).  The force per unit area and displacement is
+
+        Z = M k cot(k h),   k = omega sqrt(rho / M)
+
+    (a clamped-top layer).  Z -> M / h as omega -> 0 (Winkler); above the layer's first
+    resonance Re Z turns negative (the gel's mass moves with the element), and with loss,
+    once the wave dies out within the layer, Z -> j omega sqrt(rho M), the radiation
+    impedance.  cot is evaluated as j (1 + e^(-2jz)) / (1 - e^(-2jz)), which stays finite
+    however lossy the layer (Im z < 0).
+    """
+    lam = np.asarray(stretch, float)
+    omega = 2 * math.pi * float(freq_hz)
+    modulus = gent_tangent_pa(lam, gel) * lam * ratio
+    k = omega * np.sqrt(gel.density_kg_m3 / modulus)
+    z = k * lam * gel.thickness_m
+    inv = np.exp(-2j * z)
+    return modulus * k * (1j * (1 + inv) / (1 - inv))
+
+
 @dataclass(frozen=True)
 class GelState:
     """What the gel is doing at one pressure: the foundation and the model's own limits.
@@ -274,14 +302,19 @@ class GelModel:
         ``reference_freq_hz`` (one complex number, computed once): a scene that needs no
         frequency dependence does not pay for the Prony series per mode.
     reference_freq_hz : the frequency used when ``frequency_dependent`` is False, Hz.
+    layer : "winkler" (parts 1-4, the default) or "dynamic" (part 5: the column's dynamic
+        stiffness instead of its low-frequency limit; k_e may then be negative, mass-like).
     """
 
     params: GelParams = field(default_factory=GelParams)
     frequency_dependent: bool = True
     reference_freq_hz: float = 3768.0
+    layer: str = "winkler"
 
     def __post_init__(self) -> None:
         _check_freq(self.reference_freq_hz, "reference_freq_hz")
+        if self.layer not in LAYERS:
+            raise ValueError(f"unknown gel layer model {self.layer!r}; valid: {', '.join(LAYERS)}")
 
     def state(self, pressure_pa) -> GelState:
         """The gel's :class:`GelState` at pressures ``pressure_pa`` (Pa, arrays allowed)."""
@@ -309,11 +342,16 @@ class GelModel:
         """(k_e N/m^3, c_e N s/m^3) at pressure ``pressure_pa`` (Pa) and drive ``freq_hz`` (Hz).
 
         k_e = phi K Re R(omega), c_e = phi K Im R(omega) / omega  (module docstring, parts 1-4).
-        Both are zero at zero pressure and non-negative everywhere.
+        Both are zero at zero pressure and, for the Winkler layer, non-negative everywhere
+        (the dynamic layer's k_e turns negative above the layer's resonance; c_e >= 0 always).
         """
         f = _check_freq(freq_hz)
-        stiffness = self.state(pressure_pa).stiffness_n_m3
         ratio = complex(self.modulus_ratio(f))
+        if self.layer == "dynamic":
+            state = self.state(pressure_pa)
+            z = state.contact_fraction * layer_dynamic_stiffness(state.stretch, f, self.params, ratio)
+            return z.real, z.imag / (2 * math.pi * f)
+        stiffness = self.state(pressure_pa).stiffness_n_m3
         return stiffness * ratio.real, stiffness * ratio.imag / (2 * math.pi * f)
 
     def foundation_slope(self, pressure_pa, freq_hz) -> tuple[np.ndarray, np.ndarray]:
@@ -325,6 +363,11 @@ class GelModel:
         f = _check_freq(freq_hz)
         gel = self.params
         p = check_pressure(pressure_pa)
+        if self.layer == "dynamic":  # central difference, relative step 1e-6 (1e-9 Pa near 0)
+            h = np.maximum(1e-6 * p, 1e-9)
+            (k1, c1), (k0, c0) = self.foundation(p + h, f), self.foundation(np.maximum(p - h, 0.0), f)
+            width = p + h - np.maximum(p - h, 0.0)
+            return (k1 - k0) / width, (c1 - c0) / width
         lam = stretch_from_pressure(p, gel)
         tangent = gent_tangent_pa(lam, gel)
         stiffness = tangent / gel.thickness_m
