@@ -49,7 +49,17 @@ def run_scenario(
     sim = CoSimulation(config)
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    meta = {"scenario": name, "preset": preset, "overrides": list(overrides), "units": "in column names"}
+    from cosim.controller import PHASES
+    from cosim.loop import _STATUS
+
+    meta = {
+        "scenario": name,
+        "preset": preset,
+        "overrides": list(overrides),
+        "units": "in column names (_s, _m, _n, _pa; v1 and modes dimensionless)",
+        "phase_codes": list(PHASES),
+        "status_codes": list(_STATUS),
+    }
     recorder = Recorder(out / "run", csv=csv, metadata=meta)
     total = math.ceil(config.duration_s / config.physics.control_period_s - 1e-9)
     strip = None

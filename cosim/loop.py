@@ -352,6 +352,5 @@ class CoSimulation:
         return RunResult(self.steps, self.time_s, wall, files, error)
 
 
-#: Readout statuses, recorded as their index.
+#: Readout statuses, recorded as their index (``{side}_status`` columns).
 _STATUS = ("ok", "below_detection", "saturated", "settling")
-STATUSES = _STATUS

@@ -18,7 +18,7 @@ import numpy as np
 from scenarios.config import ObjectConfig, ScenarioConfig
 from sensor.gel import GelParams
 
-from .pads import MODELS_DIR, PAD_NAMES, build_model
+from .pads import MODELS_DIR, build_model
 
 SCENE_FILE = MODELS_DIR / "scene_grasp.xml"
 #: Height of the pad centres above the palm joint's zero, m (gripper.xml: palm at 0.35 m,
@@ -117,11 +117,6 @@ def reset_home(model: mujoco.MjModel, data: mujoco.MjData, config: ScenarioConfi
     data.ctrl[model.actuator("fingers_actuator").id] = HOME_OPENING_M
     mujoco.mj_forward(model, data)
     return {"lift_m": lift, "opening_m": HOME_OPENING_M}
-
-
-def pad_names() -> tuple[str, ...]:
-    """Pad names as the bridge orders them."""
-    return PAD_NAMES
 
 
 def object_height_m(model: mujoco.MjModel, data: mujoco.MjData) -> float:

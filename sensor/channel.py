@@ -145,8 +145,8 @@ class FoundationTable:
     """(k_e, c_e) against pressure for one mode, tabulated in log-log and interpolated.
 
     Below the table's first pressure both are linear in P (the contact fraction is), so the
-    first point's ratio extrapolates exactly.  The interpolation error is what the
-    ``fast`` fidelity presets pay; :func:`FoundationTable.max_relative_error` measures it.
+    first point's ratio extrapolates exactly.  The interpolation error (1e-4 relative,
+    tests/test_channel.py) is what the presets without ``exact_gel`` pay.
     """
 
     def __init__(self, fingertip: Fingertip, mode: int) -> None:
