@@ -50,7 +50,7 @@ def run_scenario(
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     from cosim.controller import PHASES
-    from cosim.loop import _STATUS
+    from cosim.loop import STATUS_CODES
 
     meta = {
         "scenario": name,
@@ -58,7 +58,7 @@ def run_scenario(
         "overrides": list(overrides),
         "units": "in column names (_s, _m, _n, _pa; v1 and modes dimensionless)",
         "phase_codes": list(PHASES),
-        "status_codes": list(_STATUS),
+        "status_codes": list(STATUS_CODES),
     }
     recorder = Recorder(out / "run", csv=csv, metadata=meta)
     total = math.ceil(config.duration_s / config.physics.control_period_s - 1e-9)

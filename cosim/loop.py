@@ -308,7 +308,7 @@ class CoSimulation:
                 abs(float(sensordata[adr])),
                 e.pressure_pa,
                 e.uncertainty_pa,
-                float(_STATUS.index(e.status)),
+                float(STATUS_CODES.index(e.status)),
                 float(r.mode),
                 r.v1,
                 r.v1_true,
@@ -353,4 +353,4 @@ class CoSimulation:
 
 
 #: Readout statuses, recorded as their index (``{side}_status`` columns).
-_STATUS = ("ok", "below_detection", "saturated", "settling")
+STATUS_CODES = ("ok", "below_detection", "saturated", "settling")
