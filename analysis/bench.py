@@ -136,23 +136,32 @@ class _StateLog:
         self.states: list[np.ndarray] = []
         self.stiffness: list[np.ndarray] = []
         self.forcerange: list[np.ndarray] = []
-        apply = sim.bridge.apply_gel_forces
+        self._step = mujoco.mj_step
 
-        def capture(data):  # the gel forces are the last input written before mj_step
-            apply(data)
-            state = np.empty(self.size)
-            mujoco.mj_getState(m, data, state, _STATE)
-            self.states.append(state)
-            self.stiffness.append(m.jnt_stiffness[self.pad_joints].copy())
-            self.forcerange.append(m.actuator_forcerange[self.actuator].copy())
+        def capture(model, data):  # every physics step, whoever calls it: the state it starts from
+            if model is m:
+                state = np.empty(self.size)
+                mujoco.mj_getState(m, data, state, _STATE)
+                self.states.append(state)
+                self.stiffness.append(m.jnt_stiffness[self.pad_joints].copy())
+                self.forcerange.append(m.actuator_forcerange[self.actuator].copy())
+            self._step(model, data)
 
-        sim.bridge.apply_gel_forces = capture
+        self._capture = capture
+
+    def __enter__(self) -> _StateLog:
+        """While inside, every ``mujoco.mj_step`` of the simulation is captured first."""
+        mujoco.mj_step = self._capture
+        return self
+
+    def __exit__(self, *exc) -> None:
+        mujoco.mj_step = self._step
 
     def time_bare(self, repeats: int) -> np.ndarray:
         """Time of one mj_step from each captured state, s, shape (repeats, states)."""
         m = self.sim.model
         d = mujoco.MjData(m)
-        clock = time.perf_counter
+        clock, step = time.perf_counter, self._step
         times = np.empty((repeats, len(self.states)))
         for r in range(repeats):
             for i, (state, stiffness, forcerange) in enumerate(zip(self.states, self.stiffness, self.forcerange, strict=True)):
@@ -160,7 +169,7 @@ class _StateLog:
                 m.jnt_stiffness[self.pad_joints] = stiffness
                 m.actuator_forcerange[self.actuator] = forcerange
                 t0 = clock()
-                mujoco.mj_step(m, d)
+                step(m, d)
                 times[r, i] = clock() - t0
         return times
 
@@ -278,7 +287,8 @@ def bench_case(case: BenchCase, repeats: int = 5, duration_s: float | None = Non
 
     capture = _new_sim(config)
     log = _StateLog(capture)
-    _run(capture)
+    with log:
+        _run(capture)
     # Timed runs and bare passes alternate, so that both see the machine in the same moods.
     walls, step_times, bare_passes = [], [], []
     for _ in range(repeats):

@@ -115,6 +115,7 @@ class CoSimulation:
         self.fingertip = make_fingertip(config)
         self.bridge = PadBridge(self.model, gel=self.fingertip.gel)
         self.dt = config.physics.control_period_s
+        self._gel_every_substep = config.physics.gel_update == "substep"
         self.substeps = config.physics.substeps
         # The element's x runs from its clamped root (palm side) to its free tip (distal);
         # the bridge orders strips from the distal end up, so a profile is reversed.
@@ -226,9 +227,17 @@ class CoSimulation:
 
     def _physics(self) -> None:
         m, d, apply_gel_forces = self.model, self.data, self.bridge.apply_gel_forces
-        for _ in range(self.substeps):
+        if self._gel_every_substep:
+            for _ in range(self.substeps):
+                apply_gel_forces(d)
+                mujoco.mj_step(m, d)
+        else:
+            # The gel's law linearized once per control period: the bridge's tangent stiffness
+            # and offset force make MuJoCo apply -A P(q0) - A P'(q0) (q - q0) at every substep
+            # (implicitly), with no Python in between.
             apply_gel_forces(d)
-            mujoco.mj_step(m, d)
+            for _ in range(self.substeps):
+                mujoco.mj_step(m, d)
         self._check_stable()
         self.time_s += self.dt
         self.steps += 1
