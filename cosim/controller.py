@@ -68,6 +68,34 @@ class Command:
     reason: object = ""
 
 
+_new = object.__new__
+
+
+def make_pad_signal(reading: Reading, estimate: Estimate) -> PadSignal:
+    """``PadSignal(reading, estimate)`` for the per-step path: a frozen dataclass's __init__
+    sets each field through object.__setattr__; this fills the instance's dict at once (the
+    result is an ordinary, equal, frozen instance; tests check it)."""
+    s = _new(PadSignal)
+    s.__dict__.update(reading=reading, estimate=estimate)
+    return s
+
+
+def make_observation(time_s, pads, lift_pos_m, opening_m, lift_force_n, grip_force_n) -> Observation:
+    """``Observation(...)`` for the per-step path (see :func:`make_pad_signal`)."""
+    o = _new(Observation)
+    o.__dict__.update(
+        time_s=time_s, pads=pads, lift_pos_m=lift_pos_m, opening_m=opening_m, lift_force_n=lift_force_n, grip_force_n=grip_force_n
+    )
+    return o
+
+
+def make_command(lift_m, opening_m, grip_force_limit_n, modes, phase, reason) -> Command:
+    """``Command(...)`` for the per-step path (see :func:`make_pad_signal`)."""
+    c = _new(Command)
+    c.__dict__.update(lift_m=lift_m, opening_m=opening_m, grip_force_limit_n=grip_force_limit_n, modes=modes, phase=phase, reason=reason)
+    return c
+
+
 #: Phase names, in order; recorded as their index.
 PHASES = ("approach", "close", "squeeze", "lift", "hold", "place", "release", "done", "fault")
 

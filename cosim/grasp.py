@@ -44,7 +44,7 @@ from dataclasses import dataclass
 from scenarios.config import ControllerConfig
 from sensor import Fingertip
 
-from .controller import Command, Observation
+from .controller import Command, Observation, make_command
 
 #: Friction coefficient the controller designs for (it never knows the object's), -.
 MU_DESIGN = 0.8
@@ -418,4 +418,4 @@ class MultimodeGrasp:
             if obs.opening_m > self.home_opening_m - 0.005:
                 self._enter("done", t)
         self._last_lift_pos = obs.lift_pos_m
-        return Command(self.lift_target, self.opening_target, self.grip_n, modes, self.phase, Why.join(reasons))
+        return make_command(self.lift_target, self.opening_target, self.grip_n, modes, self.phase, Why.join(reasons))

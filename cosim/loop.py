@@ -23,7 +23,7 @@ from scenarios.config import ScenarioConfig
 from sensor import ElementParams, Fingertip, GelModel, SensorElement
 from sensor.channel import Reading, SensorChannel
 
-from .controller import Command, Observation, PadSignal, ScriptedGrasp, phase_index
+from .controller import Command, Observation, PadSignal, ScriptedGrasp, make_observation, make_pad_signal, phase_index
 from .pads import PAD_NAMES, PadBridge
 from .recorder import Recorder
 from .scene import build_scene, finite_state, object_height_m, reset_home
@@ -254,13 +254,13 @@ class CoSimulation:
 
     def _readout(self, readings: list[Reading]) -> dict[str, PadSignal]:
         return {
-            pad: PadSignal(reading, channel.estimate(reading))
+            pad: make_pad_signal(reading, channel.estimate(reading))
             for pad, channel, reading in zip(self.pads, self._channel_list, readings, strict=True)
         }
 
     def _observe(self, signals: dict[str, PadSignal]) -> Observation:
         qpos, force = self._qpos, self._actuator_force
-        return Observation(
+        return make_observation(
             time_s=self.time_s,
             pads=signals,
             lift_pos_m=qpos[self._lift_q],

@@ -348,3 +348,17 @@ def test_a_deep_copy_steps_on_its_own_model_and_data():
     assert twin.data is not sim.data and twin.bridge.model is twin.model
     for _ in range(100):  # interleaved: neither may write into the other's arrays
         assert sim.step() == twin.step()
+
+
+def test_fast_controller_records_equal_their_constructors():
+    from cosim.controller import Command, Observation, PadSignal, make_command, make_observation, make_pad_signal
+
+    r = Reading(2, 0.5, 0.49, 0.1, 1.5, 0.6, True, 3.0, 0.02, 0.4 + 0.3j)
+    e = Estimate(120.0, 3.0, "ok")
+    assert make_pad_signal(r, e) == PadSignal(r, e)
+    args = (1.0, {"left_pad": make_pad_signal(r, e)}, -0.2, 0.03, 4.0, 2.0)
+    assert make_observation(*args) == Observation(*args)
+    args = (-0.2, 0.0, 5.0, {"left_pad": 2}, "lift", "why")
+    assert make_command(*args) == Command(*args)
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        make_command(*args).phase = "hold"
