@@ -23,7 +23,7 @@ from scenarios.config import ScenarioConfig
 from sensor import ElementParams, Fingertip, GelModel, SensorElement
 from sensor.channel import Reading, SensorChannel
 
-from .controller import Command, Observation, PadSignal, ScriptedGrasp, make_observation, make_pad_signal, phase_index
+from .controller import PHASES, Command, Observation, PadSignal, ScriptedGrasp, make_observation, make_pad_signal
 from .pads import PAD_NAMES, PadBridge
 from .recorder import Recorder
 from .scene import build_scene, finite_state, object_height_m, reset_home
@@ -300,7 +300,7 @@ class CoSimulation:
         """The row's values in :attr:`columns` order (all Python floats)."""
         row = [
             self.time_s,
-            float(phase_index(command.phase)) if command.phase else -1.0,
+            _PHASE_INDEX.get(command.phase, -1.0),
             obs.lift_pos_m,
             obs.opening_m,
             obs.grip_force_n,
@@ -317,7 +317,7 @@ class CoSimulation:
                 abs(float(sensordata[adr])),
                 e.pressure_pa,
                 e.uncertainty_pa,
-                float(STATUS_CODES.index(e.status)),
+                _STATUS_INDEX[e.status],
                 float(r.mode),
                 r.v1,
                 r.v1_true,
@@ -346,7 +346,7 @@ class CoSimulation:
             for _ in range(total):
                 values = self.advance()
                 if recorder is not None:
-                    recorder.append_values(values, self.columns)
+                    recorder.append_values(values, self.columns, owned=True)
                 if progress is not None:
                     progress.update(1)
                 if on_step is not None:
@@ -363,3 +363,5 @@ class CoSimulation:
 
 #: Readout statuses, recorded as their index (``{side}_status`` columns).
 STATUS_CODES = ("ok", "below_detection", "saturated", "settling")
+_STATUS_INDEX = {status: float(i) for i, status in enumerate(STATUS_CODES)}
+_PHASE_INDEX = {phase: float(i) for i, phase in enumerate(PHASES)}

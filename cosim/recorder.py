@@ -63,12 +63,13 @@ class Recorder:
         if len(self._chunk) >= self.flush_every:
             self.flush()
 
-    def append_values(self, values, columns=None) -> None:
+    def append_values(self, values, columns=None, owned: bool = False) -> None:
         """Add one row given as its values in column order (the co-simulation's per-step path).
 
         ``columns`` names them; it is needed with the first row (which fixes the columns, as
         in :meth:`append`) and checked against them afterwards (cheaply when it is the same
-        sequence object every time).  The values are copied, so the caller may reuse its list.
+        sequence object every time).  The values are copied, so the caller may reuse its list,
+        unless ``owned``: then the list (of Python floats) is handed over and kept as it is.
         """
         if self._columns is None:
             if columns is None:
@@ -78,7 +79,7 @@ class Recorder:
         elif columns is not None and columns is not self._column_source and list(columns) != self._columns:
             differ = self._column_set ^ set(columns)
             raise ValueError(f"row columns differ from the first row's: {sorted(differ) or 'their order'}")
-        row = list(map(float, values))
+        row = values if owned else list(map(float, values))
         if len(row) != len(self._columns):
             raise ValueError(f"row has {len(row)} values for {len(self._columns)} columns")
         self._chunk.append(row)
