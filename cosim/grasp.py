@@ -97,9 +97,6 @@ class Why:
             return "; ".join(f"{pad}: {why}" for pad, why in self.args)
         return self.template.format(*self.args)
 
-    def __contains__(self, text: str) -> bool:
-        return text in str(self)
-
     @classmethod
     def join(cls, pairs: list) -> Why:
         """'pad: why; pad: why', lazily."""

@@ -7,7 +7,8 @@ cell, Pa) and the time since the last sample, and returns a :class:`Reading`.
 
 Only what the scene asks for is computed: the per-mode tables of (k_e, c_e) against
 pressure are built once per channel, for its modes only, and a sample evaluates the
-active mode alone (plus any modes named in ``shadow_modes``, for plots and tests).
+active mode alone (the other modes' outputs, for plots, are computed after a run from the
+recorded pressures: analysis/run_report.py).
 
 A sample is scalar work (a few table lookups and complex numbers), so it runs on Python
 floats and complex numbers: numpy's per-call overhead on 0-d arrays would cost ten times the
@@ -287,8 +288,6 @@ class SensorChannel:
     noise : whether readings carry noise.
     rng : noise generator.
     exact : evaluate the gel model exactly each sample instead of the tables.
-    shadow_modes : extra modes whose noise-free steady outputs are reported by
-        :meth:`shadow_outputs` (for plots; a real readout cannot see them).
     carrier_samples_per_cycle : carrier samples per drive cycle ("carrier" dynamics).
     """
 
@@ -301,7 +300,6 @@ class SensorChannel:
         noise: bool = True,
         rng: np.random.Generator | None = None,
         exact: bool = False,
-        shadow_modes: Sequence[int] = (),
         carrier_samples_per_cycle: int = 16,
     ) -> None:
         if dynamics not in DYNAMICS:
@@ -330,7 +328,6 @@ class SensorChannel:
         }
         self._rho_a_f, self._c_f = float(self._rho_a), float(self._c)
         self._tau0 = 2.0 * self._rho_a_f / self._c_f  # unloaded envelope time constant, s
-        self.shadow_modes = tuple(shadow_modes)
         self.evaluations = 0  # gel/sensor evaluations, counted for "compute only what is needed" tests
         self.mode = fingertip.modes[0] if mode is None else fingertip._mode(mode)
         # The instrument has been running unloaded before the scene starts: steady, settled.
@@ -560,11 +557,3 @@ class SensorChannel:
     def inverse(self, mode: int) -> ModeInverse:
         """The fast inverse of ``mode`` (its P_min, P_max, sigma)."""
         return self._inverse[mode]
-
-    def shadow_outputs(self, pressure_cells_pa) -> dict[int, float]:
-        """Noise-free steady V_1 of each shadow mode under the profile (not visible to a robot)."""
-        out = {}
-        for m in self.shadow_modes:
-            kappa, gamma = self.modal_load(pressure_cells_pa, m)
-            out[m] = abs(_steady(self._omega[m], self._c, kappa, gamma))
-        return out
