@@ -41,6 +41,7 @@ def _cmd_figures(args: argparse.Namespace) -> int:
 
 
 def _json_safe(value):
+    """Strict JSON (NaN and inf as null): analysis.runner.json_safe, imported when needed."""
     from analysis.runner import json_safe
 
     return json_safe(value)

@@ -466,16 +466,9 @@ def write_report(report: dict, out_dir: Path) -> list[Path]:
     """bench.json and bench.png into ``out_dir``."""
     import json
 
-    def strict(value):  # NaN and inf are not JSON
-        if isinstance(value, float) and not math.isfinite(value):
-            return None
-        if isinstance(value, dict):
-            return {k: strict(v) for k, v in value.items()}
-        if isinstance(value, list | tuple):
-            return [strict(v) for v in value]
-        return value
+    from .runner import json_safe  # NaN and inf are not JSON
 
     out_dir.mkdir(parents=True, exist_ok=True)
     json_path = out_dir / "bench.json"
-    json_path.write_text(json.dumps(strict(report), indent=2) + "\n")
+    json_path.write_text(json.dumps(json_safe(report), indent=2) + "\n")
     return [json_path, plot_report(report, out_dir / "bench.png")]

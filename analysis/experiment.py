@@ -18,6 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from .plotting import new_figure, save_figure
+from .runner import json_safe
 
 
 @dataclass(frozen=True)
@@ -146,8 +147,7 @@ def write_outputs(rows: list[dict], out_dir: Path) -> list[Path]:
         writer.writerows(rows)
     json_path = out_dir / "grasp_range.json"
     units = {"peak_pressure_pa": "Pa", "held_pressure_pa": "Pa", "touch_latency_s": "s", "peak_grip_force_n": "N"}
-    safe = [{k: (None if isinstance(v, float) and not math.isfinite(v) else v) for k, v in r.items()} for r in rows]
-    json_path.write_text(json.dumps({"units": units, "rows": safe}, indent=2) + "\n")
+    json_path.write_text(json.dumps(json_safe({"units": units, "rows": rows}), indent=2) + "\n")
     objects = list(dict.fromkeys(r["object"] for r in rows))
     controllers = list(dict.fromkeys(r["controller"] for r in rows))
     grid = np.zeros((len(objects), len(controllers)))
