@@ -3,8 +3,9 @@
 
     python run_sim.py list                       the registered scenarios
     python run_sim.py run SCENARIO [--set KEY=VALUE ...] [--preset NAME] [--out DIR] [--json] [--csv] [--render]
-                                                 a scenario, headless: summary, plots, recording
-    python run_sim.py experiment grasp-range [--json] [--out DIR] [--preset NAME]
+                                                 a scenario, headless: summary, plots, recording;
+                                                 exit 0 on success, 1 on any other outcome, 2 on bad input
+    python run_sim.py experiment grasp-range [--json] [--out DIR] [--preset NAME] [--set KEY=VALUE ...]
                                                  objects 1 g to 10 kg, multimode vs each mode alone
     python run_sim.py bench [--json] [--out DIR] [--no-presets]
                                                  cost (vs bare mj_step) and each preset's error
@@ -89,26 +90,30 @@ def _cmd_list(args: argparse.Namespace) -> int:
 
 def _cmd_run(args: argparse.Namespace) -> int:
     from analysis.run_report import format_summary
-    from analysis.runner import run_scenario
+    from analysis.runner import default_out_dir, run_scenario
 
-    out = Path(args.out or f"out/{args.scenario}")
+    out = Path(args.out) if args.out else default_out_dir(args.scenario, args.set or [], args.preset)
     report, _ = run_scenario(args.scenario, args.set or [], out, csv=args.csv, render=args.render, quiet=args.json, preset=args.preset)
     if args.json:
         print(json.dumps(_json_safe(report), indent=2))
     else:
         print(format_summary(report))
-    return 1 if report.get("error") else 0
+    # A batch script tells the outcomes apart: 0 success, 1 any other outcome (2: bad input).
+    return 0 if report["success"] else 1
 
 
 def _cmd_experiment(args: argparse.Namespace) -> int:
     from tqdm import tqdm
 
     from analysis.experiment import CONTROLLERS, OBJECTS, format_table, run_grid, write_outputs
-    from analysis.runner import run_scenario
+    from analysis.runner import check_out_dir, run_scenario
 
     if args.name != "grasp-range":
         raise ValueError(f"unknown experiment {args.name!r}; valid experiments: grasp-range")
-    out = Path(args.out or "out/grasp-range")
+    out = check_out_dir(Path(args.out or "out/grasp-range"))
+    import scenarios
+
+    scenarios.get("grasp", list(args.set or ()), args.preset)  # bad overrides stop here, before any run
     counter = iter(range(10**6))
 
     def run_one(overrides: list[str]):
@@ -123,8 +128,9 @@ def _cmd_experiment(args: argparse.Namespace) -> int:
         print(format_table(rows))
         for f in files:
             print(f"wrote {f}")
-    multimode_ok = all(r["success"] for r in rows if r["controller"] == "multimode")
-    return 0 if multimode_ok else 1
+    # Success: multimode carries every object the gripper can, and nothing it cannot.
+    expected = all(r["success"] == r["feasible"] for r in rows if r["controller"] == "multimode")
+    return 0 if expected else 1
 
 
 def _cmd_bench(args: argparse.Namespace) -> int:
@@ -183,7 +189,7 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("run", help="run a scenario headless: summary, plots, recording")
     p.add_argument("scenario", help="scenario name (see 'list')")
     p.add_argument("--set", action="append", metavar="KEY=VALUE", help="override a config value, e.g. object.mass_kg=0.4 (repeatable)")
-    p.add_argument("--out", help="output directory (default: out/SCENARIO)")
+    p.add_argument("--out", help="output directory (default: out/SCENARIO, or out/SCENARIO-<hash> with --set or --preset)")
     p.add_argument("--json", action="store_true", help="print the summary as JSON")
     p.add_argument("--csv", action="store_true", help="also write the recording as CSV")
     p.add_argument("--render", action="store_true", help="save a strip of frames from MuJoCo's offscreen renderer (MUJOCO_GL=egl)")
@@ -230,7 +236,7 @@ def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     try:
         return args.func(args)
-    except (ValueError, FileNotFoundError) as exc:
+    except (ValueError, OSError) as exc:  # bad input, or a file that cannot be read or written
         print(f"error: {exc}", file=sys.stderr)
         return 2
 

@@ -1,10 +1,13 @@
 """Grasp experiments across objects and controllers (``run_sim.py experiment grasp-range``).
 
-Every object of :data:`OBJECTS` is grasped by the multimode controller and by each
+Every object of the catalogue (:data:`scenarios.objects.OBJECTS`: 1 g to 10 kg, crush limits
+from 0.1 N, friction 0.3 to 1.2) is grasped by the multimode controller and by each
 single-mode baseline (``controller.modes=[n]``), with the same controller code and settings
-(never tuned per object).  Each run's outcome is judged by :mod:`analysis.run_report`;
-the table says, per object and controller: success, peak and held pressure, the time from
-first contact to detected touch, mode switches, crushed, slipped, and why a run failed.
+(never tuned per object).  The user's ``--set`` overrides apply to every run, after the
+object's and the controller's.  Each run is judged by the referee (:mod:`analysis.referee`);
+the table says, per object and controller: the outcome and its reason, peak and held pressure,
+the time from first contact to detected touch, mode switches, the peak grip, whether the run
+left the model's valid range, and whether the gripper could physically do it at all.
 """
 
 from __future__ import annotations
@@ -20,6 +23,8 @@ import numpy as np
 from .plotting import new_figure, save_figure
 from .runner import json_safe
 
+G_M_S2 = 9.81
+
 
 @dataclass(frozen=True)
 class TestObject:
@@ -29,24 +34,14 @@ class TestObject:
     overrides: tuple[str, ...]
 
 
-#: From about 1 g to 10 kg, two of them fragile.
-OBJECTS: tuple[TestObject, ...] = (
-    TestObject("tissue-box-1g", ("object.shape=box", "object.mass_kg=0.001", "object.size_m=0.03", "object.friction=0.6")),
-    TestObject("cube-3g", ("object.shape=box", "object.mass_kg=0.003", "object.size_m=0.02", "object.friction=0.8")),
-    # A ripe raspberry crushes at 1-2 N of squeeze between flat plates; 1.5 N here.
-    TestObject(
-        "raspberry-4g",
-        ("object.shape=sphere", "object.mass_kg=0.004", "object.size_m=0.02", "object.friction=0.9", "object.crush_force_n=1.5"),
-    ),
-    TestObject(
-        "egg-60g",
-        ("object.shape=egg", "object.mass_kg=0.06", "object.size_m=0.044", "object.friction=0.6", "object.crush_force_n=25.0"),
-    ),
-    TestObject("box-100g", ("object.shape=box", "object.mass_kg=0.1", "object.size_m=0.04", "object.friction=1.0")),
-    TestObject("can-500g", ("object.shape=cylinder", "object.mass_kg=0.5", "object.size_m=0.06", "object.friction=1.0")),
-    TestObject("block-2kg", ("object.shape=box", "object.mass_kg=2.0", "object.size_m=0.06", "object.friction=1.0")),
-    TestObject("block-10kg", ("object.shape=box", "object.mass_kg=10.0", "object.size_m=0.08", "object.friction=1.0")),
-)
+def _objects() -> tuple[TestObject, ...]:
+    from scenarios import OBJECTS, object_overrides
+
+    return tuple(TestObject(name, tuple(object_overrides(name))) for name in OBJECTS)
+
+
+#: The catalogue's objects, as overrides.
+OBJECTS: tuple[TestObject, ...] = _objects()
 
 #: The controllers compared: the multimode one and each mode alone.
 CONTROLLERS: tuple[tuple[str, tuple[str, ...]], ...] = (
@@ -60,7 +55,10 @@ CONTROLLERS: tuple[tuple[str, tuple[str, ...]], ...] = (
 COLUMNS = (
     "object",
     "controller",
+    "outcome",
+    "reason",
     "success",
+    "feasible",
     "crushed",
     "slipped",
     "lifted",
@@ -69,55 +67,60 @@ COLUMNS = (
     "touch_latency_s",
     "mode_switches",
     "peak_grip_force_n",
-    "why",
+    "outside_model",
 )
 
 
-def why_failed(row: dict, events: list[dict]) -> str:
-    """A short reason for a failed run, from the outcome and the controller's events."""
-    if row["success"]:
-        return ""
-    reasons = []
-    if row["crushed"]:
-        reasons.append("crushed")
-    kinds = {e["kind"]: e["message"] for e in events}
-    for kind in ("self_test", "out_of_range", "no_object", "blind", "lost", "saturated"):
-        if kind in kinds:
-            reasons.append(f"{kind}: {kinds[kind]}")
-    if row["slipped"]:
-        reasons.append("slipped")
-    if not row["lifted"]:
-        reasons.append("not lifted")
-    return "; ".join(reasons) or "hold not completed"
+def feasible(obj, finger_force_limit_n: float = 100.0) -> tuple[bool, str]:
+    """Whether any controller could carry ``obj``: holding its weight needs m g / (2 mu) per
+    finger, which must fit under the fingers' force limit and the object's crush limit."""
+    need = obj.mass_kg * G_M_S2 / (2.0 * obj.friction)
+    limit = min(finger_force_limit_n, obj.crush_force_n if obj.crush_force_n is not None else math.inf)
+    if need <= limit:
+        return True, ""
+    return False, f"holding it needs {need:.3g} N per finger, over the {limit:.3g} N allowed"
 
 
-def run_grid(run_one, objects=OBJECTS, controllers=CONTROLLERS, base_overrides: tuple[str, ...] = (), progress=None) -> list[dict]:
-    """Run every (object, controller); ``run_one(overrides) -> (summary dict, data dict)``."""
+def run_grid(run_one, objects=None, controllers=CONTROLLERS, base_overrides: tuple[str, ...] = (), progress=None) -> list[dict]:
+    """Run every (object, controller); ``run_one(overrides) -> (summary dict, data dict)``.
+
+    ``base_overrides`` (the user's ``--set``) come last, so they win over the object's and the
+    controller's own settings.
+    """
+    objects = OBJECTS if objects is None else objects
     rows = []
     for obj in objects:
         for ctrl_name, ctrl_overrides in controllers:
-            summary, data = run_one([*base_overrides, *obj.overrides, *ctrl_overrides])
+            summary, data = run_one([*obj.overrides, *ctrl_overrides, *base_overrides])
             held = data["phase"] == 4.0 if data else np.zeros(0, bool)
             pads = [k.removesuffix("_true_pressure_pa") for k in data if k.endswith("_true_pressure_pa")] if data else []
             true_p = np.max([data[f"{p}_true_pressure_pa"] for p in pads], axis=0) if pads else np.zeros(0)
             contact = np.nonzero(true_p > 0.5)[0]
             contact_t = float(data["time_s"][contact[0]]) if contact.size else math.nan
             touch_t = summary.get("touch_time_s", math.nan)
-            row = {
-                "object": obj.name,
-                "controller": ctrl_name,
-                "success": summary["success"],
-                "crushed": summary["crushed"],
-                "slipped": summary["slipped"],
-                "lifted": summary["lifted"],
-                "peak_pressure_pa": summary["max_pressure_pa"],
-                "held_pressure_pa": float(np.mean(true_p[held])) if held.any() else math.nan,
-                "touch_latency_s": touch_t - contact_t if math.isfinite(touch_t) and math.isfinite(contact_t) else math.nan,
-                "mode_switches": summary["mode_switches"],
-                "peak_grip_force_n": summary["peak_grip_force_n"],
-            }
-            row["why"] = why_failed(row, summary.get("events", []))
-            rows.append(row)
+            from scenarios.config import ObjectConfig
+
+            simulated = ObjectConfig(**{k: summary["object"][k] for k in ("shape", "mass_kg", "size_m", "friction", "crush_force_n")})
+            ok, why_not = feasible(simulated)
+            rows.append(
+                {
+                    "object": obj.name,
+                    "controller": ctrl_name,
+                    "outcome": summary["outcome"],
+                    "reason": summary["reason"] + (f" (infeasible: {why_not})" if not ok else ""),
+                    "success": summary["success"],
+                    "feasible": ok,
+                    "crushed": summary["crushed"],
+                    "slipped": summary["slipped"],
+                    "lifted": summary["lifted"],
+                    "peak_pressure_pa": summary["max_pressure_pa"],
+                    "held_pressure_pa": float(np.mean(true_p[held])) if held.any() else math.nan,
+                    "touch_latency_s": touch_t - contact_t if math.isfinite(touch_t) and math.isfinite(contact_t) else math.nan,
+                    "mode_switches": summary["mode_switches"],
+                    "peak_grip_force_n": summary["peak_grip_force_n"],
+                    "outside_model": "; ".join(summary.get("outside_model", [])),
+                }
+            )
             if progress is not None:
                 progress.update(1)
     return rows
@@ -125,19 +128,33 @@ def run_grid(run_one, objects=OBJECTS, controllers=CONTROLLERS, base_overrides: 
 
 def format_table(rows: list[dict]) -> str:
     """The experiment's table as text."""
-    head = f"{'object':<16} {'controller':<12} {'ok':<3} {'peak P [Pa]':>11} {'held P [Pa]':>11} {'touch [ms]':>10} {'switch':>6}  why"
+    head = f"{'object':<16} {'controller':<12} {'outcome':<12} {'peak P [Pa]':>11} {'grip [N]':>8} {'touch [ms]':>10} {'sw':>3}  reason"
     lines = [head, "-" * len(head)]
     for r in rows:
         touch = 1e3 * r["touch_latency_s"] if math.isfinite(r["touch_latency_s"]) else math.nan
+        flag = " [outside model]" if r["outside_model"] else ""
         lines.append(
-            f"{r['object']:<16} {r['controller']:<12} {'yes' if r['success'] else 'NO':<3} {r['peak_pressure_pa']:>11.3g}"
-            f" {r['held_pressure_pa']:>11.3g} {touch:>10.1f} {r['mode_switches']:>6}  {r['why']}"
+            f"{r['object']:<16} {r['controller']:<12} {r['outcome']:<12} {r['peak_pressure_pa']:>11.3g} {r['peak_grip_force_n']:>8.3g}"
+            f" {touch:>10.1f} {r['mode_switches']:>3}  {r['reason']}{flag}"
         )
     return "\n".join(lines)
 
 
+#: Colour per outcome in the plot.
+_OUTCOME_COLOUR = {
+    "success": "#4caf50",
+    "never_lifted": "#bdbdbd",
+    "blind": "#ffb74d",
+    "timeout": "#ffe082",
+    "slipped": "#ff8a65",
+    "dropped": "#e57373",
+    "crushed": "#b71c1c",
+    "fault": "#7e57c2",
+}
+
+
 def write_outputs(rows: list[dict], out_dir: Path) -> list[Path]:
-    """grasp_range.csv, grasp_range.json and grasp_range.png (success matrix and peak pressures)."""
+    """grasp_range.csv, grasp_range.json and grasp_range.png (outcome matrix and peak pressures)."""
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     csv_path = out_dir / "grasp_range.csv"
@@ -150,28 +167,32 @@ def write_outputs(rows: list[dict], out_dir: Path) -> list[Path]:
     json_path.write_text(json.dumps(json_safe({"units": units, "rows": rows}), indent=2) + "\n")
     objects = list(dict.fromkeys(r["object"] for r in rows))
     controllers = list(dict.fromkeys(r["controller"] for r in rows))
-    grid = np.zeros((len(objects), len(controllers)))
     peak = np.full((len(objects), len(controllers)), np.nan)
-    for r in rows:
-        i, j = objects.index(r["object"]), controllers.index(r["controller"])
-        # green: success; yellow: lifted but the hold failed; red: not lifted or crushed
-        grid[i, j] = 1.0 if r["success"] else (0.5 if r["lifted"] and not r["crushed"] else 0.0)
-        peak[i, j] = r["peak_pressure_pa"]
-    fig, axes = new_figure(1, 2, figsize=(14, 5.5))
+    fig, axes = new_figure(1, 2, figsize=(15, 6.5))
     ax, ax_p = axes[0]
-    ax.imshow(grid, cmap="RdYlGn", vmin=0, vmax=1, aspect="auto")
     for r in rows:
         i, j = objects.index(r["object"]), controllers.index(r["controller"])
-        label = "ok" if r["success"] else ("crushed" if r["crushed"] else ("slipped" if r["slipped"] else "fail"))
-        ax.text(j, i, label, ha="center", va="center", fontsize=8)
+        peak[i, j] = r["peak_pressure_pa"]
+        ax.add_patch(_cell(j, i, _OUTCOME_COLOUR.get(r["outcome"], "white")))
+        label = r["outcome"].replace("_", " ") + ("\n(outside model)" if r["outside_model"] else "")
+        ax.text(j, i, label, ha="center", va="center", fontsize=7)
+    ax.set_xlim(-0.5, len(controllers) - 0.5)
+    ax.set_ylim(len(objects) - 0.5, -0.5)
     ax.set_xticks(range(len(controllers)), controllers, rotation=20)
-    ax.set_yticks(range(len(objects)), objects)
-    ax.set_title("grasp outcome (green: success, red: failed or crushed)")
+    infeasible = {r["object"] for r in rows if not r["feasible"]}
+    ax.set_yticks(range(len(objects)), [f"{o} (infeasible)" if o in infeasible else o for o in objects])
+    ax.set_title("referee's outcome per object and controller (green: success)")
     for j, c in enumerate(controllers):
         ax_p.semilogy(range(len(objects)), peak[:, j], "o-", label=c)
-    ax_p.set_xticks(range(len(objects)), objects, rotation=30)
+    ax_p.set_xticks(range(len(objects)), objects, rotation=40, ha="right")
     ax_p.set(ylabel="peak pressure on the element [Pa]", title="peak pressure per object")
     ax_p.grid(True, which="both", alpha=0.3)
     ax_p.legend(fontsize=8)
     png = save_figure(fig, out_dir / "grasp_range.png")
     return [csv_path, json_path, png]
+
+
+def _cell(x: float, y: float, colour: str):
+    from matplotlib.patches import Rectangle
+
+    return Rectangle((x - 0.5, y - 0.5), 1.0, 1.0, facecolor=colour, edgecolor="white")

@@ -1,16 +1,4 @@
-"""A run's outcome, summary and plots, computed from its recording.
-
-The referee here uses ground truth the controller never sees (the object's height, the
-contact forces); its criteria, stated once:
-
-- lifted: during the hold (or, without one, at some time) the object is at least
-  ``LIFT_FRACTION`` of the commanded lift height above where it started;
-- slipped: during the hold the object moved down relative to the gripper by more than
-  ``SLIP_TOLERANCE_M``;
-- crushed: a fragile object's grip (the larger finger's contact force) exceeded its
-  ``crush_force_n`` at any time;
-- success: lifted, the hold completed, not slipped, not crushed, no error.
-"""
+"""A run's summary and plot, computed from its recording; the outcome is the referee's (analysis.referee)."""
 
 from __future__ import annotations
 
@@ -19,15 +7,12 @@ from pathlib import Path
 
 import numpy as np
 
-from cosim.controller import PHASES
 from cosim.loop import coverage_cells
-from scenarios.config import ScenarioConfig
+from scenarios.config import ObjectConfig, ScenarioConfig
 from sensor import Fingertip
 
 from .plotting import new_figure, save_figure
-
-LIFT_FRACTION = 0.8
-SLIP_TOLERANCE_M = 0.005
+from .referee import judge, outside_model
 
 
 def _finite_max(values: np.ndarray) -> float:
@@ -35,34 +20,10 @@ def _finite_max(values: np.ndarray) -> float:
     return float(finite.max()) if finite.size else 0.0
 
 
-def outcome(config: ScenarioConfig, data: dict[str, np.ndarray], error: str | None = None) -> dict:
-    """Lifted, slipped, crushed and success of a recorded run (criteria in the module docstring)."""
-    if not data or data["time_s"].size == 0:
-        return {"lifted": False, "slipped": False, "crushed": False, "success": False, "held_s": 0.0}
-    height = data["object_height_m"]
-    phase = data["phase"]
-    hold = phase == PHASES.index("hold")
-    # Held up: judged during the hold (the multimode controller puts the object back after it).
-    raised = height[hold] if hold.any() else height
-    lifted = bool(np.max(raised) - height[0] >= LIFT_FRACTION * config.controller.lift_height_m)
-    held_s = float(hold.sum() * np.median(np.diff(data["time_s"]))) if hold.sum() > 1 else 0.0
-    slipped = False
-    if hold.any():
-        relative = height[hold] - data["lift_m"][hold]
-        slipped = bool(relative[0] - relative.min() > SLIP_TOLERANCE_M)
-    crush = config.object.crush_force_n
-    grip_true = np.maximum(data.get("left_contact_force_n", 0.0), data.get("right_contact_force_n", 0.0))
-    crushed = bool(crush is not None and np.max(grip_true) > crush)
-    hold_done = held_s >= config.controller.hold_s - 1e-6 or bool((phase >= PHASES.index("release")).any() and hold.any())
-    success = bool(lifted and hold_done and not slipped and not crushed and error is None)
-    return {
-        "lifted": lifted,
-        "slipped": slipped,
-        "crushed": crushed,
-        "success": success,
-        "held_s": held_s,
-        "peak_grip_force_n": float(np.max(grip_true)),
-    }
+def describe_object(obj: ObjectConfig) -> str:
+    """The object as simulated, in words: '100 g box, 40 mm, friction 1' (+ crush limit)."""
+    text = f"{1e3 * obj.mass_kg:.4g} g {obj.shape}, {1e3 * obj.size_m:.4g} mm, friction {obj.friction:g}"
+    return text + (f", crushes above {obj.crush_force_n:g} N" if obj.crush_force_n is not None else "")
 
 
 def mode_changes(data: dict[str, np.ndarray], pads: tuple[str, ...]) -> tuple[int, list[int]]:
@@ -75,8 +36,16 @@ def mode_changes(data: dict[str, np.ndarray], pads: tuple[str, ...]) -> tuple[in
     return switches, sorted(used)
 
 
-def summary(config: ScenarioConfig, data: dict[str, np.ndarray], wall_time_s: float, files: list[str], error: str | None) -> dict:
-    """The run's JSON summary: scenario, times, steps, lifted, pressures, modes, outcome, files."""
+def summary(
+    config: ScenarioConfig,
+    data: dict[str, np.ndarray],
+    wall_time_s: float,
+    files: list[str],
+    error: str | None,
+    events: list[dict] | None = None,
+    finished: bool = True,
+) -> dict:
+    """The run's JSON summary: scenario, times, steps, pressures, modes, the referee's outcome, files."""
     pads = tuple(config.sensor.pads)
     sim_time = float(data["time_s"][-1]) if data else 0.0
     switches, used = mode_changes(data, pads) if data else (0, [])
@@ -91,12 +60,22 @@ def summary(config: ScenarioConfig, data: dict[str, np.ndarray], wall_time_s: fl
         "max_estimate_pa": max((_finite_max(data[f"{s}_estimate_pa"]) for s in pads), default=0.0) if data else 0.0,
         "mode_switches": switches,
         "modes_used": used,
-        "object": {"shape": config.object.shape, "mass_kg": config.object.mass_kg, "size_m": config.object.size_m},
+        "object": {
+            "shape": config.object.shape,
+            "mass_kg": config.object.mass_kg,
+            "size_m": config.object.size_m,
+            "friction": config.object.friction,
+            "crush_force_n": config.object.crush_force_n,
+            "description": describe_object(config.object),
+        },
         "files": files,
         "error": error,
     }
-    result.update(outcome(config, data, error))
+    c = config.controller
+    verdict = judge(data, c.lift_height_m, c.hold_s, config.object.crush_force_n, events or [], finished, error)
+    result.update(verdict.as_dict())
     result["limits"] = model_limits(config, result["max_pressure_pa"], data, pads)
+    result["outside_model"] = outside_model(result["limits"])
     return result
 
 
@@ -127,10 +106,12 @@ def model_limits(config: ScenarioConfig, max_pressure_pa: float, data: dict[str,
 def format_summary(s: dict) -> str:
     """A readable block of the summary."""
     lines = [
-        f"scenario {s['scenario']}: {s['object']['shape']} {1e3 * s['object']['mass_kg']:.4g} g, {1e3 * s['object']['size_m']:.0f} mm",
+        f"scenario {s['scenario']}: {s['object']['description']}",
+        f"  outcome: {s['outcome'].upper()}: {s['reason']}",
         f"  simulated {s['sim_time_s']:.2f} s in {s['wall_time_s']:.2f} s wall ({s['realtime_factor']:.1f}x real time, {s['steps']} steps)",
-        f"  lifted {s['lifted']}, slipped {s['slipped']}, crushed {s['crushed']}, success {s['success']}"
-        f" (held {s['held_s']:.2f} s, peak grip {s['peak_grip_force_n']:.1f} N)",
+        f"  object rose {1e3 * s['max_rise_m']:.1f} mm, moved {1e3 * s['max_slip_m']:.1f} mm in the fingers, held {s['held_s']:.2f} s,"
+        f" ended {1e3 * (s['object_final_height_m'] - s['object_start_height_m']):+.1f} mm from its start"
+        f" (landing {s['landing_speed_m_s']:.3f} m/s); peak grip {s['peak_grip_force_n']:.3g} N",
         f"  max pad pressure {s['max_pressure_pa']:.4g} Pa (true), {s['max_estimate_pa']:.4g} Pa (largest estimate)",
         f"  modes used {s['modes_used']}, {s['mode_switches']} switches",
     ]
@@ -151,6 +132,8 @@ def format_summary(s: dict) -> str:
             f" PZT bending stress {lim['max_bending_stress_pa'] / 1e6:.1f} MPa"
             f" ({lim['mounting']}){': ' + ', '.join(flags) if flags else ', all within range'}"
         )
+    if s.get("outside_model"):
+        lines.append(f"  OUTSIDE THE MODEL: {'; '.join(s['outside_model'])}")
     if s.get("error"):
         lines.append(f"  STOPPED: {s['error']}")
     lines.extend(f"  wrote {f}" for f in s["files"])
@@ -177,8 +160,11 @@ def per_mode_outputs(fingertip: Fingertip, data: dict[str, np.ndarray], side: st
     return out
 
 
-def plot_run(config: ScenarioConfig, fingertip: Fingertip, data: dict[str, np.ndarray], out_dir: Path) -> Path:
-    """One PNG: pressure (true, estimated), per-mode outputs, active mode, grip force, object height."""
+def plot_run(config: ScenarioConfig, fingertip: Fingertip, data: dict[str, np.ndarray], out_dir: Path, report: dict | None = None) -> Path:
+    """One PNG: pressure (true, estimated), per-mode outputs, active mode, grip force, object height.
+
+    The title names the object as simulated and the referee's outcome (``report``); the phases
+    are shaded on every panel, so the place, release and what followed can be seen."""
     t = data["time_s"]
     fig, axes = new_figure(5, 1, figsize=(10, 13), sharex=True)
     ax_p, ax_v, ax_m, ax_f, ax_h = (row[0] for row in axes)
@@ -196,9 +182,17 @@ def plot_run(config: ScenarioConfig, fingertip: Fingertip, data: dict[str, np.nd
         ax_f.plot(t, data[f"{side}_contact_force_n"], "--", label=f"{side} finger contact (true)")
     if config.object.crush_force_n is not None:
         ax_f.axhline(config.object.crush_force_n, color="red", ls=":", label="crush limit")
+    ax_f.plot(t, np.maximum(data["left_finger_force_n"], data["right_finger_force_n"]), ":", color="k", lw=1, label="grip on object (true)")
     ax_h.plot(t, 1e3 * (data["object_height_m"] - data["object_height_m"][0]), label="object")
     ax_h.plot(t, 1e3 * (data["lift_m"] - data["lift_m"][0]), "--", label="gripper")
-    ax_p.set(ylabel="pressure on element [Pa]", title=f"{config.name}: {config.description}")
+    title = f"{config.name}: {describe_object(config.object)}"
+    if report is not None:
+        title += f"\n{report['outcome'].upper()}: {report['reason']}"
+        if report.get("outside_model"):
+            title += f"\noutside the model: {'; '.join(report['outside_model'])}"
+    ax_p.set_title(title, fontsize=9, color="tab:green" if report is not None and report["success"] else "black")
+    ax_p.set(ylabel="pressure on element [Pa]")
+    _shade_phases(t, data["phase"], (ax_p, ax_v, ax_m, ax_f, ax_h))
     ax_v.set(ylabel="normalized output $V_1$ [-]")
     ax_m.set(ylabel="driven mode [-]")
     ax_m.set_yticks(sorted(config.sensor.modes))
@@ -208,3 +202,19 @@ def plot_run(config: ScenarioConfig, fingertip: Fingertip, data: dict[str, np.nd
         ax.grid(True, alpha=0.3)
         ax.legend(fontsize=7, loc="best")
     return save_figure(fig, Path(out_dir) / "run.png")
+
+
+def _shade_phases(t: np.ndarray, phase: np.ndarray, axes) -> None:
+    """Alternate light bands for the controller's phases, named on the top panel."""
+    from cosim.control import PHASES
+
+    changes = np.flatnonzero(np.diff(phase)) + 1
+    starts = np.concatenate([[0], changes])
+    stops = np.concatenate([changes, [t.size - 1]])
+    for k, (a, b) in enumerate(zip(starts, stops, strict=True)):
+        code = int(phase[a])
+        for ax in axes:
+            if k % 2:
+                ax.axvspan(t[a], t[b], color="0.9", zorder=0)
+        name = PHASES[code] if 0 <= code < len(PHASES) else "?"
+        axes[0].text(0.5 * (t[a] + t[b]), 1.0, name, transform=axes[0].get_xaxis_transform(), ha="center", va="bottom", fontsize=6)

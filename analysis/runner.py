@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import hashlib
 import json
 import math
 from dataclasses import asdict
@@ -21,6 +22,31 @@ def json_safe(value):
     if isinstance(value, (list, tuple)):
         return [json_safe(v) for v in value]
     return value
+
+
+def default_out_dir(name: str, overrides: list[str] | tuple[str, ...] = (), preset: str | None = None) -> Path:
+    """Where a run writes by default: ``out/NAME``, or ``out/NAME-<hash>`` when overrides or a
+    preset change it, so a run with overrides never overwrites another run's folder (the
+    folder's summary.json lists the overrides)."""
+    if not overrides and preset is None:
+        return Path("out") / name
+    key = json.dumps([list(overrides), preset])
+    return Path("out") / f"{name}-{hashlib.sha1(key.encode()).hexdigest()[:8]}"
+
+
+def check_out_dir(out: Path) -> Path:
+    """``out`` as a folder that can be written, or a ValueError naming it and why not."""
+    out = Path(out)
+    if out.exists() and not out.is_dir():
+        raise ValueError(f"--out {str(out)!r} is an existing file, not a folder")
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        probe = out / ".write-test"
+        probe.touch()
+        probe.unlink()
+    except OSError as err:
+        raise ValueError(f"--out {str(out)!r} cannot be written: {err.strerror or err}") from None
+    return out
 
 
 def run_scenario(
@@ -46,10 +72,9 @@ def run_scenario(
     from .run_report import plot_run, summary
 
     config = scenarios.get(name, overrides, preset)
+    out = check_out_dir(Path(out))
     sim = CoSimulation(config)
-    out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
-    from cosim.controller import PHASES
+    from cosim.control import PHASES
     from cosim.loop import STATUS_CODES
 
     meta = {
@@ -73,12 +98,12 @@ def run_scenario(
         result = sim.run(recorder, progress=bar, on_step=strip)
     data = recorder.data()
     files = [str(f) for f in result.files]
+    events = [asdict(e) for e in sim.controller.events]
+    report = summary(config, data, result.wall_time_s, files, result.error, events, sim.controller.finished)
     if data and plot:
-        files.append(str(plot_run(config, sim.fingertip, data, out)))
+        files.append(str(plot_run(config, sim.fingertip, data, out, report)))
     if strip is not None and strip.images:
         files.append(str(strip.save(out / "frames.png")))
-    report = summary(config, data, result.wall_time_s, files, result.error)
-    events = [asdict(e) for e in getattr(sim.controller, "events", [])]
     report["events"] = events
     report["touch_time_s"] = getattr(sim.controller, "touch_time_s", math.nan)
     report["overrides"] = list(overrides)

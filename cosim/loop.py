@@ -23,10 +23,10 @@ from scenarios.config import ScenarioConfig
 from sensor import ElementParams, Fingertip, GelModel, SensorElement
 from sensor.channel import Reading, SensorChannel
 
-from .controller import PHASES, Command, Observation, PadSignal, ScriptedGrasp, make_observation, make_pad_signal
-from .pads import PAD_NAMES, PadBridge
+from .control import Command, Controller, Observation, PadSignal, RobotLimits, ScriptedGrasp, make_observation, make_pad_signal
+from .pads import PAD_NAMES, PAD_SIDES, PadBridge
 from .recorder import Recorder
-from .scene import build_scene, finite_state, object_height_m, reset_home
+from .scene import build_scene, check_reach, finite_state, object_height_m, reset_home, robot_limits
 
 
 class SimulationDiverged(RuntimeError):
@@ -46,21 +46,30 @@ def make_fingertip(config: ScenarioConfig) -> Fingertip:
     return Fingertip(element=element, gel=gel, coverage=coverage, modes=s.modes)
 
 
-def make_controller(config: ScenarioConfig, home: dict[str, float], fingertip: Fingertip, pad_area_m2: float):
+def make_controller(config: ScenarioConfig, robot: RobotLimits, fingertip: Fingertip) -> Controller:
     """The scenario's controller (the multimode one first runs the element's self-test)."""
     c = config.controller
     pads = tuple(f"{p}_pad" for p in config.sensor.pads)
     if c.kind == "scripted":
-        return ScriptedGrasp(c, home["lift_m"], home["opening_m"], pads)
+        return ScriptedGrasp(c, robot, pads)
     from sensor.selftest import damaged, self_test
 
-    from .grasp import MultimodeGrasp
+    from .control import MultimodeGrasp
 
     s = config.sensor
     physical = damaged(fingertip.element, s.damage_stiffness, s.damage_coupling, s.damage_damping)
     report = self_test(physical, healthy=fingertip.element, modes=c.modes, noise=fingertip.noise, rng=np.random.default_rng(s.seed))
     message = None if report.passed else report.message
-    return MultimodeGrasp(c, home["lift_m"], home["opening_m"], pads, fingertip, pad_area_m2, message)
+    return MultimodeGrasp(c, robot, pads, fingertip, message, config.physics.control_period_s)
+
+
+#: After the controller finishes, the recording goes on at least this long, s, and until the
+#: object is at rest (so a drop is recorded), at most REST_MAX_S.
+REST_MIN_S = 0.3
+REST_MAX_S = 3.0
+#: The object is at rest below these speeds: 1 mm/s and 0.05 rad/s.
+REST_SPEED_M_S = 1e-3
+REST_SPIN_RAD_S = 0.05
 
 
 def coverage_cells(strip_edges_m: np.ndarray, coverage: tuple[float, float]) -> tuple[np.ndarray, np.ndarray]:
@@ -114,6 +123,8 @@ class CoSimulation:
         self.home = reset_home(self.model, self.data, config)
         self.fingertip = make_fingertip(config)
         self.bridge = PadBridge(self.model, gel=self.fingertip.gel)
+        self.robot = robot_limits(self.model, self.home, self.bridge.geometry, self.fingertip.gel.params)
+        check_reach(config, self.robot)  # before the sensor's set-up: a bad lift fails fast
         self.dt = config.physics.control_period_s
         self._gel_every_substep = config.physics.gel_update == "substep"
         self.substeps = config.physics.substeps
@@ -139,7 +150,7 @@ class CoSimulation:
             )
             for pad in self.pads
         }
-        self.controller = make_controller(config, self.home, self.fingertip, self.bridge.geometry.pad_area_m2)
+        self.controller = make_controller(config, self.robot, self.fingertip)
         m = self.model
         self._lift_qpos = m.joint("lift_joint").qposadr[0]
         self._finger_qpos = [m.joint(f"{s}_finger_joint").qposadr[0] for s in ("left", "right")]
@@ -150,8 +161,14 @@ class CoSimulation:
         self._start_object_height = object_height_m(m, self.data)
         self._finger_limit = float(m.actuator_forcerange[self._finger_act, 1])
         # Ground truth for the referee and the record (never in the Observation): each
-        # finger's net contact force, world x is the closing direction ("found" then force).
-        self._contact_adr = {pad: m.sensor(f"{pad.removesuffix('_pad')}_finger_contact").adr[0] + 1 for pad in self.pads}
+        # finger's net contact force on the object alone, world x is the closing direction
+        # ("found" then force).
+        self._contact_adr = {pad: m.sensor(f"{pad.removesuffix('_pad')}_object_contact").adr[0] + 1 for pad in self.pads}
+        self._finger_adr = [m.sensor(f"{side}_object_contact").adr[0] + 1 for side in PAD_SIDES]
+        self._table_adr = m.sensor("object_table_contact").adr[0] + 1
+        self._object_dof = m.joint("object_joint").dofadr[0]
+        self._lift_dof = m.joint("lift_joint").dofadr[0]
+        self._lift_from = self._lift_to = float(self.data.ctrl[self._lift_act])
         self._prepare_step()
 
     #: Live views of the model's and data's arrays (see _prepare_step): rebuilt, not copied.
@@ -183,7 +200,9 @@ class CoSimulation:
         self._lift_q, self._finger_q = int(self._lift_qpos), [int(a) for a in self._finger_qpos]
         geometry = self.bridge.geometry
         self._p_stop = float(self.fingertip.gel.pressure_from_indentation(geometry.stop_m)) * (1 - 1e-9)
-        self.columns = ["time_s", "phase", "lift_m", "opening_m", "grip_force_n", "lift_force_n", "object_height_m"]
+        self._object_dof_i, self._lift_dof_i = int(self._object_dof), int(self._lift_dof)
+        self._finger_list, self._table_i = [int(a) for a in self._finger_adr], int(self._table_adr)
+        self.columns = ["time_s", "phase", "lift_m", "opening_m", "grip_force_n", "lift_force_n", *TRUTH_COLUMNS]
         for pad in self.pads:
             side = pad.removesuffix("_pad")
             names = (
@@ -227,17 +246,22 @@ class CoSimulation:
 
     def _physics(self) -> None:
         m, d, apply_gel_forces = self.model, self.data, self.bridge.apply_gel_forces
-        if self._gel_every_substep:
-            for _ in range(self.substeps):
+        # The lift servo interpolates its set-point over the period, as a real servo does
+        # between a controller's set-points: a target that jumped once per period would make
+        # the servo's force ripple by kp v T (10 N at 0.1 m/s) and hide the load it carries.
+        ctrl, act, start = self._ctrl, self._lift_act, self._lift_from
+        delta = (self._lift_to - start) / self.substeps
+        for k in range(1, self.substeps + 1):
+            ctrl[act] = start + k * delta
+            if self._gel_every_substep:
                 apply_gel_forces(d)
-                mujoco.mj_step(m, d)
-        else:
-            # The gel's law linearized once per control period: the bridge's tangent stiffness
-            # and offset force make MuJoCo apply -A P(q0) - A P'(q0) (q - q0) at every substep
-            # (implicitly), with no Python in between.
-            apply_gel_forces(d)
-            for _ in range(self.substeps):
-                mujoco.mj_step(m, d)
+            elif k == 1:
+                # The gel's law linearized once per control period: the bridge's tangent
+                # stiffness and offset force make MuJoCo apply -A P(q0) - A P'(q0) (q - q0) at
+                # every substep (implicitly), with no gel law in Python in between.
+                apply_gel_forces(d)
+            mujoco.mj_step(m, d)
+        self._lift_from = self._lift_to
         self._check_stable()
         self.time_s += self.dt
         self.steps += 1
@@ -267,11 +291,12 @@ class CoSimulation:
             opening_m=qpos[self._finger_q[0]] + qpos[self._finger_q[1]],
             lift_force_n=force[self._lift_act],
             grip_force_n=-force[self._finger_act],
+            lift_vel_m_s=float(self._qvel[self._lift_dof_i]),
         )
 
     def _actuate(self, command: Command) -> None:
         ctrl = self._ctrl
-        ctrl[self._lift_act] = command.lift_m
+        self._lift_to = command.lift_m  # reached over the next period (_physics)
         ctrl[self._finger_act] = command.opening_m
         limit = min(max(command.grip_force_limit_n, 0.0), self._finger_limit)
         forcerange = self._forcerange
@@ -298,16 +323,25 @@ class CoSimulation:
 
     def _record(self, obs: Observation, command: Command, profiles: list[list[float]]) -> list[float]:
         """The row's values in :attr:`columns` order (all Python floats)."""
+        xpos, qvel, sensordata, body = self._xpos, self._qvel, self._sensordata, self._object_body
+        dof = self._object_dof_i
         row = [
             self.time_s,
-            _PHASE_INDEX.get(command.phase, -1.0),
+            float(command.phase),
             obs.lift_pos_m,
             obs.opening_m,
             obs.grip_force_n,
             obs.lift_force_n,
-            float(self._xpos[self._object_body, 2]),
+            # Ground truth (never observed): the object's pose and motion, what touches it.
+            float(xpos[body, 2]),
+            float(xpos[body, 0]),
+            float(xpos[body, 1]),
+            float(qvel[dof + 2]),
+            math.sqrt(float(qvel[dof] ** 2 + qvel[dof + 1] ** 2 + qvel[dof + 2] ** 2)),
+            math.sqrt(float(qvel[dof + 3] ** 2 + qvel[dof + 4] ** 2 + qvel[dof + 5] ** 2)),
+            abs(float(sensordata[self._table_i + 2])),
+            *(abs(float(sensordata[a])) for a in self._finger_list),
         ]
-        sensordata = self._sensordata
         for pad, profile, adr in zip(self.pads, profiles, self._contact_list, strict=True):
             sig = obs.pads[pad]
             r, e = sig.reading, sig.estimate
@@ -332,27 +366,37 @@ class CoSimulation:
     # -- a whole run ---------------------------------------------------------------------
 
     def run(self, recorder: Recorder | None = None, progress=None, max_steps: int | None = None, on_step=None) -> RunResult:
-        """Step until the scenario's duration (or the controller finishes); record every step.
+        """Step until the controller finishes or the scenario's duration runs out; record every step.
 
-        ``on_step(sim)`` is called after every step (e.g. to render frames).  Errors (a
-        divergence, Ctrl-C) stop the run; what was recorded is kept (the recorder is closed in
-        any case) and a divergence's message is in ``RunResult.error`` (a KeyboardInterrupt
+        Once the controller has finished, the recording goes on until the object is at rest
+        (at least ``REST_MIN_S``, at most ``REST_MAX_S``), so a drop after a release is in the
+        record.  ``on_step(sim)`` is called after every step (e.g. to render frames).  Errors
+        (a divergence, Ctrl-C) stop the run; what was recorded is kept (the recorder is closed
+        in any case) and a divergence's message is in ``RunResult.error`` (a KeyboardInterrupt
         propagates after the files are written).
         """
         total = max_steps if max_steps is not None else math.ceil(self.config.duration_s / self.dt - 1e-9)
         start = time.perf_counter()
         error = None
+        tail_min, tail_max = round(REST_MIN_S / self.dt), round(REST_MAX_S / self.dt)
+        finished_at = None
         try:
-            for _ in range(total):
+            step = 0
+            while step < total or (finished_at is not None and max_steps is None):
                 values = self.advance()
+                step += 1
                 if recorder is not None:
                     recorder.append_values(values, self.columns, owned=True)
                 if progress is not None:
                     progress.update(1)
                 if on_step is not None:
                     on_step(self)
-                if getattr(self.controller, "finished", False):
-                    break
+                if finished_at is None and self.controller.finished:
+                    finished_at = step
+                if finished_at is not None:
+                    after = step - finished_at
+                    if after >= tail_max or (after >= tail_min and self.object_at_rest()):
+                        break
         except SimulationDiverged as err:
             error = str(err)
         finally:
@@ -360,8 +404,27 @@ class CoSimulation:
             files = recorder.close() if recorder is not None else []
         return RunResult(self.steps, self.time_s, wall, files, error)
 
+    def object_at_rest(self) -> bool:
+        """Whether the object has stopped moving (ground truth: ends the recording's tail)."""
+        v = self.data.qvel[self._object_dof_i : self._object_dof_i + 6]
+        return bool(np.linalg.norm(v[:3]) < REST_SPEED_M_S and np.linalg.norm(v[3:]) < REST_SPIN_RAD_S)
+
+
+#: The recorded ground truth (the referee's; never in an Observation): the object's centre
+#: (m), its vertical velocity, speed and spin (m/s, rad/s), the table's vertical push on it and
+#: each finger's net contact force (N).
+TRUTH_COLUMNS = (
+    "object_height_m",
+    "object_x_m",
+    "object_y_m",
+    "object_vz_m_s",
+    "object_speed_m_s",
+    "object_spin_rad_s",
+    "table_force_n",
+    "left_finger_force_n",
+    "right_finger_force_n",
+)
 
 #: Readout statuses, recorded as their index (``{side}_status`` columns).
 STATUS_CODES = ("ok", "below_detection", "saturated", "settling")
 _STATUS_INDEX = {status: float(i) for i, status in enumerate(STATUS_CODES)}
-_PHASE_INDEX = {phase: float(i) for i, phase in enumerate(PHASES)}

@@ -15,17 +15,19 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
-from scenarios.config import ObjectConfig, ScenarioConfig
+from scenarios.config import RATED_MASS_KG, ObjectConfig, ScenarioConfig
 from sensor.gel import GelParams
 
-from .pads import MODELS_DIR, build_model
+from .control.interface import RobotLimits
+from .pads import MODELS_DIR, PadGeometry, build_model
 
 SCENE_FILE = MODELS_DIR / "scene_grasp.xml"
 #: Height of the pad centres above the palm joint's zero, m (gripper.xml: palm at 0.35 m,
 #: pad centres 70 mm below it).
 PAD_CENTRE_AT_ZERO_LIFT_M = 0.28
-#: Half the pad's length along z, m, and the clearance kept between pad and table, m.
-PAD_HALF_LENGTH_M = 0.01
+#: How far the finger reaches below the pad centre, m (gripper.xml: the finger link's collision
+#: box runs from 12 mm below the pad centre), and the clearance kept between it and the table, m.
+FINGER_BELOW_PAD_CENTRE_M = 0.012
 TABLE_CLEARANCE_M = 0.002
 #: Opening between the unloaded pad surfaces at home, m (the fingers' stroke is 0-100 mm).
 HOME_OPENING_M = 0.09
@@ -63,8 +65,8 @@ def object_shape(obj: ObjectConfig) -> ObjectShape:
 
 
 def grasp_height_m(obj: ObjectConfig) -> float:
-    """Height of the pad centres for the grasp, m: the object's centre, the pads clear of the table."""
-    return max(object_shape(obj).rest_height_m, PAD_HALF_LENGTH_M + TABLE_CLEARANCE_M)
+    """Height of the pad centres for the grasp, m: the object's centre, the finger clear of the table."""
+    return max(object_shape(obj).rest_height_m, FINGER_BELOW_PAD_CENTRE_M + TABLE_CLEARANCE_M)
 
 
 def _edit_object(obj: ObjectConfig):
@@ -101,6 +103,41 @@ def build_scene(config: ScenarioConfig, gel: GelParams | None = None) -> mujoco.
     )
     model.opt.integrator = _INTEGRATORS[phys.integrator]
     return model
+
+
+def robot_limits(model: mujoco.MjModel, home: dict[str, float], geometry: PadGeometry, gel: GelParams | None = None) -> RobotLimits:
+    """The gripper's limits and servo gains as the compiled model has them (never typed again)."""
+    lift, fingers = model.actuator("lift_actuator"), model.actuator("fingers_actuator")
+    joint = model.joint("left_finger_joint")
+    kp, kv = float(lift.gainprm[0]), float(-lift.biasprm[2])
+    return RobotLimits(
+        lift_kp_n_m=kp,
+        lift_kv_n_s_m=kv,
+        lift_force_limit_n=float(lift.forcerange[1]),
+        lift_range_m=(float(model.joint("lift_joint").range[0]), float(model.joint("lift_joint").range[1])),
+        finger_force_limit_n=float(fingers.forcerange[1]),
+        # The tendon's speed is the opening's; each finger moves at half of it against its
+        # joint's damping, and the servo's own kv acts on the tendon.
+        finger_damping_n_s_m=float(0.5 * model.dof_damping[joint.dofadr[0]] - fingers.biasprm[2]),
+        lift_moving_mass_kg=float(model.body_subtreemass[model.body("palm").id]),
+        pad_area_m2=geometry.pad_area_m2,
+        pad_travel_m=geometry.stop_m,
+        pad_areal_mass_kg_m2=(gel or GelParams()).density_kg_m3 * geometry.gel_thickness_m,
+        min_load_n=RATED_MASS_KG[0] * float(-model.opt.gravity[2]),
+        home_lift_m=home["lift_m"],
+        home_opening_m=home["opening_m"],
+    )
+
+
+def check_reach(config: ScenarioConfig, robot: RobotLimits) -> None:
+    """Refuse a lift the lift joint cannot make, naming its range and the most it allows here."""
+    lo, hi = robot.lift_range_m
+    top = robot.home_lift_m + config.controller.lift_height_m
+    if top > hi:
+        raise ValueError(
+            f"controller.lift_height_m {config.controller.lift_height_m!r} m takes the lift to {top:.3g} m, beyond the lift joint's "
+            f"range [{lo:g}, {hi:g}] m: at most {hi - robot.home_lift_m:.3g} m for this object"
+        )
 
 
 def reset_home(model: mujoco.MjModel, data: mujoco.MjData, config: ScenarioConfig) -> dict[str, float]:

@@ -38,8 +38,10 @@ def get(name: str, overrides: list[str] | None = None, preset: str | None = None
 
 
 from . import library  # noqa: E402,F401  (registers the scenarios)
+from .objects import OBJECTS, get_object, object_overrides  # noqa: E402
 
 __all__ = [
+    "OBJECTS",
     "PRESETS",
     "ControllerConfig",
     "ObjectConfig",
@@ -47,7 +49,9 @@ __all__ = [
     "ScenarioConfig",
     "SensorConfig",
     "get",
+    "get_object",
     "names",
+    "object_overrides",
     "register",
     "valid_keys",
 ]

@@ -23,6 +23,12 @@ CONTROLLERS = ("scripted", "multimode")
 #: The physics timesteps tested stable with the discrete integrator (tests/test_extremes.py): 0.1 ms
 #: (smaller only costs time) to 20 ms (the pads' contact time constant, 2 steps, is then 40 ms).
 MIN_TIMESTEP_S = 1e-5
+#: The gripper's rated payload, kg: 10 kg is what its 100 N fingers hold at friction 1 with a 2x
+#: margin and its 300 N lift raises at 1 g (models/gripper.xml); 1 g is the lightest object the
+#: pads' contact model is validated for (the squeeze test, models/README.md).
+RATED_MASS_KG = (0.001, 10.0)
+#: Friction coefficients the contact model is meant for: from ice on steel (0.05) to rubber (2).
+FRICTION_RANGE = (0.05, 2.0)
 MAX_TIMESTEP_S = 0.02
 
 
@@ -55,6 +61,12 @@ class ObjectConfig:
         if not 0.012 <= self.size_m <= 0.085:
             raise ValueError(f"object.size_m must be within 12-85 mm (the open gripper spans 90 mm), got {self.size_m!r}")
         _positive("object.friction", self.friction)
+        lo, hi = RATED_MASS_KG
+        if not lo <= self.mass_kg <= hi:
+            raise ValueError(f"object.mass_kg must be within the gripper's rated {lo:g}-{hi:g} kg, got {self.mass_kg!r}")
+        lo, hi = FRICTION_RANGE
+        if not lo <= self.friction <= hi:
+            raise ValueError(f"object.friction must be within {lo:g}-{hi:g} (dry contacts, from ice to rubber), got {self.friction!r}")
         if self.crush_force_n is not None:
             _positive("object.crush_force_n", self.crush_force_n)
 
@@ -161,6 +173,8 @@ class SensorConfig:
             raise ValueError(f"sensor.carrier_samples_per_cycle must be an integer in 4..256, got {self.carrier_samples_per_cycle!r}")
         for name in ("damage_stiffness", "damage_coupling", "damage_damping"):
             _positive(f"sensor.{name}", getattr(self, name))
+        if not self.pads or len(set(self.pads)) != len(self.pads):
+            raise ValueError(f"sensor.pads must name one or both pads (left, right) once each, got {list(self.pads)!r}")
         for pad in self.pads:
             _one_of("sensor.pads", pad, ("left", "right"))
         if not self.modes or any(not isinstance(m, int) or not 1 <= m <= 30 for m in self.modes):
@@ -174,19 +188,63 @@ class SensorConfig:
 
 @dataclass(frozen=True)
 class ControllerConfig:
-    """The grasp controller.
+    """The grasp controller.  Every number it uses is here, with its derivation.
 
     Attributes
     ----------
-    kind : "scripted" (fixed approach, close, lift, hold) or "multimode" (reads the
+    kind : "scripted" (fixed approach, close, lift, hold, place) or "multimode" (reads the
         sensors, switches mode by pressure range).
     modes : the modes the controller may drive (a subset of sensor.modes); ``[1]`` alone
         makes a single-mode baseline.
     lift_height_m : how far to lift the object, m.
     hold_s : how long to hold it up, s.
     grip_force_n : the scripted controller's grip (the fingers' force limit), N per finger.
-    closing_speed_m_s : how fast the fingers close, m/s (a real parallel gripper: 0.05-0.15).
+    closing_speed_m_s : how fast the fingers close, m/s: 0.02, the slowest setting of common
+        parallel grippers (20-150 mm/s).  The element feels a touch some 10 ms after contact at
+        best (Table I's slow resonator), and the pads press on by about the speed times that
+        delay meanwhile: at 20 mm/s a 0.1 N-fragile object survives the touch, at 40 mm/s it
+        does not (README, "Grasp experiments").
+    opening_speed_m_s : how fast they open on release, m/s (a parallel gripper's tens of mm/s).
     lift_speed_m_s : how fast the object is lifted, m/s.
+    lift_accel_m_s2 : the lift's acceleration once the object is carried, m/s^2: 0.5 adds 5 %
+        of g to the weight, inside the grip's safety margin; it also sets the braking distance
+        v^2 / (2 a) above the table at which placing slows to ``touchdown_speed_m_s``.
+    touchdown_speed_m_s : the last part of the descent when placing, m/s: a fifth of the
+        0.1 m/s at which a landing counts as a drop (analysis.referee), and slow enough that the
+        lift servo (kp 2e4 N/m) adds at most kp v dt = 2 N per 5 ms control period once the
+        table holds the object, so the table's take-over is seen within a period or two.
+    touchdown_margin_m : the descent slows to the touchdown speed this far above the lift's
+        braking distance over where the object rested, m: an object that crept down in the
+        fingers by up to this (a quarter of the 20 mm pad) still lands at the touchdown speed.
+    friction_assumed : friction coefficient the grip starts from (the controller never knows
+        the object's): 0.8, the low end of a silicone film on dry common objects (0.8-1.2,
+        models/gripper.xml).  A lower real friction is measured during the lift (the friction
+        check) and used instead; a higher one only means a grip with more margin.
+    grip_safety : grip over the friction limit, and the factor a slip raises the grip by:
+        1.25, inside the 10-40 % margin people keep (Johansson and Westling 1984, Exp. Brain
+        Res. 56).
+    grip_floor_n : the first, gentlest grip, N per finger; None derives it from the sensor:
+        the lowest pad pressure the lowest allowed mode resolves to 10 % (physics.md section 5's
+        criterion), times the pad's area (cosim.control.multimode.grip_floor_n).
+    max_grip_n : the most grip the task allows, N per finger (e.g. a fragile object's known
+        limit); None: the fingers' force limit, read from the model.
+    grip_rate_n_s : how fast the grip may rise, N/s; None: the finger drive's whole force range
+        in one second (read from the model).
+    load_filter_s : time constant of the low-pass on the lift's load that the grip follows while
+        carrying, s: 0.05, ten control periods and several of the lift servo's kv / kp = 30 ms,
+        so the force spikes of an accelerating object are not ratcheted into the grip.
+    table_load_fraction : placing ends when the lift carries less than this share of the held
+        load: 0.5, the table then carries most of the weight and the object rests on it.
+    slip_pressure_drop : a fingertip's pressure falling by this share of its value while
+        carrying (and by 3 sigma) is a slip: 0.2, far above the estimate's 10 % resolution.
+    lost_s : how long both fingertips must read no load before the object counts as lost, s
+        (ten control periods).
+    hysteresis : fractional band around each switch pressure, against chattering between modes.
+    persist : consecutive saturated / below-detection readings before the mode changes.
+    cusum_drift_sigma, cusum_alarm_sigma : the touch CUSUM's allowance k (half the 1-sigma shift
+        it is tuned to) and threshold h, in sigmas of a reading (Page 1954): h = 8 gives a false
+        alarm rate below one in 1e6 readings while an 8-sigma drop alarms at once.
+    out_of_range_sigma : readings outside [-n sigma, 1 + n sigma] are a sensor fault.
     """
 
     kind: str = "multimode"
@@ -194,30 +252,80 @@ class ControllerConfig:
     lift_height_m: float = 0.05
     hold_s: float = 1.0
     grip_force_n: float = 20.0
-    closing_speed_m_s: float = 0.08
+    closing_speed_m_s: float = 0.02
+    opening_speed_m_s: float = 0.05
     lift_speed_m_s: float = 0.1
+    lift_accel_m_s2: float = 0.5
+    touchdown_speed_m_s: float = 0.02
+    touchdown_margin_m: float = 0.005
+    friction_assumed: float = 0.8
+    grip_safety: float = 1.25
+    grip_floor_n: float | None = None
+    max_grip_n: float | None = None
+    grip_rate_n_s: float | None = None
+    load_filter_s: float = 0.05
+    table_load_fraction: float = 0.5
+    slip_pressure_drop: float = 0.2
+    lost_s: float = 0.05
+    hysteresis: float = 0.25
+    persist: int = 3
+    cusum_drift_sigma: float = 0.5
+    cusum_alarm_sigma: float = 8.0
+    out_of_range_sigma: float = 6.0
 
     def validate(self) -> None:
         _one_of("controller.kind", self.kind, CONTROLLERS)
         if not self.modes:
             raise ValueError("controller.modes must name at least one mode")
-        _positive("controller.lift_height_m", self.lift_height_m)
-        _positive("controller.grip_force_n", self.grip_force_n)
+        for name in (
+            "lift_height_m",
+            "grip_force_n",
+            "closing_speed_m_s",
+            "opening_speed_m_s",
+            "lift_speed_m_s",
+            "lift_accel_m_s2",
+            "touchdown_speed_m_s",
+            "touchdown_margin_m",
+            "friction_assumed",
+            "load_filter_s",
+            "lost_s",
+            "cusum_drift_sigma",
+            "cusum_alarm_sigma",
+            "out_of_range_sigma",
+        ):
+            _positive(f"controller.{name}", getattr(self, name))
+        for name in ("grip_floor_n", "max_grip_n", "grip_rate_n_s"):
+            if getattr(self, name) is not None:
+                _positive(f"controller.{name}", getattr(self, name))
         if self.grip_force_n > 100:
             raise ValueError(f"controller.grip_force_n must be at most the fingers' 100 N force limit, got {self.grip_force_n!r}")
-        _positive("controller.closing_speed_m_s", self.closing_speed_m_s)
-        _positive("controller.lift_speed_m_s", self.lift_speed_m_s)
+        if not self.grip_safety > 1 or not math.isfinite(self.grip_safety):
+            raise ValueError(f"controller.grip_safety must be a number above 1, got {self.grip_safety!r}")
+        for name in ("table_load_fraction", "slip_pressure_drop", "hysteresis"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, (int, float)) or not 0 < value < 1:
+                raise ValueError(f"controller.{name} must be a fraction in (0, 1), got {value!r}")
+        if not isinstance(self.persist, int) or isinstance(self.persist, bool) or self.persist < 1:
+            raise ValueError(f"controller.persist must be an integer >= 1, got {self.persist!r}")
         if self.hold_s < 0 or not math.isfinite(self.hold_s):
             raise ValueError(f"controller.hold_s must be non-negative, got {self.hold_s!r}")
 
 
 @dataclass(frozen=True)
 class ScenarioConfig:
-    """A scenario's whole configuration."""
+    """A scenario's whole configuration.
+
+    Attributes
+    ----------
+    name, description : the registry's name and a line for ``list``.
+    duration_s : the longest the controller may take, s (a run ends earlier when it finishes;
+        the recording then goes on until the object rests, cosim.loop.REST_MIN_S).
+    object, physics, sensor, controller : the parts (their own docstrings).
+    """
 
     name: str
     description: str
-    duration_s: float = 4.0
+    duration_s: float = 12.0
     object: ObjectConfig = field(default_factory=ObjectConfig)
     physics: PhysicsConfig = field(default_factory=PhysicsConfig)
     sensor: SensorConfig = field(default_factory=SensorConfig)

@@ -1,62 +1,57 @@
-"""The registered scenarios, each with its whole configuration in one place."""
+"""The registered scenarios, each with its whole configuration in one place.
+
+Objects come from :mod:`scenarios.objects` (one definition each)."""
 
 from __future__ import annotations
 
 from . import register
-from .config import ControllerConfig, ObjectConfig, ScenarioConfig
+from .config import ScenarioConfig
+from .objects import OBJECTS
 
 
 @register
 def grasp() -> ScenarioConfig:
-    """The default job: grasp a 100 g, 40 mm box, lift it 5 cm, hold it for a second."""
+    """The default job: grasp a 100 g, 40 mm box, lift it 5 cm, hold it for a second, put it back."""
     return ScenarioConfig(
         name="grasp",
-        description="grasp a 100 g box, lift 5 cm, hold 1 s (the README's main job)",
-        object=ObjectConfig(shape="box", mass_kg=0.1, size_m=0.04, friction=1.0),
+        description="grasp a 100 g box, lift 5 cm, hold 1 s, put it back (the README's main job)",
+        object=OBJECTS["box-100g"],
     )
 
 
 @register
 def grasp_light() -> ScenarioConfig:
     """A 3 g, 20 mm cube: the grip must stay gentle and touch must be felt early."""
-    return ScenarioConfig(
-        name="grasp-light",
-        description="grasp a 3 g, 20 mm cube",
-        object=ObjectConfig(shape="box", mass_kg=0.003, size_m=0.02, friction=0.8),
-    )
+    return ScenarioConfig(name="grasp-light", description="grasp a 3 g, 20 mm cube", object=OBJECTS["cube-3g"])
 
 
 @register
 def grasp_fragile() -> ScenarioConfig:
-    """An egg: 60 g, 44 mm across; it cracks above 25 N of grip per finger.
+    """An egg: 60 g, 44 mm across; it cracks above 25 N of grip per finger."""
+    return ScenarioConfig(name="grasp-fragile", description="grasp an egg (60 g, crushes above 25 N per finger)", object=OBJECTS["egg-60g"])
 
-    A hen's egg breaks at 30-50 N between flat plates; 25 N keeps a margin for the
-    concentrated load of a small pad.
-    """
+
+@register
+def grasp_raspberry() -> ScenarioConfig:
+    """A ripe raspberry: 4 g, crushed by 1.5 N; a fixed grip floor of 1 N would come close."""
     return ScenarioConfig(
-        name="grasp-fragile",
-        description="grasp an egg (60 g, crushes above 25 N per finger)",
-        object=ObjectConfig(shape="egg", mass_kg=0.06, size_m=0.044, friction=0.6, crush_force_n=25.0),
+        name="grasp-raspberry", description="grasp a raspberry (4 g, crushes above 1.5 N per finger)", object=OBJECTS["raspberry-4g"]
     )
 
 
 @register
 def grasp_heavy() -> ScenarioConfig:
     """A 0.5 kg, 60 mm upright cylinder (a full drinks can, roughly)."""
-    return ScenarioConfig(
-        name="grasp-heavy",
-        description="grasp a 0.5 kg cylinder",
-        object=ObjectConfig(shape="cylinder", mass_kg=0.5, size_m=0.06, friction=1.0),
-    )
+    return ScenarioConfig(name="grasp-heavy", description="grasp a 0.5 kg cylinder", object=OBJECTS["can-500g"])
+
+
+@register
+def grasp_slippery() -> ScenarioConfig:
+    """A 0.3 kg glass jar at friction 0.3, below the 0.8 the controller assumes."""
+    return ScenarioConfig(name="grasp-slippery", description="grasp a 0.3 kg glass jar (friction 0.3)", object=OBJECTS["glass-jar-300g"])
 
 
 @register
 def grasp_10kg() -> ScenarioConfig:
-    """A 10 kg, 80 mm dense block (tungsten-like): the heaviest load the gripper is rated for."""
-    return ScenarioConfig(
-        name="grasp-10kg",
-        description="grasp a 10 kg dense block",
-        duration_s=5.0,
-        object=ObjectConfig(shape="box", mass_kg=10.0, size_m=0.08, friction=1.0),
-        controller=ControllerConfig(hold_s=1.0),
-    )
+    """A 10 kg, 80 mm dense block: the heaviest load the gripper is rated for."""
+    return ScenarioConfig(name="grasp-10kg", description="grasp a 10 kg dense block", object=OBJECTS["block-10kg"])

@@ -351,7 +351,7 @@ def test_a_deep_copy_steps_on_its_own_model_and_data():
 
 
 def test_fast_controller_records_equal_their_constructors():
-    from cosim.controller import Command, Observation, PadSignal, make_command, make_observation, make_pad_signal
+    from cosim.control import Command, Observation, PadSignal, make_command, make_observation, make_pad_signal
 
     r = Reading(2, 0.5, 0.49, 0.1, 1.5, 0.6, True, 3.0, 0.02, 0.4 + 0.3j)
     e = Estimate(120.0, 3.0, "ok")

@@ -6,6 +6,7 @@ import json
 import pytest
 
 import run_sim
+import scenarios
 from analysis.experiment import COLUMNS, CONTROLLERS, OBJECTS
 
 
@@ -17,20 +18,42 @@ def table(tmp_path_factory):
 
 
 @pytest.mark.slow
-def test_multimode_succeeds_on_every_object_and_each_single_mode_fails_somewhere(table):
+def test_multimode_succeeds_on_every_feasible_object_and_each_single_mode_fails_somewhere(table):
     code, out = table
     assert code == 0
     rows = json.loads((out / "grasp_range.json").read_text())["rows"]
     assert len(rows) == len(OBJECTS) * len(CONTROLLERS)
-    masses = [float(o.overrides[1].split("=")[1]) for o in OBJECTS]
-    assert min(masses) <= 0.001 and max(masses) >= 10.0
-    assert any("crush_force_n" in " ".join(o.overrides) for o in OBJECTS)
+    objects = scenarios.OBJECTS.values()
+    assert min(o.mass_kg for o in objects) <= 0.001 and max(o.mass_kg for o in objects) >= 10.0
+    assert min(o.crush_force_n for o in objects if o.crush_force_n) <= 0.1
+    assert min(o.friction for o in objects) <= 0.3 and max(o.friction for o in objects) >= 1.2
     multimode = [r for r in rows if r["controller"] == "multimode"]
-    assert all(r["success"] for r in multimode), [r for r in multimode if not r["success"]]
+    assert all(r["success"] == r["feasible"] for r in multimode), [r for r in multimode if r["success"] != r["feasible"]]
+    assert any(not r["feasible"] for r in multimode)  # an object no gripper this strong can hold
+    assert all(r["outcome"] != "success" and r["reason"] for r in rows if not r["feasible"])
     for name, _ in CONTROLLERS[1:]:
-        failed = [r for r in rows if r["controller"] == name and not r["success"]]
+        failed = [r for r in rows if r["controller"] == name and r["feasible"] and not r["success"]]
         assert failed, f"{name} succeeded everywhere"
-        assert all(r["why"] for r in failed)  # the table says why
+        assert all(r["reason"] and r["outcome"] != "success" for r in failed)  # the table says why
+
+
+def test_overrides_reach_every_run():
+    """--set applies after the object's and the controller's own settings."""
+    from analysis.experiment import run_grid
+
+    seen = []
+
+    class Seen(Exception):
+        pass
+
+    def run_one(overrides):  # record the first run's overrides, run nothing
+        seen.append(list(overrides))
+        raise Seen
+
+    with pytest.raises(Seen):
+        run_grid(run_one, base_overrides=("object.mass_kg=0.2", "controller.hold_s=0.5"))
+    config = scenarios.get("grasp", seen[0])
+    assert config.object.mass_kg == 0.2 and config.controller.hold_s == 0.5
 
 
 @pytest.mark.slow

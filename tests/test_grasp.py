@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 import scenarios
-from cosim.grasp import HYSTERESIS, ModeSelector, TouchDetector
+from cosim.control import ModeSelector, TouchDetector
 from cosim.loop import make_fingertip
 from sensor.channel import SensorChannel
 
@@ -46,12 +46,12 @@ def test_switch_pressures_come_from_the_readout(tip):
 
 def test_slow_ramp_switches_up_in_order_at_the_switch_pressures(tip):
     pressures = np.geomspace(1.0, 3e5, 6000)
-    records, _sel = drive(tip, pressures)
+    records, sel = drive(tip, pressures)
     switches = [(r[0], r[1], r[2]) for r in records if r[2] != r[1]]
     assert [(a, b) for _, a, b in switches] == [(1, 2), (2, 3), (3, 4)]
     for (p, a, b), s in zip(switches, tip.switch_pressures(), strict=True):
         # Up-switches happen once the estimate passes s (1 + h); the estimate's noise allows 10 %.
-        assert s * (1 + HYSTERESIS) * 0.9 <= p <= s * (1 + HYSTERESIS) * 1.1, (a, b, p, s)
+        assert s * (1 + sel.hysteresis) * 0.9 <= p <= s * (1 + sel.hysteresis) * 1.1, (a, b, p, s)
 
 
 def test_slow_ramp_down_switches_back_in_order(tip):

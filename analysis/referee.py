@@ -1,0 +1,251 @@
+"""The referee: one outcome for a grasp, judged from the physics record as a person watching would.
+
+It reads the simulator's ground truth (the object's position and velocity, the table's and each
+finger's contact force), which no controller ever sees, and the controller's own account (its
+events: give-ups and faults, which explain a failure but never make a success).
+
+Outcomes, in the order they are decided (the first that applies wins):
+
+``fault``         the simulation diverged, or the controller refused or stopped on a sensor
+                  fault (self-test, a reading out of range);
+``crushed``       a finger pressed harder than the object's crush limit at any time;
+``dropped``       the object fell: it was free (not held by both fingers, not on the table)
+                  above the table, or it landed faster than ``landing_speed_m_s``, or it was let
+                  go and did not come to rest where it started;
+``slipped``       while carried, the object moved in the fingers by more than
+                  ``slip_tolerance_m``;
+``blind``         the controller gave up because the grip the load needed was more than the
+                  fingertip can measure;
+``never_lifted``  the object never rose to the target height (it never left the table, or
+                  the controller gave up before);
+``timeout``       the controller had not finished when the scenario's time ran out;
+``success``       lifted to the target height, held there for the hold time with slip under
+                  tolerance, put back (resting within ``placed_tolerance_m`` of its starting
+                  height, landing under ``landing_speed_m_s``), released, never crushed.
+
+The run's validity is separate: ``outside_model`` lists where the gel or the element left the
+model's valid range (the outcome stands; the flag says how far to trust it).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+OUTCOMES = ("success", "crushed", "slipped", "dropped", "never_lifted", "blind", "timeout", "fault")
+
+
+@dataclass(frozen=True)
+class Criteria:
+    """What a watcher would call success, stated once.
+
+    Attributes
+    ----------
+    slip_tolerance_m : the most the object may move in the fingers while carried, m (5 mm: a
+        quarter of the 20 mm pad; more and a watcher sees it slide).
+    placed_tolerance_m : a placed object rests within this of its starting height, m; an object
+        higher than this above its start is off the table, m.
+    landing_speed_m_s : the fastest a placed object may meet the table, m/s (0.1 m/s: the speed
+        of a 0.5 mm fall; faster is a drop a watcher hears).
+    rest_speed_m_s : below this speed the object is at rest, m/s.
+    contact_force_n : a finger touches the object when its contact force exceeds this, N.
+    """
+
+    slip_tolerance_m: float = 0.005
+    placed_tolerance_m: float = 0.002
+    landing_speed_m_s: float = 0.1
+    rest_speed_m_s: float = 0.005
+    contact_force_n: float = 1e-6
+
+
+@dataclass(frozen=True)
+class Verdict:
+    """The referee's judgement of one run (lengths m, speeds m/s, forces N, times s)."""
+
+    outcome: str
+    reason: str
+    lifted: bool
+    placed: bool
+    released: bool
+    crushed: bool
+    slipped: bool
+    dropped: bool
+    object_start_height_m: float
+    object_final_height_m: float
+    max_rise_m: float
+    max_slip_m: float
+    landing_speed_m_s: float
+    held_s: float
+    peak_grip_force_n: float
+
+    @property
+    def success(self) -> bool:
+        return self.outcome == "success"
+
+    def as_dict(self) -> dict:
+        d = {k: getattr(self, k) for k in self.__dataclass_fields__}
+        d["success"] = self.success
+        return d
+
+
+def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
+    """(start, stop) index pairs of the True runs of ``mask``."""
+    padded = np.concatenate([[False], mask, [False]])
+    edges = np.flatnonzero(padded[1:] != padded[:-1])
+    return list(zip(edges[::2], edges[1::2], strict=True))
+
+
+def _landing_speed(vz: np.ndarray, table: np.ndarray, after: int) -> float:
+    """Fastest downward speed at which the object met the table after sample ``after``, m/s."""
+    speeds = [0.0]
+    for start, _stop in _runs(table[after:]):
+        i = after + start
+        if i == after:
+            continue  # on the table already at ``after``: not a landing
+        window = vz[max(i - 2, 0) : i + 1]
+        speeds.append(float(max(-window.min(), 0.0)))
+    return max(speeds)
+
+
+def judge(
+    data: dict[str, np.ndarray],
+    lift_height_m: float,
+    hold_s: float,
+    crush_force_n: float | None,
+    events: list[dict] | tuple = (),
+    finished: bool = True,
+    error: str | None = None,
+    criteria: Criteria = Criteria(),
+) -> Verdict:
+    """Judge one recorded run.
+
+    Parameters
+    ----------
+    data : the record's columns: ``time_s``, ``lift_m`` and the ground truth
+        (``object_height_m``, ``object_x_m``, ``object_y_m``, ``object_vz_m_s``,
+        ``object_speed_m_s``, ``table_force_n``, ``left_finger_force_n``,
+        ``right_finger_force_n``).
+    lift_height_m, hold_s : what the controller was asked to do, m and s.
+    crush_force_n : the object's crush limit per finger, N (None: robust).
+    events : the controller's events (dicts with ``kind``, ``message``, ``time_s``).
+    finished : whether the controller finished before the time ran out.
+    error : the message of an error that stopped the run (a divergence), or None.
+    """
+    c = criteria
+    t = np.asarray(data.get("time_s", ()), float)
+    if t.size == 0:
+        return Verdict("fault", error or "nothing was recorded", *([False] * 6), *([float("nan")] * 2), 0.0, 0.0, 0.0, 0.0, 0.0)
+    z = data["object_height_m"]
+    z0 = float(z[0])
+    rise = z - z0
+    dt = float(np.median(np.diff(t))) if t.size > 1 else 0.0
+    left, right = data["left_finger_force_n"], data["right_finger_force_n"]
+    gripped = (left > c.contact_force_n) & (right > c.contact_force_n)
+    touching = (left > c.contact_force_n) | (right > c.contact_force_n)
+    on_table = data["table_force_n"] > c.contact_force_n
+    off_table = rise > c.placed_tolerance_m
+    carried = gripped & off_table
+    max_rise = float(rise.max())
+    lift_tol = c.slip_tolerance_m
+    lifted = max_rise >= lift_height_m - lift_tol
+
+    # Slip: the object's position in the gripper's frame (which only translates, by lift_m).
+    max_slip = 0.0
+    if carried.any():
+        rel = np.stack([data["object_x_m"], data["object_y_m"], z - data["lift_m"]], axis=1)[carried]
+        max_slip = float(np.linalg.norm(rel - rel[0], axis=1).max())
+    slipped = max_slip > c.slip_tolerance_m
+    held_s = float(np.count_nonzero(carried & (rise >= lift_height_m - lift_tol)) * dt)
+
+    # Drops: free above the table (for two samples or more), or a hard landing after lift-off.
+    free = off_table & ~gripped & ~on_table
+    fell = [(a, b) for a, b in _runs(free) if b - a >= 2]
+    first_off = int(np.argmax(off_table)) if off_table.any() else t.size
+    landing = _landing_speed(data["object_vz_m_s"], on_table, first_off) if first_off < t.size else 0.0
+    final_rise = float(rise[-1])
+    at_rest = float(data["object_speed_m_s"][-1]) < c.rest_speed_m_s
+    released = not touching[-1]
+    resting_home = abs(final_rise) <= c.placed_tolerance_m and at_rest and bool(on_table[-1])
+    placed = bool(max_rise > c.placed_tolerance_m and resting_home and landing <= c.landing_speed_m_s)
+    dropped = bool(fell) or landing > c.landing_speed_m_s or (max_rise > c.placed_tolerance_m and released and not resting_home)
+
+    grip = np.maximum(left, right)
+    peak_grip = float(grip.max())
+    crushed = crush_force_n is not None and peak_grip > crush_force_n
+
+    kinds = {e["kind"]: e for e in events}
+
+    def told(*names: str) -> str:
+        for name in names:
+            if name in kinds:
+                return f"{name}: {kinds[name]['message']} (t = {kinds[name]['time_s']:.2f} s)"
+        return ""
+
+    if error is not None:
+        outcome, reason = "fault", error
+    elif crushed:
+        i = int(np.argmax(grip > crush_force_n))
+        outcome, reason = "crushed", f"grip {peak_grip:.3g} N over the object's {crush_force_n:g} N crush limit (first at t = {t[i]:.2f} s)"
+    elif dropped:
+        if fell:
+            a, _b = fell[0]
+            outcome, reason = "dropped", f"fell from {1e3 * rise[a]:.1f} mm above the table at t = {t[a]:.2f} s"
+        elif landing > c.landing_speed_m_s:
+            outcome, reason = "dropped", f"landed at {landing:.2f} m/s (limit {c.landing_speed_m_s:g} m/s)"
+        else:
+            outcome, reason = "dropped", f"let go {1e3 * final_rise:+.1f} mm from its starting height, not resting there"
+        reason += "; " + told("lost") if "lost" in kinds else ""
+    elif slipped:
+        tolerance = f"tolerance {1e3 * c.slip_tolerance_m:g} mm"
+        outcome, reason = "slipped", f"moved {1e3 * max_slip:.1f} mm in the fingers while carried ({tolerance})"
+    elif "self_test" in kinds or "out_of_range" in kinds:
+        outcome, reason = "fault", told("self_test", "out_of_range")
+    elif "blind" in kinds:
+        outcome, reason = "blind", told("blind")
+    elif not lifted:
+        why = told("never_lifted", "no_object", "over_limit", "lost")
+        outcome = "never_lifted"
+        reason = f"rose {1e3 * max_rise:.1f} mm of the {1e3 * lift_height_m:g} mm asked" + (f"; {why}" if why else "")
+    elif not finished:
+        outcome, reason = "timeout", f"the controller had not finished after {t[-1]:.2f} s"
+    elif held_s < hold_s - dt - 1e-9:
+        why = told("over_limit", "lost", "never_lifted")
+        outcome = "slipped" if "over_limit" in kinds else "timeout"
+        reason = f"held {held_s:.2f} s of the {hold_s:g} s asked" + (f"; {why}" if why else "")
+    elif not (placed and released):
+        outcome = "timeout"
+        reason = "not released" if not released else f"not placed: {1e3 * final_rise:+.1f} mm from its starting height"
+    else:
+        outcome, reason = "success", f"lifted {1e3 * max_rise:.1f} mm, held {held_s:.2f} s, placed at {landing:.3f} m/s, released"
+    return Verdict(
+        outcome=outcome,
+        reason=reason,
+        lifted=bool(lifted),
+        placed=placed,
+        released=bool(released),
+        crushed=bool(crushed),
+        slipped=bool(slipped),
+        dropped=bool(dropped),
+        object_start_height_m=z0,
+        object_final_height_m=float(z[-1]),
+        max_rise_m=max_rise,
+        max_slip_m=max_slip,
+        landing_speed_m_s=landing,
+        held_s=held_s,
+        peak_grip_force_n=peak_grip,
+    )
+
+
+def outside_model(limits: dict) -> list[str]:
+    """Where a run left the models' valid range, in words (empty: all within range)."""
+    flags = []
+    if limits.get("gel_beyond_valid_strain"):
+        flags.append(f"gel strain {100 * limits['max_gel_strain']:.0f} % past its law's valid range")
+    if limits.get("bottomed"):
+        flags.append("gel bottomed on the housing")
+    if limits.get("element_on_backstop"):
+        flags.append("element resting on its backstop (readings outside the model)")
+    if limits.get("element_overstressed"):
+        flags.append(f"element overstressed ({limits['max_bending_stress_pa'] / 1e6:.0f} MPa)")
+    return flags

@@ -1,0 +1,202 @@
+"""What a grasp controller sees and commands, and the interface the co-simulation loop calls.
+
+A controller sees only what a real robot has (:class:`Observation`): the fingertip readouts
+(mode, reading, the readout's pressure estimate and its status) and the robot's own joints
+(positions, the lift's velocity, actuator forces) and its own design (:class:`RobotLimits`).
+Never the object's mass, pose or contact forces.  It returns a :class:`Command`: the lift and
+finger targets, the fingers' force limit, the mode each fingertip drives, and why.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Protocol, runtime_checkable
+
+from sensor.channel import Estimate, Reading
+
+from .phases import Phase
+
+
+@dataclass(frozen=True)
+class PadSignal:
+    """One fingertip as the controller sees it: the raw reading and the readout's estimate."""
+
+    reading: Reading
+    estimate: Estimate
+
+
+@dataclass(frozen=True)
+class Observation:
+    """Everything the controller may use at one control step.
+
+    Attributes
+    ----------
+    time_s : time since the start, s.
+    pads : per instrumented pad name ("left_pad", ...), its :class:`PadSignal`.
+    lift_pos_m : lift joint position, m.
+    opening_m : opening between the unloaded pad surfaces, m (finger joints).
+    lift_force_n : the lift actuator's reported force, N (positive up).  Under MuJoCo's
+        ``discrete`` integrator it is off by about kp h v while the lift moves; the multimode
+        controller reads the load from its servo law instead (:meth:`RobotLimits.lift_load_n`).
+    grip_force_n : the fingers actuator's squeeze on each finger, N (positive = squeezing).
+    lift_vel_m_s : lift joint velocity, m/s (the joint's encoder).
+    """
+
+    time_s: float
+    pads: dict[str, PadSignal]
+    lift_pos_m: float
+    opening_m: float
+    lift_force_n: float
+    grip_force_n: float
+    lift_vel_m_s: float = 0.0
+
+
+@dataclass(frozen=True)
+class Command:
+    """Actuator targets and fingertip drive modes for the next control period.
+
+    Attributes
+    ----------
+    lift_m : lift joint target at the end of the next control period, m (the servo interpolates
+        toward it over the period, as a real servo does between set-points).
+    opening_m : finger opening target, m.
+    grip_force_limit_n : the fingers' force limit, N per finger (sets the grip on contact).
+    modes : per instrumented pad, the mode to drive.
+    phase : the controller's phase (a :class:`Phase`; its name with ``str``).
+    reason : why this command (and this mode): ``str(reason)`` reads it in words (it may be
+        formatted lazily; the controller gives one every step).
+    """
+
+    lift_m: float
+    opening_m: float
+    grip_force_limit_n: float
+    modes: dict[str, int] = field(default_factory=dict)
+    phase: Phase = Phase.APPROACH
+    reason: object = ""
+
+
+@dataclass(frozen=True)
+class Event:
+    """Something the controller decided or noticed: time (s), pad, kind, message."""
+
+    time_s: float
+    pad: str
+    kind: str
+    message: str
+
+
+@dataclass(frozen=True)
+class RobotLimits:
+    """The gripper's own design, read from the compiled model (never typed again).
+
+    Attributes
+    ----------
+    lift_kp_n_m, lift_kv_n_s_m : the lift position servo's stiffness (N/m) and damping (N s/m).
+    lift_force_limit_n : the lift actuator's force limit, N.
+    lift_range_m : (low, high) of the lift joint, m.
+    finger_force_limit_n : the fingers actuator's force limit, N per finger.
+    finger_damping_n_s_m : damping the fingers' drive must overcome to move, on the opening
+        tendon, N s/m (joint damping of both fingers plus the servo's kv).
+    lift_moving_mass_kg : the mass the lift moves besides the object (the gripper), kg: its
+        inertia m a is in the servo's force while the lift accelerates.
+    pad_area_m2 : one pad's face, m^2 (grip force = pressure x area for a full-face contact).
+    pad_areal_mass_kg_m2 : the pad's gel mass per area of its face, rho h0, kg/m^2: when the
+        finger accelerates at a, the gel presses its element with rho h0 a.
+    min_load_n : the weight of the lightest object the gripper is rated for, N: a load below it
+        is no object carried.
+    pad_travel_m : how far a pad's gel compresses before its housing stops it, m: with an
+        object between them the fingers cannot close by more than twice this.
+    home_lift_m, home_opening_m : the home targets, m.
+    """
+
+    lift_kp_n_m: float
+    lift_kv_n_s_m: float
+    lift_force_limit_n: float
+    lift_range_m: tuple[float, float]
+    finger_force_limit_n: float
+    finger_damping_n_s_m: float
+    lift_moving_mass_kg: float
+    pad_area_m2: float
+    pad_travel_m: float
+    pad_areal_mass_kg_m2: float
+    min_load_n: float
+    home_lift_m: float
+    home_opening_m: float
+
+    def lift_load_n(self, target_m: float, pos_m: float, vel_m_s: float, accel_m_s2: float = 0.0) -> float:
+        """The load the lift carries, N: its servo's force kp (target - q) - kv q' less the
+        gripper's own inertia m a (all proprioception: the robot knows its servo and its mass)."""
+        return self.lift_kp_n_m * (target_m - pos_m) - self.lift_kv_n_s_m * vel_m_s - self.lift_moving_mass_kg * accel_m_s2
+
+
+@runtime_checkable
+class Controller(Protocol):
+    """What the co-simulation loop calls, once per control period."""
+
+    phase: Phase
+    events: list[Event]
+
+    def step(self, obs: Observation, dt_s: float) -> Command:
+        """The command for the next control period."""
+        ...
+
+    @property
+    def finished(self) -> bool:
+        """True once the controller has nothing more to do (done, or gave up / faulted)."""
+        ...
+
+
+class Why:
+    """A reason, formatted only when read (``str(why)``): a controller gives one every step,
+    and formatting numbers each step would cost more than deciding."""
+
+    __slots__ = ("args", "template")
+
+    def __init__(self, template: str, *args) -> None:
+        self.template, self.args = template, args
+
+    def __str__(self) -> str:
+        if self.template is None:  # a join of (pad, why) pairs
+            return "; ".join(f"{pad}: {why}" for pad, why in self.args)
+        return self.template.format(*self.args)
+
+    @classmethod
+    def join(cls, pairs: list) -> Why:
+        """'pad: why; pad: why', lazily."""
+        why = cls("")
+        why.template, why.args = None, tuple(pairs)
+        return why
+
+
+_new = object.__new__
+
+
+def make_pad_signal(reading: Reading, estimate: Estimate) -> PadSignal:
+    """``PadSignal(reading, estimate)`` for the per-step path: a frozen dataclass's __init__
+    sets each field through object.__setattr__; this fills the instance's dict at once (the
+    result is an ordinary, equal, frozen instance; tests check it)."""
+    s = _new(PadSignal)
+    s.__dict__.update(reading=reading, estimate=estimate)
+    return s
+
+
+def make_observation(time_s, pads, lift_pos_m, opening_m, lift_force_n, grip_force_n, lift_vel_m_s=0.0) -> Observation:
+    """``Observation(...)`` for the per-step path (see :func:`make_pad_signal`)."""
+    o = _new(Observation)
+    o.__dict__.update(
+        time_s=time_s,
+        pads=pads,
+        lift_pos_m=lift_pos_m,
+        opening_m=opening_m,
+        lift_force_n=lift_force_n,
+        grip_force_n=grip_force_n,
+        lift_vel_m_s=lift_vel_m_s,
+    )
+    return o
+
+
+def make_command(lift_m, opening_m, grip_force_limit_n, modes, phase, reason) -> Command:
+    """``Command(...)`` for the per-step path (see :func:`make_pad_signal`)."""
+    c = _new(Command)
+    c.__dict__.update(lift_m=lift_m, opening_m=opening_m, grip_force_limit_n=grip_force_limit_n, modes=modes, phase=phase, reason=reason)
+    return c

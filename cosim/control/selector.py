@@ -1,0 +1,153 @@
+"""Per-fingertip parts of the multimode controller: the mode selector and the touch detector.
+
+:class:`ModeSelector` (one per fingertip) drives the element in the mode best suited to the
+current pressure estimate.  The switch pressures are the fingertip's own (the pressures at
+which the per-mode resolution curves cross, ``Fingertip.switch_pressures`` for the allowed
+modes), never typed-in constants.  It switches up at ``s (1 + h)`` and down at ``s (1 - h)``
+(hysteresis ``h``), also up when the current mode reports saturation and down when it
+reports below-detection (each for ``persist`` consecutive readings), and never while a
+ring-up is settling: a reading taken before the new mode has settled is not trusted, the last
+trusted estimate is held meanwhile.
+
+:class:`TouchDetector` is a one-sided CUSUM (Page 1954) on the drop of the most sensitive
+mode's reading below its unloaded baseline, in sigmas of the reading.
+"""
+
+from __future__ import annotations
+
+import math
+
+from sensor import Fingertip
+
+from .interface import Why
+
+
+class ModeSelector:
+    """Chooses one fingertip's drive mode from its readout, with hysteresis and settling.
+
+    Parameters
+    ----------
+    fingertip : the fingertip model whose switch pressures and limits the selector uses.
+    modes : the allowed modes (a subset of the fingertip's), ascending.
+    hysteresis : fractional band around each switch pressure.
+    persist : consecutive saturated / below-detection readings before acting on them.
+    """
+
+    def __init__(self, fingertip: Fingertip, modes: tuple[int, ...], hysteresis: float = 0.25, persist: int = 3) -> None:
+        self.modes = tuple(sorted(modes))
+        allowed = Fingertip(
+            element=fingertip.element,
+            gel=fingertip.gel,
+            coverage=fingertip.coverage,
+            noise=fingertip.noise,
+            modes=self.modes,
+            rated_pressure_pa=fingertip.rated_pressure_pa,
+            mounting=fingertip.mounting,
+        )
+        self.fingertip = allowed
+        self.bands = allowed.mode_bands()
+        # Switch pressure between consecutive allowed modes (the band edge), Pa.
+        self.switch_pa = {(a[0], b[0]): a[2] for a, b in zip(self.bands, self.bands[1:], strict=False)}
+        self.p_max_pa = {m: allowed.upper_limit(m) for m in self.modes}
+        self.p_min_pa = {m: allowed.detection_limit(m) for m in self.modes}
+        self.hysteresis = hysteresis
+        self.persist = persist
+        self.mode = self.modes[0]
+        self._saturated = 0
+        self._below = 0
+        self.blind = False  # saturated in the highest allowed mode
+        self.estimate_pa = 0.0  # last trusted estimate
+        self.uncertainty_pa = math.nan
+        self.status = "below_detection"  # status of the last trusted estimate
+        self.trusted = True
+
+    def _up(self) -> int | None:
+        i = self.modes.index(self.mode)
+        return self.modes[i + 1] if i + 1 < len(self.modes) else None
+
+    def _down(self) -> int | None:
+        i = self.modes.index(self.mode)
+        return self.modes[i - 1] if i > 0 else None
+
+    def update(self, estimate) -> tuple[int, object]:
+        """Take one readout estimate; return (mode to drive next, why).
+
+        A "settling" estimate (the readout cannot yet tell the new mode's steady reading) is
+        not used: the last trusted estimate is held and no switch is made.
+        """
+        if estimate.status == "settling":
+            self.trusted = False
+            return self.mode, Why("mode {}: settling, holding {:.3g} Pa", self.mode, self.estimate_pa)
+        self.trusted = True
+        self.blind = False
+        status = estimate.status
+        self._saturated = self._saturated + 1 if status == "saturated" else 0
+        self._below = self._below + 1 if status == "below_detection" else 0
+        if status in ("ok", "below_detection") and math.isfinite(estimate.pressure_pa):
+            self.estimate_pa, self.uncertainty_pa, self.status = estimate.pressure_pa, estimate.uncertainty_pa, status
+        up, down = self._up(), self._down()
+        if self._saturated >= self.persist:
+            if up is None:
+                self.blind = True
+                return self.mode, Why(
+                    "mode {}: saturated and no higher mode allowed (blind above {:.3g} Pa)", self.mode, self.p_max_pa[self.mode]
+                )
+            return self._switch(up, f"mode {self.mode} saturated (P > {self.p_max_pa[self.mode]:.3g} Pa)")
+        if self._below >= self.persist and down is not None:
+            return self._switch(down, f"mode {self.mode} below detection (P < {self.p_min_pa[self.mode]:.3g} Pa)")
+        if status == "ok":
+            p = self.estimate_pa
+            if up is not None and p > self.switch_pa[(self.mode, up)] * (1 + self.hysteresis):
+                return self._switch(up, f"P {p:.3g} Pa above switch {self.switch_pa[(self.mode, up)]:.3g} Pa x {1 + self.hysteresis:g}")
+            if down is not None and p < self.switch_pa[(down, self.mode)] * (1 - self.hysteresis):
+                return self._switch(down, f"P {p:.3g} Pa below switch {self.switch_pa[(down, self.mode)]:.3g} Pa x {1 - self.hysteresis:g}")
+        return self.mode, Why("mode {}: {}, P {:.3g} Pa", self.mode, status, self.estimate_pa)
+
+    def _switch(self, mode: int, why: str) -> tuple[int, str]:
+        old, self.mode = self.mode, mode
+        self._saturated = self._below = 0
+        self.trusted = False
+        return mode, f"switch {old} -> {mode}: {why}"
+
+    @property
+    def empty(self) -> bool:
+        """The fingertip reads no load: below detection in its lowest allowed mode."""
+        return self.trusted and self.status == "below_detection" and self.mode == self.modes[0]
+
+
+class TouchDetector:
+    """One-sided CUSUM on the drop of a reading below its unloaded baseline (in sigmas).
+
+    Parameters
+    ----------
+    sigma : one reading's standard deviation, dimensionless (V_1 units).
+    drift_sigma : the CUSUM's allowance k, sigmas (half the smallest shift to detect).
+    alarm_sigma : the CUSUM's threshold h, sigmas.
+    """
+
+    def __init__(self, sigma: float, drift_sigma: float = 0.5, alarm_sigma: float = 8.0) -> None:
+        self.sigma = sigma
+        self.drift_sigma, self.alarm_sigma = drift_sigma, alarm_sigma
+        self.baseline = math.nan
+        self._sum = 0.0
+        self._count = 0
+        self.score = 0.0
+        self.touched = False
+
+    def learn(self, v1: float) -> None:
+        """Add an unloaded reading to the baseline."""
+        self._sum += v1
+        self._count += 1
+        self.baseline = self._sum / self._count
+
+    def rearm(self) -> None:
+        """Forget an alarm (the baseline stays): the next significant drop alarms again."""
+        self.score, self.touched = 0.0, False
+
+    def update(self, v1: float) -> bool:
+        """Take a reading; True once the drop is significant (latched)."""
+        if not self.touched:
+            drop = (self.baseline - v1) / self.sigma
+            self.score = max(0.0, self.score + drop - self.drift_sigma)
+            self.touched = self.score > self.alarm_sigma
+        return self.touched

@@ -1,0 +1,132 @@
+"""Whole grasps judged by the referee: every registered scenario, and the failures a watcher saw."""
+
+import math
+
+import mujoco
+import numpy as np
+import pytest
+
+import scenarios
+from analysis.referee import judge
+from analysis.runner import run_scenario
+from cosim.control import Phase, grip_floor_n
+from cosim.loop import REST_MIN_S, CoSimulation, make_fingertip
+
+
+def grasp(tmp_path, name, *overrides):
+    return run_scenario(name, list(overrides), tmp_path, plot=False, quiet=True)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", scenarios.names())
+def test_every_registered_scenario_is_a_success_a_watcher_would_agree_with(tmp_path, name):
+    summary, data = grasp(tmp_path, name)
+    assert summary["outcome"] == "success", summary["reason"]
+    cfg = scenarios.get(name)
+    rise = data["object_height_m"] - data["object_height_m"][0]
+    assert rise.max() >= cfg.controller.lift_height_m - 0.005
+    assert abs(rise[-1]) <= 0.002 and summary["placed"]
+    # Put down, not dropped: the object met the table slower than 0.1 m/s, and it was still
+    # held by both fingers when it did.
+    assert summary["landing_speed_m_s"] < 0.1
+    done = np.flatnonzero(data["phase"] == Phase.DONE)
+    assert done.size and data["time_s"][-1] - data["time_s"][done[0]] >= REST_MIN_S - 1e-9  # recorded after release
+    assert data["object_speed_m_s"][-1] < 0.005
+    crush = cfg.object.crush_force_n
+    if crush is not None:
+        assert summary["peak_grip_force_n"] < crush
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(
+    "overrides",
+    [
+        # The issue's: a 1 kg cylinder at friction 0.4, below the 0.8 the controller assumes.
+        ("object.mass_kg=1", "object.shape='cylinder'", "object.size_m=0.07", "object.friction=0.4"),
+        # ... and a 0.2 kg egg at 0.6 that used to slide out of the fingers.
+        ("object.mass_kg=0.2", "object.shape='egg'", "object.size_m=0.044", "object.friction=0.6"),
+    ],
+)
+def test_objects_slipperier_than_assumed_are_still_carried(tmp_path, overrides):
+    summary, _ = grasp(tmp_path, "grasp", *overrides)
+    assert summary["outcome"] == "success", summary["reason"]
+    assert any(e["kind"] == "on_table" for e in summary["events"])  # the friction check found it
+
+
+@pytest.mark.slow
+def test_more_than_the_gripper_can_hold_is_a_clear_never_lifted(tmp_path):
+    summary, _ = grasp(tmp_path, "grasp-10kg", "object.friction=0.3")  # needs 164 N per finger
+    assert summary["outcome"] == "never_lifted" and not summary["success"]
+    assert "100 N" in summary["reason"]
+    assert summary["sim_time_s"] < 6.0  # it gave up, it did not run out the clock
+
+
+@pytest.mark.slow
+def test_a_grasp_the_fingertip_cannot_measure_gives_up_blind(tmp_path):
+    summary, _ = grasp(tmp_path, "grasp-heavy", "controller.modes=[1]")
+    assert summary["outcome"] == "blind", summary["reason"]
+    assert summary["sim_time_s"] < 6.0
+
+
+@pytest.mark.slow
+def test_a_lost_object_is_noticed_and_reported(tmp_path):
+    """The pads turn to ice in mid-hold: the box falls; the fingertips notice and the controller stops."""
+    cfg = scenarios.get("grasp")
+    sim = CoSimulation(cfg)
+    rows = []
+    while sim.controller.phase is not Phase.HOLD:
+        rows.append(sim.step())
+    pads = [g for g in range(sim.model.ngeom) if "_pad_" in (mujoco.mj_id2name(sim.model, mujoco.mjtObj.mjOBJ_GEOM, g) or "")]
+    sim.model.geom_friction[pads, 0] = 1e-4
+    t_lost = sim.time_s
+    while not sim.controller.finished and sim.time_s < t_lost + 2.0:
+        rows.append(sim.step())
+    kinds = [e.kind for e in sim.controller.events]
+    assert "lost" in kinds, kinds
+    lost = next(e for e in sim.controller.events if e.kind == "lost")
+    assert lost.time_s - t_lost < 0.5  # not a second of holding an empty gripper
+    assert sim.controller.finished
+    data = {k: np.array([r[k] for r in rows]) for k in rows[0]}
+    verdict = judge(data, cfg.controller.lift_height_m, cfg.controller.hold_s, None, [e.__dict__ for e in sim.controller.events])
+    assert verdict.outcome == "dropped"
+
+
+def test_the_first_squeeze_is_the_gentlest_the_fingertip_resolves():
+    """The grip floor is where the lowest mode resolves 10 % of the pressure (physics.md section 5)."""
+    cfg = scenarios.get("grasp-raspberry")
+    tip = make_fingertip(cfg)
+    area = 4e-4
+    floor = grip_floor_n(tip, 1, area)
+    p = floor / area
+    assert tip.resolution(p, 1) / p == pytest.approx(0.1, rel=0.05)  # the criterion, at the floor
+    assert tip.resolution(0.9 * p, 1) / (0.9 * p) > 0.1  # and not below it
+    assert floor < 0.01  # a hundredth of a newton, a hundredth of the old fixed 1 N floor
+
+
+@pytest.mark.slow
+def test_a_light_fragile_object_is_held_gently(tmp_path):
+    summary, data = grasp(tmp_path, "grasp-raspberry")
+    assert summary["outcome"] == "success"
+    grip = np.maximum(data["left_finger_force_n"], data["right_finger_force_n"])
+    held = data["phase"] == Phase.HOLD
+    weight = 0.004 * 9.81
+    # Held with about what its weight needs (m g / (2 mu) = 0.022 N at mu 0.9) times the safety
+    # factor and the friction check's margin, far under its 1.5 N crush limit.
+    assert np.median(grip[held]) < 10 * weight / (2 * 0.9)
+    assert summary["peak_grip_force_n"] < 0.5 * 1.5
+
+
+@pytest.mark.slow
+def test_fingers_open_at_a_grippers_speed_and_opening_is_not_felt_as_pressure(tmp_path):
+    _, data = grasp(tmp_path, "grasp-light")
+    cfg = scenarios.get("grasp-light").controller
+    release = data["phase"] == Phase.RELEASE
+    t, opening = data["time_s"][release], data["opening_m"][release]
+    speed = np.diff(opening) / np.diff(t)
+    assert speed.max() < 1.3 * cfg.opening_speed_m_s
+    # With no contact, what the pads still press on the element is their own gel's inertia as the
+    # fingers stop: rho h0 a, a ~ v sqrt(kp / m) with the fingers servo (kp 1e4 N/m) and half
+    # the 46 g fingers; twice that is the bound (it was 8 kPa opening at 100 N).
+    free = (data["phase"] >= Phase.RELEASE) & (data["left_finger_force_n"] == 0)
+    bound = 2 * 1000 * 0.005 * cfg.opening_speed_m_s * math.sqrt(1e4 / 0.023)
+    assert data["left_true_pressure_pa"][free].max() < bound

@@ -1,0 +1,149 @@
+"""The referee on records made by hand: one clean grasp, and the same grasp broken one way at a time."""
+
+import numpy as np
+import pytest
+
+from analysis.referee import OUTCOMES, Criteria, judge, outside_model
+
+DT = 0.005
+LIFT = 0.05
+HOLD = 1.0
+Z0 = 0.02  # the object's resting centre height, m
+WEIGHT = 0.98  # N
+
+
+def clean_record() -> dict[str, np.ndarray]:
+    """A grasp as a watcher wants it: squeeze, lift 50 mm, hold 1.2 s, lower (the last 5 mm at
+    0.02 m/s), open, rest."""
+    t = np.arange(0.0, 6.0, DT)
+    lift = np.interp(t, [0, 1.0, 1.5, 2.7, 3.15, 3.4, 6.0], [0, 0, LIFT, LIFT, 0.005, 0, 0])
+    grip = np.interp(t, [0, 0.5, 0.6, 3.3, 3.4, 6.0], [0, 0, 1.0, 1.0, 0, 0])
+    z = Z0 + lift
+    vz = np.gradient(z, t)
+    carried = (lift > 0) & (grip > 0)
+    return {
+        "time_s": t,
+        "lift_m": -0.26 + lift,
+        "object_height_m": z,
+        "object_x_m": np.zeros_like(t),
+        "object_y_m": np.zeros_like(t),
+        "object_vz_m_s": vz,
+        "object_speed_m_s": np.abs(vz),
+        "table_force_n": np.where(carried, 0.0, WEIGHT),
+        "left_finger_force_n": grip.copy(),
+        "right_finger_force_n": grip.copy(),
+    }
+
+
+def verdict(data, **kw):
+    args = {"lift_height_m": LIFT, "hold_s": HOLD, "crush_force_n": None}
+    args.update(kw)
+    return judge(data, **args)
+
+
+def test_a_clean_grasp_is_a_success():
+    v = verdict(clean_record())
+    assert v.outcome == "success", v.reason
+    assert v.lifted and v.placed and v.released and not (v.crushed or v.slipped or v.dropped)
+    assert v.held_s == pytest.approx(1.3, abs=0.02)  # at the height asked, less the 5 mm tolerance
+    assert v.landing_speed_m_s == pytest.approx(0.02, rel=0.05)
+    assert v.object_start_height_m == pytest.approx(Z0) and v.object_final_height_m == pytest.approx(Z0)
+    assert v.as_dict()["success"] is True
+
+
+def test_a_release_in_mid_air_is_dropped():
+    d = clean_record()
+    t = d["time_s"]
+    # The fingers open at the top (t = 2.7 s): the object falls 50 mm, lands at 0.99 m/s.
+    open_at = t >= 2.7
+    d["left_finger_force_n"][open_at] = d["right_finger_force_n"][open_at] = 0.0
+    fall = np.clip(t - 2.7, 0, None)
+    z = np.where(open_at, np.maximum(Z0 + LIFT - 0.5 * 9.81 * fall**2, Z0), d["object_height_m"])
+    d["object_height_m"] = z
+    d["object_vz_m_s"] = np.where(open_at & (z > Z0), -9.81 * fall, np.where(open_at, 0.0, d["object_vz_m_s"]))
+    d["table_force_n"] = np.where(open_at & (z <= Z0), WEIGHT, np.where(open_at, 0.0, d["table_force_n"]))
+    v = verdict(d)
+    assert v.outcome == "dropped", v.reason
+    assert "fell from 50.0 mm" in v.reason
+
+
+def test_an_object_left_on_the_table_never_lifted():
+    d = clean_record()
+    d["object_height_m"][:] = Z0
+    d["object_vz_m_s"][:] = 0.0
+    d["object_speed_m_s"][:] = 0.0
+    d["table_force_n"][:] = WEIGHT
+    v = verdict(d, events=[{"kind": "never_lifted", "message": "the pads slide", "time_s": 1.2}])
+    assert v.outcome == "never_lifted"
+    assert "rose 0.0 mm" in v.reason and "the pads slide" in v.reason
+
+
+def test_a_grip_over_the_crush_limit_is_crushed_even_when_the_rest_went_well():
+    v = verdict(clean_record(), crush_force_n=0.9)
+    assert v.outcome == "crushed" and v.crushed
+    assert verdict(clean_record(), crush_force_n=1.1).outcome == "success"
+
+
+def test_moving_in_the_fingers_beyond_the_tolerance_is_slipped():
+    d = clean_record()
+    t = d["time_s"]
+    sag = np.interp(t, [0, 1.6, 2.4, 6.0], [0, 0, 0.008, 0.008])  # sinks 8 mm in the fingers while held
+    d["object_height_m"] = d["object_height_m"] - sag * (d["lift_m"] > -0.26 + 0.01)
+    v = verdict(d)
+    assert v.outcome == "slipped" and v.max_slip_m > Criteria().slip_tolerance_m
+    # 3 mm, under the 5 mm tolerance, is not a slip.
+    d = clean_record()
+    d["object_height_m"] = d["object_height_m"] - np.interp(t, [0, 1.6, 2.4, 6.0], [0, 0, 0.003, 0.003]) * (d["lift_m"] > -0.25)
+    assert not verdict(d).slipped and verdict(d).max_slip_m == pytest.approx(0.003, rel=0.01)
+
+
+def test_a_landing_faster_than_the_limit_is_dropped():
+    d = clean_record()
+    i = np.flatnonzero(np.diff((d["table_force_n"] > 0).astype(int)) > 0)[-1]  # the touchdown
+    d["object_vz_m_s"][i - 1 : i + 1] = -0.3
+    v = verdict(d)
+    assert v.outcome == "dropped" and v.landing_speed_m_s == pytest.approx(0.3)
+
+
+def test_a_grasp_never_released_is_not_a_success():
+    d = clean_record()
+    d["left_finger_force_n"][-100:] = 0.5
+    d["right_finger_force_n"][-100:] = 0.5
+    v = verdict(d)
+    assert not v.released and v.outcome == "timeout" and "not released" in v.reason
+
+
+def test_controller_reports_explain_but_physics_comes_first():
+    d = clean_record()
+    assert verdict(d, finished=False).outcome == "timeout"
+    assert verdict(d, error="simulation diverged at t = 1 s").outcome == "fault"
+    flat = clean_record()
+    for k in ("object_vz_m_s", "object_speed_m_s"):
+        flat[k][:] = 0.0
+    flat["object_height_m"][:] = Z0
+    flat["table_force_n"][:] = WEIGHT
+    events = [{"kind": "blind", "message": "needs 2 N, measures 1.2 N", "time_s": 1.0}]
+    assert verdict(flat, events=events).outcome == "blind"
+    events = [{"kind": "self_test", "message": "coupling lost", "time_s": 0.0}]
+    assert verdict(flat, events=events).outcome == "fault"
+    # A crushed object is crushed whatever the controller said.
+    assert verdict(d, crush_force_n=0.5, events=events).outcome == "crushed"
+
+
+def test_every_outcome_is_named_and_an_empty_record_is_a_fault():
+    assert set(OUTCOMES) == {"success", "crushed", "slipped", "dropped", "never_lifted", "blind", "timeout", "fault"}
+    assert verdict({"time_s": np.zeros(0)}).outcome == "fault"
+
+
+def test_outside_model_names_each_limit():
+    limits = {
+        "gel_beyond_valid_strain": True,
+        "max_gel_strain": 0.6,
+        "bottomed": True,
+        "element_on_backstop": True,
+        "element_overstressed": False,
+        "max_bending_stress_pa": 2e7,
+    }
+    flags = outside_model(limits)
+    assert len(flags) == 3 and "60 %" in flags[0] and "backstop" in flags[2]
+    assert outside_model({}) == []
