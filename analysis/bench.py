@@ -106,11 +106,11 @@ def _timed_run(config: ScenarioConfig) -> tuple[float, np.ndarray, list[str], ob
     sim = _new_sim(config)
     clock = time.perf_counter
     stamps: list[float] = []
-    phases: list[str] = [str(getattr(sim.controller, "phase", ""))]
+    phases: list[str] = [sim.controller.phase.label]
 
     def stamp(s) -> None:
         stamps.append(clock())
-        phases.append(str(getattr(s.controller, "phase", "")))
+        phases.append(s.controller.phase.label)
 
     wall = _run(sim, on_step=stamp)
     # The first step runs from the run's own start (its wall time counts from there).

@@ -1,12 +1,17 @@
 """The MuJoCo models and the pad mechanics (models/, cosim/pads.py).
 
-* every scene file loads and steps a simulated second from ``home`` without warnings;
-* squeeze test: the pad's force against indentation follows the gel's law A P(d), for objects
-  from 1 g to 10 kg (the contact itself adds no compliance, whatever the object's mass);
+Objects are defined once, in the scenario library (scenarios/library.py); the one scene file,
+models/scene_grasp.xml, holds a placeholder that cosim.scene.build_scene replaces.
+
+* scene_grasp.xml is the only scene file, and its placeholder object is the ``grasp`` scenario's;
+* every registered scenario's scene steps a simulated second from home without warnings;
+* squeeze test: the pad's force against indentation follows the gel's law A P(d), for the
+  ``grasp`` scenario's box at masses from 1 g to 10 kg (the gripper's rated range: the contact
+  itself adds no compliance, whatever the object's mass);
 * static cross-checks: gel pressure = contact force / area per strip, gel force = contact force;
 * bottoming: past the gel's range the housing takes the load and ``bottomed`` is set;
 * the static gripper.xml equals the pads regenerated for its N; keyframes survive regeneration;
-* the gripper holds and lifts 10 kg; a broken MJCF names its file.
+* the gripper holds and lifts the ``grasp-10kg`` block; a broken MJCF names its file.
 """
 
 from __future__ import annotations
@@ -17,9 +22,9 @@ import mujoco
 import numpy as np
 import pytest
 
+import scenarios
 from cosim.pads import (
     DEFAULT_PAD_SEGMENTS,
-    MODELS_DIR,
     PAD_NAMES,
     PadBridge,
     PadGeometry,
@@ -28,41 +33,54 @@ from cosim.pads import (
     scene_names,
     scene_path,
 )
+from cosim.scene import SCENE_FILE, build_scene, object_shape, reset_home
+from scenarios.config import RATED_MASS_KG
 from sensor.gel import GelModel
 
 GEL = GelModel()
 GEOMETRY = PadGeometry()
+#: The pads as gripper.xml holds them (N = 5), which the scenarios' default (N = 1) replaces.
+FILE_PADS = f"physics.pad_segments={DEFAULT_PAD_SEGMENTS}"
 
-# A box squeezed between the pads, away from the table, its 30 x 40 mm faces covering the
-# 20 x 20 mm pads.  {mass} in kg.
-SQUEEZE_SCENE = """<mujoco model="squeeze">
-  <include file="{models}/gripper.xml"/>
-  <include file="{models}/table.xml"/>
-  <worldbody>
-    <body name="object" pos="0 0 0.08">
-      <freejoint name="object_joint"/>
-      <geom name="object_geom" class="object" type="box" size="{half_x} 0.015 {half_z}" mass="{mass}"/>
-    </body>
-  </worldbody>
-</mujoco>
-"""
+# The squeeze: the `grasp` scenario's box (a 40 mm cube: its faces cover the 20 x 20 mm pads)
+# held between the pads away from the table, gravity off.
+SQUEEZE_SCENARIO = "grasp"
+BOX_HALF_X = object_shape(scenarios.get(SQUEEZE_SCENARIO).object).size[0]  # m: half the width between the pads
 LIFT_SQUEEZE = -0.2  # lift_joint: pad centres at z = 0.28 - 0.2 = 0.08 m, the object's centre
-BOX_HALF_X = 0.02  # m: 40 mm between the pads
+SQUEEZE_HEIGHT_M = 0.08
 
 
-def squeeze_model(tmp_path, mass, half_z=0.02, pad_segments=None):
-    """The squeeze scene for one object mass, without gravity, the fingers just touching it."""
-    path = tmp_path / f"squeeze_{mass}_{half_z}.xml"
-    path.write_text(SQUEEZE_SCENE.format(models=MODELS_DIR, mass=mass, half_x=BOX_HALF_X, half_z=half_z))
-    model = build_model(path, pad_segments=pad_segments)
+def squeeze_start(model):
+    """Gravity off, the object at the pads' height away from the table, the fingers just touching it."""
     model.opt.gravity[:] = 0.0  # the pad law alone: no weight to hold, mass only in the dynamics
     data = mujoco.MjData(model)
-    data.qpos[model.joint("lift_joint").qposadr[0]] = data.ctrl[0] = LIFT_SQUEEZE
+    data.qpos[model.joint("lift_joint").qposadr[0]] = data.ctrl[model.actuator("lift_actuator").id] = LIFT_SQUEEZE
+    adr = model.joint("object_joint").qposadr[0]
+    data.qpos[adr : adr + 7] = [0.0, 0.0, SQUEEZE_HEIGHT_M, 1.0, 0.0, 0.0, 0.0]
     for side in ("left", "right"):
         data.qpos[model.joint(f"{side}_finger_joint").qposadr[0]] = BOX_HALF_X + 2e-4
     data.ctrl[model.actuator("fingers_actuator").id] = 0.0  # close: the servo saturates at its force limit
     mujoco.mj_forward(model, data)
     return model, data, PadBridge(model)
+
+
+def squeeze_model(mass, pad_segments=DEFAULT_PAD_SEGMENTS):
+    """The ``grasp`` scenario's scene with its box at ``mass`` kg, squeezed (:func:`squeeze_start`)."""
+    config = scenarios.get(SQUEEZE_SCENARIO, [f"object.mass_kg={mass!r}", f"physics.pad_segments={pad_segments}"])
+    return squeeze_start(build_scene(config))
+
+
+def bar_model(mass, half_z):
+    """scene_grasp.xml with its object made a bar 2 ``half_z`` tall (a concentrated load, not a
+    project object: a probe), squeezed (:func:`squeeze_start`)."""
+
+    def edit(spec):
+        geom = spec.geom("object_geom")
+        geom.type = mujoco.mjtGeom.mjGEOM_BOX
+        geom.size = [BOX_HALF_X, 0.015, half_z]
+        geom.mass = mass
+
+    return squeeze_start(build_model(SCENE_FILE, edit=edit))
 
 
 def settle(model, data, bridge, grip_force_n, max_time_s=2.0, tol=1e-7, quiet_steps=50):
@@ -103,40 +121,97 @@ def assert_no_warnings(data):
     assert not counts, f"MuJoCo warnings: {counts}"
 
 
+def step_one_second_at_rest(model, data, bridge):
+    """One simulated second from ``data``'s state: no warning, no NaN, the object still at rest."""
+    object_start = data.qpos[model.joint("object_joint").qposadr[0] :][:3].copy()
+    for _ in range(round(1.0 / model.opt.timestep)):
+        if bridge:
+            bridge.apply_gel_forces(data)
+        mujoco.mj_step(model, data)
+    assert_no_warnings(data)
+    assert np.all(np.isfinite(data.qpos)) and np.all(np.isfinite(data.qvel))
+    # The object rests on the table (contact sinks it by well under a millimetre).
+    object_end = data.qpos[model.joint("object_joint").qposadr[0] :][:3]
+    np.testing.assert_allclose(object_end, object_start, atol=1e-3)
+
+
 # ---------------------------------------------------------------------------------------
-# Scenes.
+# The scene and the objects.
 # ---------------------------------------------------------------------------------------
 
 
-def test_scene_registry():
-    assert {"light", "fragile", "heavy", "10kg"} <= set(scene_names())
-    with pytest.raises(ValueError, match=r"valid scenes: .*light"):
+def test_scene_grasp_is_the_only_scene_file():
+    """Objects live in the scenario library only: no scene file defines another one."""
+    assert scene_names() == ("grasp",)
+    assert scene_path("grasp") == SCENE_FILE
+    with pytest.raises(ValueError, match=r"valid scenes: grasp$"):
         scene_path("no_such_scene")
 
 
-@pytest.mark.parametrize("scene", scene_names())
-def test_scene_steps_one_second_clean(scene):
-    """MuJoCo's own loader, then one second from home, bare and with the gel law: no warning, no NaN."""
-    raw = mujoco.MjModel.from_xml_path(str(scene_path(scene)))
-    model = build_model(scene)
-    for bridge in (None, PadBridge(model)):
-        m = model if bridge else raw
-        data = mujoco.MjData(m)
-        mujoco.mj_resetDataKeyframe(m, data, m.key("home").id)
-        object_start = data.qpos[m.joint("object_joint").qposadr[0] :][:3].copy()
-        for _ in range(round(1.0 / m.opt.timestep)):
-            if bridge:
-                bridge.apply_gel_forces(data)
-            mujoco.mj_step(m, data)
-        assert_no_warnings(data)
-        assert np.all(np.isfinite(data.qpos)) and np.all(np.isfinite(data.qvel))
-        # The object rests on the table (contact sinks it by well under a millimetre).
-        object_end = data.qpos[m.joint("object_joint").qposadr[0] :][:3]
-        np.testing.assert_allclose(object_end, object_start, atol=1e-3)
+def test_placeholder_object_is_the_grasp_scenarios():
+    """scene_grasp.xml's placeholder (and its `home` key) is the `grasp` scenario's object, read
+    from both sides: the file and the library cannot disagree."""
+    raw = mujoco.MjModel.from_xml_path(str(SCENE_FILE))
+    config = scenarios.get("grasp")
+    shape = object_shape(config.object)
+    geom, body = raw.geom("object_geom"), raw.body("object")
+    assert geom.type[0] == shape.geom_type
+    np.testing.assert_allclose(geom.size, shape.size, rtol=0, atol=1e-12)
+    assert body.mass[0] == pytest.approx(config.object.mass_kg, rel=1e-12)
+    np.testing.assert_allclose(body.pos, [0.0, 0.0, shape.rest_height_m], rtol=0, atol=1e-12)
+    # The pad-object friction: pads have priority, so the pads carry the object's friction.
+    for side in ("left", "right"):
+        for name in GEOMETRY.strip_names(side):
+            assert raw.geom(f"{name}_geom").friction[0] == pytest.approx(config.object.friction, rel=1e-12)
+    # The file's `home` key is the home state build_scene's scenarios start from.
+    keyed, computed = mujoco.MjData(raw), mujoco.MjData(raw)
+    mujoco.mj_resetDataKeyframe(raw, keyed, raw.key("home").id)
+    reset_home(raw, computed, config)
+    np.testing.assert_allclose(keyed.qpos, computed.qpos, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(keyed.ctrl, computed.ctrl, rtol=0, atol=1e-12)
+    # And building the scenario at the file's pad resolution changes nothing in the model.
+    built = build_scene(scenarios.get("grasp", [FILE_PADS]))
+    for field in (
+        "geom_type",
+        "geom_size",
+        "geom_pos",
+        "geom_friction",
+        "body_pos",
+        "body_mass",
+        "body_inertia",
+        "opt.timestep",
+        "opt.integrator",
+    ):
+        obj_a, obj_b, attr = (raw.opt, built.opt, field[4:]) if field.startswith("opt.") else (raw, built, field)
+        np.testing.assert_allclose(getattr(obj_b, attr), getattr(obj_a, attr), rtol=1e-6, atol=1e-12, err_msg=field)
+
+
+@pytest.mark.parametrize("pads", ["scenario", "file"])
+@pytest.mark.parametrize("scenario", scenarios.names())
+def test_scenario_scene_steps_one_second_clean(scenario, pads):
+    """Every registered scenario's scene (its own pad resolution, and gripper.xml's N = 5): one
+    second from home, bare and with the gel law: no warning, no NaN, the object at rest."""
+    config = scenarios.get(scenario, [] if pads == "scenario" else [FILE_PADS])
+    for with_bridge in (False, True):
+        model = build_scene(config)  # one model each: a bridge takes over the model's pad joints
+        bridge = PadBridge(model) if with_bridge else None
+        data = mujoco.MjData(model)
+        reset_home(model, data, config)
+        step_one_second_at_rest(model, data, bridge)
+
+
+def test_scene_file_steps_one_second_clean_from_home():
+    """MuJoCo's own loader on scene_grasp.xml, then one second from its `home` key, bare and
+    with the gel law: no warning, no NaN, the object at rest."""
+    for model, bridge in ((mujoco.MjModel.from_xml_path(str(SCENE_FILE)), False), (build_model("grasp"), True)):
+        data = mujoco.MjData(model)
+        mujoco.mj_resetDataKeyframe(model, data, model.key("home").id)
+        step_one_second_at_rest(model, data, PadBridge(model) if bridge else None)
 
 
 def test_scenes_share_the_gripper_conventions():
-    model = build_model("fragile")
+    config = scenarios.get("grasp-fragile")
+    model = build_scene(config)
     for name in ("lift_joint", "left_finger_joint", "right_finger_joint"):
         assert model.joint(name).type[0] == mujoco.mjtJoint.mjJNT_SLIDE
     for name in ("lift_actuator", "fingers_actuator"):
@@ -144,7 +219,10 @@ def test_scenes_share_the_gripper_conventions():
     # The grip: 10 kg at mu = 1 needs 49 N per finger; lifting 10 kg needs 98 N plus acceleration.
     assert model.actuator("fingers_actuator").forcerange[1] >= 60
     assert model.actuator("lift_actuator").forcerange[1] >= 2 * 10 * 9.81
-    assert model.numeric("object_crush_force").data[0] == pytest.approx(30.0)
+    # The crush limit is the library's data, nowhere in the model: a grip can exceed it.
+    assert 0 < config.object.crush_force_n < model.actuator("fingers_actuator").forcerange[1]
+    with pytest.raises(KeyError):
+        model.numeric("object_crush_force")
     for name in ("lift_pos", "fingers_opening", "fingers_force", "left_finger_contact"):
         model.sensor(name)
     assert model.opt.integrator == mujoco.mjtIntegrator.mjINT_DISCRETE
@@ -164,15 +242,16 @@ def test_gel_table_follows_the_gel_model():
     assert np.all(np.diff(table.pressure_pa) > 0)
 
 
-SQUEEZE_MASSES_KG = (0.001, 0.06, 0.5, 2.0, 10.0)
+SQUEEZE_MASSES_KG = (RATED_MASS_KG[0], 0.06, 0.5, 2.0, RATED_MASS_KG[1])  # 1 g to 10 kg
 SQUEEZE_FORCES_N = (0.5, 5.0, 30.0, 80.0)  # indentations 0.2, 1.4, 3.1, 3.7 mm: strains 4-75 %
 SQUEEZE_TOLERANCE = 0.10  # the brief's 10 %; measured errors are below 0.7 %
 
 
 @pytest.mark.parametrize("mass", SQUEEZE_MASSES_KG)
-def test_squeeze_follows_the_gel_law_for_any_mass(tmp_path, mass):
+def test_squeeze_follows_the_gel_law_for_any_mass(mass):
     """Contact normal force (mj_contactForce) against the object's indentation into the pad = A P(d)."""
-    model, data, bridge = squeeze_model(tmp_path, mass)
+    model, data, bridge = squeeze_model(mass)
+    assert model.body("object").mass[0] == pytest.approx(mass)
     for force in SQUEEZE_FORCES_N:
         settle(model, data, bridge, force)
         assert_no_warnings(data)
@@ -195,8 +274,8 @@ def test_squeeze_follows_the_gel_law_for_any_mass(tmp_path, mass):
 
 
 @pytest.mark.parametrize("segments", [1, 2, 8])
-def test_other_pad_resolutions_squeeze_statically(tmp_path, segments):
-    model, data, bridge = squeeze_model(tmp_path, 0.06, pad_segments=segments)
+def test_other_pad_resolutions_squeeze_statically(segments):
+    model, data, bridge = squeeze_model(0.06, pad_segments=segments)
     assert bridge.geometry.segments == segments
     settle(model, data, bridge, 20.0)
     readings = bridge.read(data)
@@ -208,12 +287,16 @@ def test_other_pad_resolutions_squeeze_statically(tmp_path, segments):
 
 @pytest.mark.parametrize(("segments", "grip"), [(5, 3.0), (5, 10.0), (5, 30.0), (1, 30.0), (9, 45.0)])
 def test_egg_settles_and_loads_the_element_centre_most(segments, grip):
-    """A curved object on the table: the grasp settles (it touches the guards at their edges, where
-    friction once drove a limit cycle); the strips under its equator carry the most pressure."""
-    model = build_model("fragile", pad_segments=segments)
+    """A curved object on the table (the `grasp-fragile` egg): the grasp settles (it touches the
+    guards at their edges, where friction once drove a limit cycle); the strips under its equator
+    carry the most pressure."""
+    config = scenarios.get("grasp-fragile", [f"physics.pad_segments={segments}"])
+    assert config.object.shape == "egg"
+    model = build_scene(config)
     data = mujoco.MjData(model)
     bridge = PadBridge(model)
-    mujoco.mj_resetDataKeyframe(model, data, model.key("home").id)
+    assert bridge.geometry.segments == segments
+    reset_home(model, data, config)
     data.ctrl[model.actuator("fingers_actuator").id] = 0.0
     settle(model, data, bridge, grip, tol=1e-5)  # the egg creeps on the table at < 1 um/s
     for _ in range(500):  # and stays settled: a limit cycle grows over a few tenths of a second
@@ -227,9 +310,9 @@ def test_egg_settles_and_loads_the_element_centre_most(segments, grip):
         assert bridge.read(data)[PAD_NAMES[i]].gel_force_n == pytest.approx(grip, rel=1e-3)
 
 
-def test_bottoming_engages_the_housing(tmp_path):
+def test_bottoming_engages_the_housing():
     """A 4 mm bar pressed with 60 N: its strips reach the 4 mm stop, the housing takes the rest."""
-    model, data, bridge = squeeze_model(tmp_path, 0.06, half_z=0.002)
+    model, data, bridge = bar_model(0.06, half_z=0.002)
     settle(model, data, bridge, 10.0)  # 10 N on 3 strips (90 mm^2): 111 kPa, inside the gel's range
     assert not any(r.bottomed for r in bridge.read(data).values())
     settle(model, data, bridge, 60.0)  # 667 kPa > 383 kPa at the stop
@@ -249,8 +332,8 @@ def test_bottoming_engages_the_housing(tmp_path):
 
 
 def test_static_gripper_equals_generated_pads():
-    static = build_model("light")
-    generated = build_model("light", pad_segments=DEFAULT_PAD_SEGMENTS)
+    static = build_model("grasp")
+    generated = build_model("grasp", pad_segments=DEFAULT_PAD_SEGMENTS)
     for field in (
         "body_pos",
         "body_mass",
@@ -276,8 +359,9 @@ def test_static_gripper_equals_generated_pads():
 
 
 def test_regenerated_pads_keep_the_keyframe():
-    static = build_model("heavy")
-    coarse = build_model("heavy", pad_segments=2)
+    static = build_model("grasp")
+    coarse = build_model("grasp", pad_segments=2)
+    assert static.nkey == coarse.nkey == 1
     assert coarse.nq == static.nq - 2 * (DEFAULT_PAD_SEGMENTS - 2)
     for name in ("lift_joint", "left_finger_joint", "right_finger_joint", "object_joint"):
         a, b = static.joint(name).qposadr[0], coarse.joint(name).qposadr[0]
@@ -287,41 +371,48 @@ def test_regenerated_pads_keep_the_keyframe():
 
 
 def test_gripper_lifts_10_kg_without_slip():
-    """Close with the full 100 N, lift 5 cm at 10 cm/s, hold: the block follows the palm."""
-    model = build_model("10kg")
+    """The `grasp-10kg` block: close with the full 100 N, lift 5 cm at 10 cm/s, hold: the block follows the palm."""
+    config = scenarios.get("grasp-10kg", [FILE_PADS])
+    assert config.object.mass_kg == RATED_MASS_KG[1]
+    model = build_scene(config)
     data = mujoco.MjData(model)
     bridge = PadBridge(model)
-    mujoco.mj_resetDataKeyframe(model, data, model.key("home").id)
-    lift0 = data.ctrl[0]
-    data.ctrl[1] = 0.0
+    reset_home(model, data, config)
+    lift, fingers = model.actuator("lift_actuator").id, model.actuator("fingers_actuator").id
+    lift0, rest_z = data.ctrl[lift], data.body("object").xpos[2]
+    data.ctrl[fingers] = 0.0
     offsets = []
     while data.time < 1.6:
         if data.time > 0.5:
-            data.ctrl[0] = lift0 + min(0.05, 0.1 * (data.time - 0.5))
+            data.ctrl[lift] = lift0 + min(0.05, 0.1 * (data.time - 0.5))
         bridge.apply_gel_forces(data)
         mujoco.mj_step(model, data)
         if data.time > 0.45:
             offsets.append(data.body("palm").xpos[2] - data.body("object").xpos[2])
     assert_no_warnings(data)
-    assert data.body("object").xpos[2] > 0.1325 + 0.04  # lifted (servo sag ~5 mm under 10 kg)
+    assert data.body("object").xpos[2] > rest_z + 0.04  # lifted (servo sag ~5 mm under 10 kg)
     assert np.ptp(offsets) < 1e-3  # no slip along the pads
     assert not any(r.bottomed for r in bridge.read(data).values())
 
 
 def test_explicit_integrators_are_refused_at_this_timestep():
-    model = build_model("light")
-    model.opt.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
+    model = build_scene(scenarios.get("grasp-light", [FILE_PADS, "physics.integrator=implicitfast"]))
+    assert model.opt.integrator == mujoco.mjtIntegrator.mjINT_IMPLICITFAST
     with pytest.raises(ValueError, match="discrete"):
         PadBridge(model)
 
 
 @pytest.mark.parametrize(("timestep", "constant"), [(5e-4, 2e-3), (1e-3, 2e-3), (2.5e-3, 5e-3)])
 def test_timestep_keeps_the_pad_time_constant_above_two_steps(timestep, constant):
-    """The pads' contact time constant is the physical 2 ms, floored at 2 timesteps."""
-    model = build_model("light", timestep=timestep)
-    assert model.opt.timestep == timestep
-    assert model.geom("left_pad_seg0_geom").solref[0] == pytest.approx(constant)
-    assert model.joint("right_pad_guard_upper_joint").solref[0] == pytest.approx(constant)
+    """The pads' contact time constant is the physical 2 ms, floored at 2 timesteps: for the scene
+    file (build_model) and for a scenario's scene (build_scene, its physics.timestep_s)."""
+    for model in (
+        build_model("grasp", timestep=timestep),
+        build_scene(scenarios.get("grasp-light", [FILE_PADS, f"physics.timestep_s={timestep!r}"])),
+    ):
+        assert model.opt.timestep == timestep
+        assert model.geom("left_pad_seg0_geom").solref[0] == pytest.approx(constant)
+        assert model.joint("right_pad_guard_upper_joint").solref[0] == pytest.approx(constant)
 
 
 def test_broken_mjcf_names_its_file(tmp_path):

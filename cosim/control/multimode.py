@@ -501,11 +501,13 @@ class MultimodeGrasp:
     def _carried_checks(self, obs: Observation, t: float) -> bool:
         """Loss and fingertip slip while the object may be off the table; True if the phase ended."""
         phase = self.phase
-        # Proprioception: with the object between them, the fingers close at most to its width
-        # less the two pads' travel (their housings then meet it, give or take the stops' own
-        # softness); closing by a further pad travel, they have nothing between them.
-        if obs.opening_m < self._width_m - 3.0 * self.robot.pad_travel_m:
-            shut = 1e3 * (self._width_m - 2.0 * self.robot.pad_travel_m - obs.opening_m)
+        # Proprioception, confirmed by the fingertips: with the object between them the fingers
+        # close at most to its width less the two pads' travel (under a grip near the fingers'
+        # limit the mechanism itself yields millimetres more, so the fingertips confirm: both
+        # read no pressure).
+        shut_m = self._width_m - 2.0 * self.robot.pad_travel_m - obs.opening_m
+        if shut_m > 0 and all(sel.trusted and sel.status == "below_detection" for sel in self.selectors.values()):
+            shut = 1e3 * shut_m
             self._give_up(t, "lost", f"the fingers closed {shut:.1f} mm past the object's width during {phase.label}", Phase.RELEASE)
             return True
         carried = self.phase is not Phase.LIFT or self.stage is Stage.RAISE
