@@ -169,6 +169,7 @@ class CoSimulation:
         self._object_dof = m.joint("object_joint").dofadr[0]
         self._lift_dof = m.joint("lift_joint").dofadr[0]
         self._lift_from = self._lift_to = float(self.data.ctrl[self._lift_act])
+        self._fingers_from = self._fingers_to = float(self.data.ctrl[self._finger_act])
         self._prepare_step()
 
     #: Live views of the model's and data's arrays (see _prepare_step): rebuilt, not copied.
@@ -246,13 +247,17 @@ class CoSimulation:
 
     def _physics(self) -> None:
         m, d, apply_gel_forces = self.model, self.data, self.bridge.apply_gel_forces
-        # The lift servo interpolates its set-point over the period, as a real servo does
-        # between a controller's set-points: a target that jumped once per period would make
-        # the servo's force ripple by kp v T (10 N at 0.1 m/s) and hide the load it carries.
+        # The servos interpolate their set-points over the period, as real servos do between a
+        # controller's set-points: a lift target that jumped once per period would make the
+        # servo's force ripple by kp v T (10 N at 0.1 m/s) and hide the load it carries, and
+        # fingers moved in jerks press their own gel on the pascal-sensitive element.
         ctrl, act, start = self._ctrl, self._lift_act, self._lift_from
+        fingers, f_start = self._finger_act, self._fingers_from
         delta = (self._lift_to - start) / self.substeps
+        f_delta = (self._fingers_to - f_start) / self.substeps
         for k in range(1, self.substeps + 1):
             ctrl[act] = start + k * delta
+            ctrl[fingers] = f_start + k * f_delta
             if self._gel_every_substep:
                 apply_gel_forces(d)
             elif k == 1:
@@ -261,7 +266,7 @@ class CoSimulation:
                 # every substep (implicitly), with no gel law in Python in between.
                 apply_gel_forces(d)
             mujoco.mj_step(m, d)
-        self._lift_from = self._lift_to
+        self._lift_from, self._fingers_from = self._lift_to, self._fingers_to
         self._check_stable()
         self.time_s += self.dt
         self.steps += 1
@@ -295,9 +300,8 @@ class CoSimulation:
         )
 
     def _actuate(self, command: Command) -> None:
-        ctrl = self._ctrl
-        self._lift_to = command.lift_m  # reached over the next period (_physics)
-        ctrl[self._finger_act] = command.opening_m
+        self._lift_to = command.lift_m  # both reached over the next period (_physics)
+        self._fingers_to = command.opening_m
         limit = min(max(command.grip_force_limit_n, 0.0), self._finger_limit)
         forcerange = self._forcerange
         forcerange[self._finger_act, 0] = -limit

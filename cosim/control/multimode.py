@@ -122,7 +122,8 @@ class MultimodeGrasp:
         self.dt_s = dt_s
         self.selectors = {pad: ModeSelector(fingertip, c.modes, c.hysteresis, c.persist) for pad in pads}
         lowest, highest = min(c.modes), max(c.modes)
-        self.touch = {pad: TouchDetector(fingertip.sigma(lowest), c.cusum_drift_sigma, c.cusum_alarm_sigma) for pad in pads}
+        sigma = fingertip.sigma(lowest)
+        self.touch = {pad: TouchDetector(sigma, c.cusum_drift_sigma, c.cusum_alarm_sigma, c.touch_single_sigma) for pad in pads}
         sel = self.selectors[pads[0]]
         area = robot.pad_area_m2
         #: The most grip whose pressure the fingertip still measures, N per finger.
@@ -182,7 +183,6 @@ class MultimodeGrasp:
         self._last_slip_s = -math.inf
         self._width_m = math.nan
         self._steady_steps = 0
-        self._blind_logged = False
         self._saturated_logged: set[str] = set()
         if self_test_message is not None:
             self._fault(0.0, "", "self_test", self_test_message)
@@ -445,6 +445,12 @@ class MultimodeGrasp:
             self._enter(Phase.RELEASE, t, why)
 
     def _release(self, obs: Observation, t: float, dt_s: float) -> None:
+        if self.opening_target < obs.opening_m:
+            # Squeezing (target inside the object): first let the grip go to the floor with the
+            # target where the fingers are (the object rests on the table), then open.
+            self.opening_target = obs.opening_m
+            self.grip_n = self.grip_floor_n
+            return
         self.grip_n = self.opening_force_n
         self.opening_target = min(self.robot.home_opening_m, max(self.opening_target, obs.opening_m) + self.cfg.opening_speed_m_s * dt_s)
         if obs.opening_m >= self.robot.home_opening_m - 0.002:

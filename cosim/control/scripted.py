@@ -62,6 +62,7 @@ class ScriptedGrasp:
             if self._lift <= home.home_lift_m and abs(obs.lift_pos_m - self._lift) < 0.002:
                 self._enter(Phase.RELEASE, t)
         if self.phase is Phase.RELEASE:
+            # From where the fingers are (the squeeze's target lies inside the object).
             self._opening = min(home.home_opening_m, max(self._opening, obs.opening_m) + cfg.opening_speed_m_s * dt_s)
             grip = min(grip, 1.5 * home.finger_damping_n_s_m * cfg.opening_speed_m_s)
             if obs.opening_m >= home.home_opening_m - 0.002:

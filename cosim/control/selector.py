@@ -10,7 +10,8 @@ ring-up is settling: a reading taken before the new mode has settled is not trus
 trusted estimate is held meanwhile.
 
 :class:`TouchDetector` is a one-sided CUSUM (Page 1954) on the drop of the most sensitive
-mode's reading below its unloaded baseline, in sigmas of the reading.
+mode's reading below its unloaded baseline, in sigmas of the reading, with a Shewhart limit on
+single readings (Lucas 1982).
 """
 
 from __future__ import annotations
@@ -116,18 +117,21 @@ class ModeSelector:
 
 
 class TouchDetector:
-    """One-sided CUSUM on the drop of a reading below its unloaded baseline (in sigmas).
+    """One-sided CUSUM on the drop of a reading below its unloaded baseline (in sigmas), with a
+    Shewhart limit on single readings (the combined scheme of Lucas 1982): a slow drift alarms
+    through the CUSUM, a sudden drop at once.
 
     Parameters
     ----------
     sigma : one reading's standard deviation, dimensionless (V_1 units).
     drift_sigma : the CUSUM's allowance k, sigmas (half the smallest shift to detect).
     alarm_sigma : the CUSUM's threshold h, sigmas.
+    single_sigma : one reading's drop that alarms alone, sigmas.
     """
 
-    def __init__(self, sigma: float, drift_sigma: float = 0.5, alarm_sigma: float = 8.0) -> None:
+    def __init__(self, sigma: float, drift_sigma: float = 0.5, alarm_sigma: float = 8.0, single_sigma: float = 6.0) -> None:
         self.sigma = sigma
-        self.drift_sigma, self.alarm_sigma = drift_sigma, alarm_sigma
+        self.drift_sigma, self.alarm_sigma, self.single_sigma = drift_sigma, alarm_sigma, single_sigma
         self.baseline = math.nan
         self._sum = 0.0
         self._count = 0
@@ -149,5 +153,5 @@ class TouchDetector:
         if not self.touched:
             drop = (self.baseline - v1) / self.sigma
             self.score = max(0.0, self.score + drop - self.drift_sigma)
-            self.touched = self.score > self.alarm_sigma
+            self.touched = self.score > self.alarm_sigma or drop > self.single_sigma
         return self.touched
