@@ -95,7 +95,10 @@ def run_grid(run_one, objects=None, controllers=CONTROLLERS, base_overrides: tup
             held = data["phase"] == 4.0 if data else np.zeros(0, bool)
             pads = [k.removesuffix("_true_pressure_pa") for k in data if k.endswith("_true_pressure_pa")] if data else []
             true_p = np.max([data[f"{p}_true_pressure_pa"] for p in pads], axis=0) if pads else np.zeros(0)
-            contact = np.nonzero(true_p > 0.5)[0]
+            # First contact: a finger touches the object (ground truth), not a pressure reading
+            # (the pads' own inertia presses a fraction of a pascal as the fingers start).
+            touching = np.maximum(data["left_finger_force_n"], data["right_finger_force_n"]) > 0 if data else np.zeros(0, bool)
+            contact = np.nonzero(touching)[0]
             contact_t = float(data["time_s"][contact[0]]) if contact.size else math.nan
             touch_t = summary.get("touch_time_s", math.nan)
             from scenarios.config import ObjectConfig

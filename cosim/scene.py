@@ -123,7 +123,7 @@ def robot_limits(model: mujoco.MjModel, home: dict[str, float], geometry: PadGeo
         pad_area_m2=geometry.pad_area_m2,
         pad_travel_m=geometry.stop_m,
         pad_areal_mass_kg_m2=(gel or GelParams()).density_kg_m3 * geometry.gel_thickness_m,
-        min_load_n=RATED_MASS_KG[0] * float(-model.opt.gravity[2]),
+        min_load_n=0.5 * RATED_MASS_KG[0] * float(-model.opt.gravity[2]),
         home_lift_m=home["lift_m"],
         home_opening_m=home["opening_m"],
     )

@@ -102,8 +102,8 @@ class RobotLimits:
     pad_area_m2 : one pad's face, m^2 (grip force = pressure x area for a full-face contact).
     pad_areal_mass_kg_m2 : the pad's gel mass per area of its face, rho h0, kg/m^2: when the
         finger accelerates at a, the gel presses its element with rho h0 a.
-    min_load_n : the weight of the lightest object the gripper is rated for, N: a load below it
-        is no object carried.
+    min_load_n : half the weight of the lightest object the gripper is rated for, N: a load
+        below it is no object carried.
     pad_travel_m : how far a pad's gel compresses before its housing stops it, m: with an
         object between them the fingers cannot close by more than twice this.
     home_lift_m, home_opening_m : the home targets, m.

@@ -400,11 +400,12 @@ class MultimodeGrasp:
         if self._carried_checks(obs, t):
             return
         self._follow_load(t, dt_s)
-        # The lift has settled after three load-filter time constants; the load it carries then
-        # is the reference.  Half of it gone is the object gone; less than the lift's own
-        # acceleration explains is weight the pads no longer carry: a slip, answered once per
-        # three filter time constants (the time the load takes to show the answer).
-        settle = 3.0 * self.cfg.load_filter_s
+        # The lift has stopped and its filtered load forgotten the braking after six filter time
+        # constants (e^-6 = 0.25 %); the load then is the reference.  Half of it gone is the
+        # object gone; less than the lift's own acceleration explains is weight the pads no
+        # longer carry: a slip, answered at most once per six time constants (the time the
+        # load takes to show the answer).
+        settle = 6.0 * self.cfg.load_filter_s
         if t - self._t_phase < settle:
             self._held_load_n = self._load_n
         elif self._load_n < self.cfg.table_load_fraction * self._held_load_n:
@@ -434,12 +435,16 @@ class MultimodeGrasp:
         on_table = self._steady_steps >= self.plateau_steps and self._raw_load_n < c.table_load_fraction * self._held_load_n
         self._table_steps = self._table_steps + 1 if on_table else 0
         below = obs.lift_pos_m < touchdown - c.touchdown_margin_m
-        if self._table_steps >= 2 or below or self._held_load_n <= 0.0:
+        # Nothing carried (a give-up during the transfer): back down to where the lift was.
+        home = self._held_load_n < self.robot.min_load_n and obs.lift_pos_m <= touchdown + 1e-4
+        if self._table_steps >= 2 or below or home:
             # Stop where the lift is: its servo carries nothing more, the table the rest.
             self._goal = self.lift_target = obs.lift_pos_m
             why = (
                 f"load {self._raw_load_n:.3g} N of {self._held_load_n:.3g} N: the table has the weight"
                 if self._table_steps >= 2
+                else "the lift is back where the object rested"
+                if home
                 else "the lift is below where the object rested"
             )
             self._enter(Phase.RELEASE, t, why)
@@ -507,16 +512,16 @@ class MultimodeGrasp:
     def _carried_checks(self, obs: Observation, t: float) -> bool:
         """Loss and fingertip slip while the object may be off the table; True if the phase ended."""
         phase = self.phase
-        # Proprioception, confirmed by the fingertips: with the object between them the fingers
-        # close at most to its width less the two pads' travel (under a grip near the fingers'
-        # limit the mechanism itself yields millimetres more, so the fingertips confirm: both
-        # read no pressure).
+        # Proprioception, unless the fingertips contradict it: with the object between them the
+        # fingers close at most to its width less the two pads' travel (under a grip near the
+        # fingers' limit the mechanism itself yields millimetres more, and then the fingertips
+        # read pressure: no fingertip may report a measured load).
+        carried = self.phase is not Phase.LIFT or self.stage is Stage.RAISE
         shut_m = self._width_m - 2.0 * self.robot.pad_travel_m - obs.opening_m
-        if shut_m > 0 and all(sel.trusted and sel.status == "below_detection" for sel in self.selectors.values()):
+        if carried and shut_m > 0 and not any(sel.trusted and sel.status == "ok" for sel in self.selectors.values()):
             shut = 1e3 * shut_m
             self._give_up(t, "lost", f"the fingers closed {shut:.1f} mm past the object's width during {phase.label}", Phase.RELEASE)
             return True
-        carried = self.phase is not Phase.LIFT or self.stage is Stage.RAISE
         if carried and all(sel.empty for sel in self.selectors.values()):
             self._empty_s += self.dt_s
             if self._empty_s >= self.cfg.lost_s:
