@@ -1,16 +1,21 @@
 """Each fidelity preset's price and error, side by side, from one run (``run_sim.py bench``).
 
-For every standard scene every preset (scenarios/presets.py) is run once with its recorder,
-as ``run_sim.py run`` does; its cost is its wall time per simulated second, and its errors
-are measured against the ``reference`` preset on the same scene:
+For every standard scene every preset (scenarios/presets.py) is run with its recorder, as
+``run_sim.py run`` does, twice: with the multimode controller (its cost, wall time per simulated
+second, and whether its outcome agrees with the reference's) and with the scripted controller
+at a fixed grip (:func:`scripted_overrides`), whose errors are measured against the
+``reference`` preset on the same scene.  The fixed grip keeps the controller's decisions out of
+the comparison: the multimode controller's grip follows what it measured (a friction check
+that fires a period earlier leaves a different grip), so its held pressures differ between
+resolutions by its decisions, not by the physics or the sensor.  The errors:
 
 - ``pressure_estimate``: the relative difference of the median pressure estimate during the
   hold (both pads), the number a grasp controller acts on;
 - ``true_pressure``: the same for the true pad pressure (the physics' share of the error);
 - ``output_v1``: the absolute difference of the median measured output V_1 during the hold,
   when both drive the same mode (NaN otherwise);
-- ``touch_time_s``: the difference in the time touch was detected, s;
-- ``outcome``: whether success, crushed and slipped all agree with the reference.
+- ``touch_time_s``: the difference in the time touch was detected (multimode runs), s;
+- ``outcome``: whether the multimode runs' referee outcome agrees with the reference's.
 
 The reference's own convergence is shown the same way: ``reference-halved`` (half the
 physics step, twice the pad resolution and carrier sampling) against ``reference``.  Its
@@ -30,9 +35,19 @@ from scenarios.presets import PRESETS, REFERENCE_HALVED
 
 #: The standard scenes: a light grasp and the heaviest (all modes in use).
 STANDARD_SCENES = ("grasp", "grasp-10kg")
-HOLD = 4.0  # the recorded code of the "hold" phase (cosim.controller.PHASES)
+HOLD = 4.0  # the recorded code of the "hold" phase (cosim.control.Phase.HOLD)
 #: The issue's targets: fast within 5 % of reference, accurate within 1 %.
 FAST_TARGET, ACCURATE_TARGET = 0.05, 0.01
+
+
+def scripted_overrides(scene: str) -> list[str]:
+    """The scripted controller at a fixed grip: twice what the scene's object's weight needs at
+    its friction (m g / mu per finger, at most the fingers' 100 N), so it is held still."""
+    import scenarios
+
+    obj = scenarios.get(scene).object
+    grip = min(100.0, obj.mass_kg * 9.81 / obj.friction)
+    return ["controller.kind=scripted", f"controller.grip_force_n={grip!r}"]
 
 
 def _run(scene: str, overrides: list[str], preset: str | None) -> tuple[dict, dict, float]:
@@ -55,9 +70,12 @@ def _rel(a: float, b: float) -> float:
     return abs(a - b) / abs(b) if b and math.isfinite(a) and math.isfinite(b) else math.nan
 
 
-def errors(run: tuple[dict, dict], ref: tuple[dict, dict]) -> dict:
-    """The error measures of the module docstring, of ``run`` against ``ref`` (summary, data)."""
+def errors(run: tuple[dict, dict], ref: tuple[dict, dict], outcome: bool = True, touch_s: tuple[float, float] | None = None) -> dict:
+    """The error measures of the module docstring, of ``run`` against ``ref`` (summary, data);
+    ``outcome`` whether the multimode runs' outcomes agree, ``touch_s`` their touch times
+    (the run's, the reference's; default: ``run``'s and ``ref``'s own)."""
     (s, d), (rs, rd) = run, ref
+    t_run, t_ref = touch_s if touch_s is not None else (s["touch_time_s"], rs["touch_time_s"])
     pads = [c.removesuffix("_estimate_pa") for c in d if c.endswith("_estimate_pa")]
     est = [_rel(_hold_median(d, f"{p}_estimate_pa"), _hold_median(rd, f"{p}_estimate_pa")) for p in pads]
     true = [_rel(_hold_median(d, f"{p}_true_pressure_pa"), _hold_median(rd, f"{p}_true_pressure_pa")) for p in pads]
@@ -65,37 +83,41 @@ def errors(run: tuple[dict, dict], ref: tuple[dict, dict]) -> dict:
     for p in pads:
         same = _hold_median(d, f"{p}_mode") == _hold_median(rd, f"{p}_mode")
         v1.append(abs(_hold_median(d, f"{p}_v1") - _hold_median(rd, f"{p}_v1")) if same else math.nan)
-    touch = (
-        abs(s["touch_time_s"] - rs["touch_time_s"]) if math.isfinite(s["touch_time_s"]) and math.isfinite(rs["touch_time_s"]) else math.nan
-    )
+    touch = abs(t_run - t_ref) if math.isfinite(t_run) and math.isfinite(t_ref) else math.nan
     return {
         "pressure_estimate": max(est) if est else math.nan,
         "true_pressure": max(true) if true else math.nan,
         "output_v1": max(v1) if v1 else math.nan,
         "touch_time_s": touch,
-        "outcome": all(s[k] == rs[k] for k in ("success", "crushed", "slipped")),
+        "outcome": outcome,
     }
 
 
 def fidelity_report(scenes=STANDARD_SCENES, presets=tuple(PRESETS), progress=None) -> dict:
     """Run every preset on every scene; cost and errors per preset (worst over scenes)."""
-    runs: dict[tuple[str, str], tuple[dict, dict, float]] = {}
+    runs: dict[tuple[str, str, str], tuple[dict, dict, float]] = {}
     for scene in scenes:
         for name in (*presets, "reference-halved"):
-            if progress is not None:
-                progress(f"{scene} / {name}")
-            if name == "reference-halved":
-                runs[(scene, name)] = _run(scene, list(REFERENCE_HALVED), None)
-            else:
-                runs[(scene, name)] = _run(scene, [], name)
+            for kind, extra in (("multimode", []), ("scripted", scripted_overrides(scene))):
+                if progress is not None:
+                    progress(f"{scene} / {name} / {kind}")
+                if name == "reference-halved":
+                    runs[(scene, name, kind)] = _run(scene, [*REFERENCE_HALVED, *extra], None)
+                else:
+                    runs[(scene, name, kind)] = _run(scene, extra, name)
     entries = []
     for name in (*presets, "reference-halved"):
         per_scene = {}
         wall = sim = 0.0
         for scene in scenes:
-            s, d, w = runs[(scene, name)]
-            rs, rd, _ = runs[(scene, "reference")]
-            per_scene[scene] = errors((s, d), (rs, rd)) | {"success": s["success"], "sim_time_s": s["sim_time_s"], "wall_s": w}
+            s, _, w = runs[(scene, name, "multimode")]
+            ref = runs[(scene, "reference", "multimode")][0]
+            ss, sd, _ = runs[(scene, name, "scripted")]
+            rs, rd, _ = runs[(scene, "reference", "scripted")]
+            # The touch comes before any decision of the controller's can differ: compared on
+            # the multimode runs.
+            found = errors((ss, sd), (rs, rd), s["outcome"] == ref["outcome"], (s["touch_time_s"], ref["touch_time_s"]))
+            per_scene[scene] = found | {"outcome_name": s["outcome"], "sim_time_s": s["sim_time_s"], "wall_s": w}
             wall += w
             sim += s["sim_time_s"]
         worst = {
