@@ -251,6 +251,19 @@ class ControllerConfig:
         reading.  A touch is then felt one reading sooner than by the CUSUM alone (at 20 mm/s,
         0.06 N on a 30 mm sphere instead of 0.11 N).
     out_of_range_sigma : readings outside [-n sigma, 1 + n sigma] are a sensor fault.
+    baseline_s : unloaded readings averaged for the touch baseline before closing, s: 0.1, twenty
+        readings at 5 ms, the baseline to a fifth of a sigma (1 / sqrt 20).
+    squeeze_settle_s : the squeeze's settling before the lift, s: 0.1, several times the finger
+        servo's time constant on the gel (46 g of finger on the pad's 2.4 kN/m: 4 ms) and long
+        enough for the readout to say whether the pads feel the grip floor.
+    measurable_share : the share of the highest mode's P_max the grip may use, -: 0.9, inside
+        the range where the mode still resolves 10 % of the pressure.
+    sliding_pace : a lift keeping this share of its goal's pace runs free (the pads slide or the
+        object is carried), -: 0.9; between 0.5 and this the pads creep (MuJoCo's soft friction
+        at a light grip) and the load-to-grip ratio says nothing of the friction.
+    drive_margin : the fingers' force limit while they move freely, over what their drive's
+        damping needs at the commanded speed, -: 1.5 (they keep pace; a touch before it is felt
+        meets no more than that).
     """
 
     kind: str = "multimode"
@@ -279,6 +292,11 @@ class ControllerConfig:
     cusum_alarm_sigma: float = 8.0
     touch_single_sigma: float = 6.0
     out_of_range_sigma: float = 6.0
+    baseline_s: float = 0.1
+    squeeze_settle_s: float = 0.1
+    measurable_share: float = 0.9
+    sliding_pace: float = 0.9
+    drive_margin: float = 1.5
 
     def validate(self) -> None:
         _one_of("controller.kind", self.kind, CONTROLLERS)
@@ -300,6 +318,8 @@ class ControllerConfig:
             "cusum_alarm_sigma",
             "touch_single_sigma",
             "out_of_range_sigma",
+            "baseline_s",
+            "squeeze_settle_s",
         ):
             _positive(f"controller.{name}", getattr(self, name))
         for name in ("grip_floor_n", "max_grip_n", "grip_rate_n_s"):
@@ -309,10 +329,14 @@ class ControllerConfig:
             raise ValueError(f"controller.grip_force_n must be at most the fingers' 100 N force limit, got {self.grip_force_n!r}")
         if not self.grip_safety > 1 or not math.isfinite(self.grip_safety):
             raise ValueError(f"controller.grip_safety must be a number above 1, got {self.grip_safety!r}")
-        for name in ("table_load_fraction", "slip_pressure_drop", "hysteresis"):
+        if not (isinstance(self.drive_margin, (int, float)) and self.drive_margin >= 1 and math.isfinite(self.drive_margin)):
+            raise ValueError(f"controller.drive_margin must be a number >= 1, got {self.drive_margin!r}")
+        for name in ("table_load_fraction", "slip_pressure_drop", "hysteresis", "measurable_share"):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, (int, float)) or not 0 < value < 1:
                 raise ValueError(f"controller.{name} must be a fraction in (0, 1), got {value!r}")
+        if isinstance(self.sliding_pace, bool) or not isinstance(self.sliding_pace, (int, float)) or not 0.5 < self.sliding_pace <= 1:
+            raise ValueError(f"controller.sliding_pace must be in (0.5, 1], got {self.sliding_pace!r}")
         if not isinstance(self.persist, int) or isinstance(self.persist, bool) or self.persist < 1:
             raise ValueError(f"controller.persist must be an integer >= 1, got {self.persist!r}")
         if self.hold_s < 0 or not math.isfinite(self.hold_s):

@@ -68,6 +68,34 @@ def test_a_grasp_the_fingertip_cannot_measure_gives_up_blind(tmp_path):
     assert summary["sim_time_s"] < 6.0
 
 
+def _ice_pads(sim, friction):
+    pads = [g for g in range(sim.model.ngeom) if "_pad_" in (mujoco.mj_id2name(sim.model, mujoco.mjtObj.mjOBJ_GEOM, g) or "")]
+    sim.model.geom_friction[pads, 0] = friction
+
+
+@pytest.mark.slow
+def test_a_slip_in_the_hold_is_felt_and_answered():
+    """The pads' friction falls from 1 to 0.3 in mid-hold: the box starts to slide, the lift feels
+    the weight go, the grip rises by what it fell short, and the box stays in the fingers."""
+    cfg = scenarios.get("grasp")
+    sim = CoSimulation(cfg)
+    rows = []
+    while sim.controller.phase is not Phase.HOLD:
+        rows.append(sim.step())
+    for _ in range(80):  # past the hold's settling
+        rows.append(sim.step())
+    _ice_pads(sim, 0.3)
+    while not sim.controller.finished:
+        rows.append(sim.step())
+    slips = [e for e in sim.controller.events if e.kind == "slip"]
+    assert slips and "grip" in slips[0].message
+    data = {k: np.array([r[k] for r in rows]) for k in rows[0]}
+    events = [e.__dict__ for e in sim.controller.events]
+    verdict = judge(data, cfg.controller.lift_height_m, cfg.controller.hold_s, None, events, sim.controller.finished)
+    assert verdict.outcome == "success", verdict.reason
+    assert 0.5e-3 < verdict.max_slip_m < 5e-3  # it did slide, and was caught within the tolerance
+
+
 @pytest.mark.slow
 def test_a_lost_object_is_noticed_and_reported(tmp_path):
     """The pads turn to ice in mid-hold: the box falls; the fingertips notice and the controller stops."""
@@ -76,8 +104,7 @@ def test_a_lost_object_is_noticed_and_reported(tmp_path):
     rows = []
     while sim.controller.phase is not Phase.HOLD:
         rows.append(sim.step())
-    pads = [g for g in range(sim.model.ngeom) if "_pad_" in (mujoco.mj_id2name(sim.model, mujoco.mjtObj.mjOBJ_GEOM, g) or "")]
-    sim.model.geom_friction[pads, 0] = 1e-4
+    _ice_pads(sim, 1e-4)
     t_lost = sim.time_s
     while not sim.controller.finished and sim.time_s < t_lost + 4.0:  # opening from shut takes 1.8 s
         rows.append(sim.step())

@@ -53,13 +53,6 @@ from .phases import Phase
 from .selector import ModeSelector, TouchDetector
 
 G_M_S2 = 9.81
-#: Share of a mode's P_max the grip may use: inside the range, where it still resolves 10 %.
-MEASURABLE_SHARE = 0.9
-#: A lift keeping this share of its goal's pace runs free: the pads slide (or the object is
-#: carried).  Between 0.5 and this the pads creep (MuJoCo's soft friction at a light grip):
-#: the object is still held on the table, and the load-to-grip ratio there says nothing of the
-#: friction.
-SLIDING_PACE = 0.9
 #: Resolution that counts as "measured": physics.md section 5's P_max criterion, dP <= 10 % P.
 RESOLVED_FRACTION = 0.1
 
@@ -101,12 +94,6 @@ class MultimodeGrasp:
     dt_s : the control period, s.
     """
 
-    #: Unloaded readings averaged for the touch baseline (20 readings at 5 ms: sigma / 4.5).
-    APPROACH_S = 0.1
-    #: Squeeze settling before the lift: 20 control periods, several times the finger
-    #: servo's time constant on the gel (finger mass 46 g on the pad's 2.4 kN/m: 4 ms).
-    SETTLE_S = 0.1
-
     def __init__(
         self,
         config: ControllerConfig,
@@ -127,7 +114,7 @@ class MultimodeGrasp:
         sel = self.selectors[pads[0]]
         area = robot.pad_area_m2
         #: The most grip whose pressure the fingertip still measures, N per finger.
-        self.measurable_grip_n = MEASURABLE_SHARE * sel.p_max_pa[highest] * area
+        self.measurable_grip_n = c.measurable_share * sel.p_max_pa[highest] * area
         #: The most grip the robot and the task allow, N per finger.
         self.max_grip_n = min(robot.finger_force_limit_n, c.max_grip_n if c.max_grip_n is not None else math.inf)
         self.grip_cap_n = min(self.max_grip_n, self.measurable_grip_n)
@@ -137,9 +124,9 @@ class MultimodeGrasp:
         self.grip_rate_n_s = c.grip_rate_n_s if c.grip_rate_n_s is not None else robot.finger_force_limit_n
         #: The fingers' force limit while they move freely: what their drive's damping needs at
         #: the commanded speed, x 1.5 (a guard: a touch before it is detected meets no more).
-        moving = 1.5 * robot.finger_damping_n_s_m * c.closing_speed_m_s
+        moving = c.drive_margin * robot.finger_damping_n_s_m * c.closing_speed_m_s
         self.moving_force_n = min(robot.finger_force_limit_n, max(self.grip_floor_n, moving))
-        self.opening_force_n = min(robot.finger_force_limit_n, 1.5 * robot.finger_damping_n_s_m * c.opening_speed_m_s)
+        self.opening_force_n = min(robot.finger_force_limit_n, c.drive_margin * robot.finger_damping_n_s_m * c.opening_speed_m_s)
         #: The fingers' acceleration, m/s^2: the element feels its own pad's inertia (rho h0 a
         #: on its face), so they speed up slowly enough that it stays under half the lowest
         #: mode's detection limit, unseen (a faster start reads as a touch).
@@ -181,6 +168,7 @@ class MultimodeGrasp:
         self._empty_s = 0.0
         self._table_steps = 0
         self._last_slip_s = -math.inf
+        self._low_steps = 0
         self._width_m = math.nan
         self._steady_steps = 0
         self._saturated_logged: set[str] = set()
@@ -258,7 +246,7 @@ class MultimodeGrasp:
     def _approach(self, obs: Observation, t: float, dt_s: float) -> None:
         for pad, sig in obs.pads.items():
             self.touch[pad].learn(sig.reading.v1)
-        if t >= self.APPROACH_S:
+        if t >= self.cfg.baseline_s:
             self.grip_n = self.moving_force_n
             self._enter(Phase.CLOSE, t)
 
@@ -276,7 +264,7 @@ class MultimodeGrasp:
             self._give_up(t, "no_object", "closed without feeling a touch", Phase.RELEASE)
 
     def _squeeze(self, obs: Observation, t: float, dt_s: float) -> None:
-        if t - self._t_phase < self.SETTLE_S:
+        if t - self._t_phase < self.cfg.squeeze_settle_s:
             return
         # A touch leaves the floor's pressure on the pads; a fingertip that reads nothing was
         # alarmed by something else (its own pad's inertia as the fingers jerk): close on.
@@ -350,7 +338,7 @@ class MultimodeGrasp:
             # the one assumed is met in a few checks, without estimating it (MuJoCo's soft
             # friction creeps below the limit, so a slide cannot be told from a hold here).
             self._event(t, "on_table", f"load {load:.3g} N followed the grip ({g0:.3g} -> {applied:.3g} N): still on the table")
-            if self._check_pace >= SLIDING_PACE:
+            if self._check_pace >= self.cfg.sliding_pace:
                 self._sliding_ratio = min(self._sliding_ratio, max(l0, 1e-12) / (2.0 * g0))
             self._check = None
             self._track.clear()
@@ -412,8 +400,16 @@ class MultimodeGrasp:
             held = self._held_load_n
             self._give_up(t, "lost", f"the lift's load fell to {self._load_n:.3g} N of the {held:.3g} N held", Phase.RELEASE)
             return
-        elif self._load_n < (1.0 - 2.0 * self.load_noise_fraction) * self._held_load_n and t - self._last_slip_s >= settle:
-            self._slip(t, f"the lift's load fell to {self._load_n:.3g} N from {self._held_load_n:.3g} N")
+        else:
+            # Stationary, the raw load is clean (the filter would cost 50 ms of sliding); two
+            # readings in a row below the held load by more than the lift's acceleration explains.
+            low = self._raw_load_n < (1.0 - 2.0 * self.load_noise_fraction) * self._held_load_n
+            self._low_steps = self._low_steps + 1 if low else 0
+            if self._low_steps >= 2 and t - self._last_slip_s >= settle:
+                # Sliding, the pads carry their friction limit 2 mu G: the held weight over it is
+                # the grip the weight needs, over the grip there is.
+                deficit = self._held_load_n / max(self._raw_load_n, 1e-9 * self._held_load_n)
+                self._slip(t, f"the lift's load fell to {self._raw_load_n:.3g} N from {self._held_load_n:.3g} N", deficit)
         self.lift_target = self._servo_target(self._held_load_n, 0.0)
         if t - self._t_phase >= self.cfg.hold_s:
             self._enter(Phase.PLACE, t)
@@ -545,10 +541,11 @@ class MultimodeGrasp:
                 break
         return self.phase is not phase
 
-    def _slip(self, t: float, why: str) -> None:
-        """Answer a slip: grip harder by the safety factor, within the cap."""
+    def _slip(self, t: float, why: str, deficit: float = 1.0) -> None:
+        """Answer a slip: grip harder by the safety factor times the grip's ``deficit`` (the
+        factor the load fell short by), within the cap."""
         self._last_slip_s = t
-        wanted = self.grip_n * self.cfg.grip_safety
+        wanted = self.grip_n * self.cfg.grip_safety * max(deficit, 1.0)
         if self._over_cap(t, wanted, self._load_n, carried=True):
             return
         self._event(t, "slip", f"{why}: grip {self.grip_n:.3g} -> {min(wanted, self.grip_cap_n):.3g} N")

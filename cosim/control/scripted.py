@@ -18,7 +18,8 @@ class ScriptedGrasp:
     picked up, and released at ``opening_speed_m_s``.  The fingertips stay in their first mode.
     """
 
-    APPROACH_S = 0.1
+    #: The squeeze at the fixed force settles for this long before the lift, s: the force limit
+    #: is reached at the closing speed's end of travel (no touch sensing to cut it short).
     SETTLE_S = 0.3
 
     def __init__(self, config: ControllerConfig, robot: RobotLimits, pads: tuple[str, ...]) -> None:
@@ -39,7 +40,7 @@ class ScriptedGrasp:
     def step(self, obs: Observation, dt_s: float) -> Command:
         cfg, t, home = self.cfg, obs.time_s, self.robot
         grip = cfg.grip_force_n
-        if self.phase is Phase.APPROACH and t >= self.APPROACH_S:
+        if self.phase is Phase.APPROACH and t >= cfg.baseline_s:
             self._enter(Phase.CLOSE, t)
         if self.phase is Phase.CLOSE:
             self._opening = max(0.0, self._opening - cfg.closing_speed_m_s * dt_s)
@@ -64,7 +65,7 @@ class ScriptedGrasp:
         if self.phase is Phase.RELEASE:
             # From where the fingers are (the squeeze's target lies inside the object).
             self._opening = min(home.home_opening_m, max(self._opening, obs.opening_m) + cfg.opening_speed_m_s * dt_s)
-            grip = min(grip, 1.5 * home.finger_damping_n_s_m * cfg.opening_speed_m_s)
+            grip = min(grip, cfg.drive_margin * home.finger_damping_n_s_m * cfg.opening_speed_m_s)
             if obs.opening_m >= home.home_opening_m - 0.002:
                 self._enter(Phase.DONE, t)
         modes = {pad: cfg.modes[0] for pad in self.pads}
