@@ -572,24 +572,7 @@ class SteadyInference:
         if t - self.tr > _REBASE_S and self.samples:
             self._replay([(s[0], s[1]) for s in self.samples])
         samples, fits = self.samples, self.fits
-        # The integrals to t (as _integrate, inlined: this is the per-step path).
-        tr, q1 = self.tr, self.q1
-        if q1 is None:
-            x1 = x2 = 0j
-        else:
-            tp, ap, x1, x2 = q1
-            h = t - tp
-            q2 = self.q2
-            if q2 is not None and abs(tp - q2[0] - h) <= 1e-6 * h:  # three-point rule (uniform steps)
-                tq, aq = q2
-                x1 = x1 + h * (5.0 * a + 8.0 * ap - aq) * _TWELFTH
-                x2 = x2 + h * (5.0 * (t - tr) * a + 8.0 * (tp - tr) * ap - (tq - tr) * aq) * _TWELFTH
-            else:
-                x1 = x1 + 0.5 * h * (a + ap)
-                x2 = x2 + 0.5 * h * ((t - tr) * a + (tp - tr) * ap)
-            self.q2 = (tp, ap)
-        self.q1 = (t, a, x1, x2)
-        y = self.tau0 * a - (t - tr)
+        x1, x2, y = self._integrate(t, a)
         trusted = True
         n_f = len(fits)
         if n_f and fits[-1] is not None:
