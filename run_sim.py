@@ -4,7 +4,8 @@
     python run_sim.py list                       the registered scenarios
     python run_sim.py run SCENARIO [--set KEY=VALUE ...] [--preset NAME] [--out DIR] [--json] [--csv] [--render]
                                                  a scenario, headless: summary, plots, recording;
-                                                 exit 0 on success, 1 on any other outcome, 2 on bad input
+                                                 exit 0 on success, 1 on any other outcome, 2 on bad input,
+                                                 130 on Ctrl-C (the recording and a summary marked interrupted kept)
     python run_sim.py experiment grasp-range [--json] [--out DIR] [--preset NAME] [--set KEY=VALUE ...]
                                                  objects 1 g to 10 kg, multimode vs each mode alone
     python run_sim.py bench [--json] [--out DIR] [--no-presets]
@@ -98,6 +99,9 @@ def _cmd_run(args: argparse.Namespace) -> int:
         print(json.dumps(_json_safe(report), indent=2))
     else:
         print(format_summary(report))
+    if report.get("interrupted"):
+        print(f"interrupted at t = {report['sim_time_s']:.2f} s; the recording up to there is in {out}", file=sys.stderr)
+        return 130
     # A batch script tells the outcomes apart: 0 success, 1 any other outcome (2: bad input).
     return 0 if report["success"] else 1
 
@@ -239,6 +243,9 @@ def main(argv: list[str] | None = None) -> int:
     except (ValueError, OSError) as exc:  # bad input, or a file that cannot be read or written
         print(f"error: {exc}", file=sys.stderr)
         return 2
+    except KeyboardInterrupt:  # Ctrl-C outside a run's loop (set-up, plots, sweeps)
+        print("interrupted", file=sys.stderr)
+        return 130
 
 
 if __name__ == "__main__":

@@ -105,6 +105,9 @@ def run_scenario(
     if strip is not None and strip.images:
         files.append(str(strip.save(out / "frames.png")))
     report["events"] = events
+    report["interrupted"] = result.interrupted
+    if result.interrupted:
+        report["reason"] = f"interrupted (Ctrl-C) at t = {result.sim_time_s:.2f} s; {report['reason']}"
     report["touch_time_s"] = getattr(sim.controller, "touch_time_s", math.nan)
     report["overrides"] = list(overrides)
     report["preset"] = preset

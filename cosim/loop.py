@@ -99,6 +99,7 @@ class RunResult:
     wall_time_s : wall-clock time of the loop, s.
     files : files written.
     error : the message of the error that stopped the run, or None.
+    interrupted : whether Ctrl-C (KeyboardInterrupt) stopped the run.
     """
 
     steps: int
@@ -106,6 +107,7 @@ class RunResult:
     wall_time_s: float
     files: list[Path]
     error: str | None
+    interrupted: bool = False
 
 
 class CoSimulation:
@@ -374,14 +376,14 @@ class CoSimulation:
 
         Once the controller has finished, the recording goes on until the object is at rest
         (at least ``REST_MIN_S``, at most ``REST_MAX_S``), so a drop after a release is in the
-        record.  ``on_step(sim)`` is called after every step (e.g. to render frames).  Errors
-        (a divergence, Ctrl-C) stop the run; what was recorded is kept (the recorder is closed
-        in any case) and a divergence's message is in ``RunResult.error`` (a KeyboardInterrupt
-        propagates after the files are written).
+        record.  ``on_step(sim)`` is called after every step (e.g. to render frames).  A
+        divergence or Ctrl-C stops the run; what was recorded is kept (the recorder is closed in
+        any case), a divergence's message is in ``RunResult.error`` and Ctrl-C sets
+        ``RunResult.interrupted``.
         """
         total = max_steps if max_steps is not None else math.ceil(self.config.duration_s / self.dt - 1e-9)
         start = time.perf_counter()
-        error = None
+        error, interrupted = None, False
         tail_min, tail_max = round(REST_MIN_S / self.dt), round(REST_MAX_S / self.dt)
         finished_at = None
         try:
@@ -403,10 +405,12 @@ class CoSimulation:
                         break
         except SimulationDiverged as err:
             error = str(err)
+        except KeyboardInterrupt:
+            interrupted = True
         finally:
             wall = time.perf_counter() - start
             files = recorder.close() if recorder is not None else []
-        return RunResult(self.steps, self.time_s, wall, files, error)
+        return RunResult(self.steps, self.time_s, wall, files, error, interrupted)
 
     def object_at_rest(self) -> bool:
         """Whether the object has stopped moving (ground truth: ends the recording's tail)."""

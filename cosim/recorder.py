@@ -1,11 +1,16 @@
-"""Recording every control step, with units, so that a crash or Ctrl-C keeps what was simulated.
+"""Recording every control step, with units, at a cost linear in the run's length, crash-safe.
 
 Columns are named with their unit (``time_s``, ``left_pressure_pa``, ...).  Rows are held in
-memory in chunks; every ``flush_every`` rows the chunk is appended to the CSV (when asked
-for) and a checkpoint NPZ is rewritten atomically (written beside, then renamed), so the
-files on disk always hold a complete prefix of the run.  :meth:`Recorder.close` writes the
-final NPZ; use the recorder as a context manager and it is called on any exit, including
-an exception or KeyboardInterrupt.
+memory in chunks; every ``flush_every`` rows the chunk is written to disk as one more
+append-only file, ``<stem>.chunks/chunk_NNNNNN.npy`` (written beside, then renamed, so a file
+that exists is whole), and appended to the CSV when asked for.  A flush writes only its own
+rows, so a run's recording costs the same per simulated second however long it runs.
+:meth:`Recorder.close` gathers the chunks into ``<stem>.npz`` in one pass and removes them.
+
+A run killed outright (SIGKILL, a power cut) leaves its completed chunks: :func:`read_recording`
+reads a recording from the NPZ, or from the chunks when the run never closed it.  Use the
+recorder as a context manager and :meth:`close` is called on any exit that Python sees,
+including an exception or KeyboardInterrupt.
 """
 
 from __future__ import annotations
@@ -13,9 +18,12 @@ from __future__ import annotations
 import csv
 import json
 import os
+import shutil
 from pathlib import Path
 
 import numpy as np
+
+_META = "meta.json"
 
 
 class Recorder:
@@ -33,6 +41,7 @@ class Recorder:
         self.stem = Path(path_stem)
         self.stem.parent.mkdir(parents=True, exist_ok=True)
         self.npz_path = self.stem.with_suffix(".npz")
+        self.chunk_dir = self.stem.with_suffix(".chunks")
         self.csv_path = self.stem.with_suffix(".csv") if csv else None
         self.flush_every = int(flush_every)
         self.metadata = dict(metadata or {})
@@ -42,8 +51,12 @@ class Recorder:
         self._chunk: list[list[float]] = []
         self._flushed: list[np.ndarray] = []
         self._closed = False
-        if self.csv_path is not None and self.csv_path.exists():
-            self.csv_path.unlink()
+        # A new recording replaces an old one of the same name (never mixes with it).
+        for old in (self.csv_path, self.npz_path):
+            if old is not None and old.exists():
+                old.unlink()
+        if self.chunk_dir.exists():
+            shutil.rmtree(self.chunk_dir)
 
     @property
     def columns(self) -> list[str]:
@@ -91,12 +104,19 @@ class Recorder:
         self._column_set = frozenset(columns)
 
     def flush(self) -> None:
-        """Write the pending chunk: append to the CSV, rewrite the checkpoint NPZ."""
+        """Write the pending rows as one more chunk file (and append them to the CSV)."""
         if not self._chunk or self._columns is None:
             return
         chunk = np.asarray(self._chunk, dtype=float)
         self._chunk = []
+        index = len(self._flushed)
         self._flushed.append(chunk)
+        if index == 0:
+            self.chunk_dir.mkdir(parents=True, exist_ok=True)
+            _write_atomic(self.chunk_dir / _META, json.dumps({"columns": self._columns, "metadata": self.metadata}).encode())
+        tmp = self.chunk_dir / f"chunk_{index:06d}.tmp.npy"
+        np.save(tmp, chunk)
+        os.replace(tmp, self.chunk_dir / f"chunk_{index:06d}.npy")
         if self.csv_path is not None:
             new = not self.csv_path.exists()
             with self.csv_path.open("a", newline="") as fh:
@@ -104,7 +124,6 @@ class Recorder:
                 if new:
                     writer.writerow(self._columns)
                 writer.writerows(chunk.tolist())
-        self._write_npz()
 
     def data(self) -> dict[str, np.ndarray]:
         """Everything recorded so far, as columns."""
@@ -116,18 +135,16 @@ class Recorder:
         table = np.concatenate(parts) if parts else np.empty((0, len(self._columns)))
         return {c: table[:, i] for i, c in enumerate(self._columns)}
 
-    def _write_npz(self) -> None:
-        tmp = self.npz_path.with_suffix(".tmp.npz")
-        arrays = self.data()
-        np.savez(tmp, metadata_json=np.array(json.dumps(self.metadata)), **arrays)
-        os.replace(tmp, self.npz_path)
-
     def close(self) -> list[Path]:
-        """Write everything; return the files written.  Safe to call twice."""
+        """Write everything: the chunks gathered into the NPZ (once), then removed.  Safe to call
+        twice; returns the files written."""
         if not self._closed:
             self.flush()
             if self._columns is not None:
-                self._write_npz()
+                tmp = self.npz_path.with_suffix(".tmp.npz")
+                np.savez(tmp, metadata_json=np.array(json.dumps(self.metadata)), **self.data())
+                os.replace(tmp, self.npz_path)
+                shutil.rmtree(self.chunk_dir, ignore_errors=True)
             self._closed = True
         return [p for p in (self.npz_path, self.csv_path) if p is not None and p.exists()]
 
@@ -136,3 +153,33 @@ class Recorder:
 
     def __exit__(self, *exc) -> None:
         self.close()
+
+
+def _write_atomic(path: Path, payload: bytes) -> None:
+    tmp = path.with_name(path.name + ".tmp")
+    tmp.write_bytes(payload)
+    os.replace(tmp, path)
+
+
+def read_recording(path: str | Path) -> tuple[dict[str, np.ndarray], dict]:
+    """A recording's columns and metadata, from ``<stem>.npz`` or, for a run that was killed
+    before it closed its recorder, from the completed chunks in ``<stem>.chunks/``.
+
+    ``path`` is the stem or either file's path.  Raises FileNotFoundError naming the path when
+    neither exists.
+    """
+    stem = Path(path)
+    if stem.suffix in (".npz", ".chunks"):
+        stem = stem.with_suffix("")
+    npz, chunks = stem.with_suffix(".npz"), stem.with_suffix(".chunks")
+    if npz.exists():
+        with np.load(npz) as f:
+            meta = json.loads(str(f["metadata_json"])) if "metadata_json" in f.files else {}
+            return {k: f[k] for k in f.files if k != "metadata_json"}, meta
+    if (chunks / _META).exists():
+        info = json.loads((chunks / _META).read_text())
+        parts = [np.load(p) for p in sorted(chunks.glob("chunk_[0-9]*.npy"))]
+        columns = info["columns"]
+        table = np.concatenate(parts) if parts else np.empty((0, len(columns)))
+        return {c: table[:, i] for i, c in enumerate(columns)}, info["metadata"]
+    raise FileNotFoundError(f"no recording at {str(stem)!r} (neither {npz.name} nor {chunks.name}/)")

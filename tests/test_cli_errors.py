@@ -7,6 +7,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 import run_sim
@@ -101,3 +102,27 @@ def test_runs_with_overrides_get_their_own_folder():
     c = default_out_dir("grasp", [], "fast")
     assert len({a, b, c, Path("out/grasp")}) == 4
     assert a == default_out_dir("grasp", ["object.mass_kg=0.4"])  # the same run, the same folder
+
+
+def test_ctrl_c_ends_with_one_line_a_summary_marked_interrupted_and_status_130(tmp_path, capsys, monkeypatch):
+    from cosim.loop import CoSimulation
+
+    advance = CoSimulation.advance
+    calls = {"n": 0}
+
+    def interrupted_after_50(self):
+        calls["n"] += 1
+        if calls["n"] > 50:
+            raise KeyboardInterrupt
+        return advance(self)
+
+    monkeypatch.setattr(CoSimulation, "advance", interrupted_after_50)
+    code = run_sim.main(["run", "grasp", "--out", str(tmp_path)])
+    err = capsys.readouterr().err.strip()
+    assert code == 130
+    # One line (the progress bar above it redraws in place with carriage returns).
+    assert "\n" not in err and "Traceback" not in err
+    assert err.split("\r")[-1].startswith("interrupted at t = 0.25 s")
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    assert summary["interrupted"] is True and summary["reason"].startswith("interrupted")
+    assert len(np.load(tmp_path / "run.npz")["time_s"]) == 50

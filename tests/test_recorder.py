@@ -1,11 +1,17 @@
 """The recorder keeps a complete prefix on disk, whatever stops the run."""
 
 import csv
+import signal
+import subprocess
+import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
 
-from cosim.recorder import Recorder
+from cosim.recorder import Recorder, read_recording
+
+ROOT = Path(__file__).resolve().parent.parent
 
 
 def test_rows_round_trip_through_npz_and_csv(tmp_path):
@@ -30,14 +36,45 @@ def test_an_exception_mid_run_keeps_what_was_recorded(tmp_path):
     assert len(np.load(tmp_path / "run.npz")["time_s"]) == 7
 
 
-def test_checkpoint_on_disk_before_close(tmp_path):
+def test_chunks_on_disk_before_close_each_written_once(tmp_path):
     rec = Recorder(tmp_path / "run", flush_every=4)
-    for i in range(9):
+    for i in range(13):
         rec.append({"time_s": float(i)})
-    # Two chunks of 4 are on disk although the recorder was never closed.
-    assert len(np.load(tmp_path / "run.npz")["time_s"]) == 8
+    # Three chunks of 4 are on disk although the recorder was never closed, readable as a
+    # recording; no NPZ is rewritten per flush (the cost of a flush is its own rows).
+    chunks = sorted((tmp_path / "run.chunks").glob("chunk_*.npy"))
+    assert len(chunks) == 3 and len({c.stat().st_size for c in chunks}) == 1
+    assert not (tmp_path / "run.npz").exists()
+    data, _ = read_recording(tmp_path / "run")
+    np.testing.assert_array_equal(data["time_s"], np.arange(12.0))
     rec.close()
-    assert len(np.load(tmp_path / "run.npz")["time_s"]) == 9
+    assert len(np.load(tmp_path / "run.npz")["time_s"]) == 13
+    assert not (tmp_path / "run.chunks").exists()
+    data, meta = read_recording(tmp_path / "run.npz")
+    assert len(data["time_s"]) == 13 and meta == {}
+
+
+def test_a_killed_writer_leaves_every_completed_chunk_readable(tmp_path):
+    """SIGKILL: no Python cleanup runs; the chunks written before it are whole and readable."""
+    script = (
+        "import os, signal, sys\n"
+        "from cosim.recorder import Recorder\n"
+        "rec = Recorder(sys.argv[1], flush_every=10, metadata={'units': 's'})\n"
+        "for i in range(35):\n"
+        "    rec.append({'time_s': float(i), 'x_m': 2.0 * i})\n"
+        "os.kill(os.getpid(), signal.SIGKILL)\n"
+    )
+    proc = subprocess.run([sys.executable, "-c", script, str(tmp_path / "run")], cwd=ROOT, timeout=60)
+    assert proc.returncode == -signal.SIGKILL
+    data, meta = read_recording(tmp_path / "run")
+    np.testing.assert_array_equal(data["time_s"], np.arange(30.0))
+    np.testing.assert_array_equal(data["x_m"], 2.0 * np.arange(30.0))
+    assert meta == {"units": "s"}
+
+
+def test_reading_nothing_names_the_path(tmp_path):
+    with pytest.raises(FileNotFoundError, match="no recording"):
+        read_recording(tmp_path / "missing")
 
 
 def test_rows_must_keep_their_columns(tmp_path):
