@@ -2,7 +2,7 @@
 """piezotip's command line.
 
     python run_sim.py list                       the registered scenarios
-    python run_sim.py run SCENARIO [--set KEY=VALUE ...] [--preset NAME] [--out DIR] [--json] [--csv] [--render]
+    python run_sim.py run SCENARIO [--set KEY=VALUE ...] [--preset NAME] [--out DIR] [--json] [--csv] [--render] [--no-plot]
                                                  a scenario, headless: summary, plots, recording;
                                                  exit 0 on success, 1 on any other outcome, 2 on bad input,
                                                  130 on Ctrl-C (the recording and a summary marked interrupted kept)
@@ -94,7 +94,9 @@ def _cmd_run(args: argparse.Namespace) -> int:
     from analysis.runner import default_out_dir, run_scenario
 
     out = Path(args.out) if args.out else default_out_dir(args.scenario, args.set or [], args.preset)
-    report, _ = run_scenario(args.scenario, args.set or [], out, csv=args.csv, render=args.render, quiet=args.json, preset=args.preset)
+    report, _ = run_scenario(
+        args.scenario, args.set or [], out, csv=args.csv, render=args.render, plot=not args.no_plot, quiet=args.json, preset=args.preset
+    )
     if args.json:
         print(json.dumps(_json_safe(report), indent=2))
     else:
@@ -125,7 +127,7 @@ def _cmd_experiment(args: argparse.Namespace) -> int:
 
     with tqdm(total=len(OBJECTS) * len(CONTROLLERS), desc="grasp-range", unit="grasp", disable=args.json, leave=False) as bar:
         rows = run_grid(run_one, base_overrides=tuple(args.set or ()), progress=bar)
-    files = [str(p) for p in write_outputs(rows, out)]
+    files = [str(p) for p in write_outputs(rows, out, plot=not args.no_plot)]
     if args.json:
         print(json.dumps(_json_safe({"rows": rows, "files": files}), indent=2))
     else:
@@ -196,6 +198,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", help="output directory (default: out/SCENARIO, or out/SCENARIO-<hash> with --set or --preset)")
     p.add_argument("--json", action="store_true", help="print the summary as JSON")
     p.add_argument("--csv", action="store_true", help="also write the recording as CSV")
+    p.add_argument("--no-plot", action="store_true", help="no run.png (batch use: matplotlib is then never imported)")
     p.add_argument("--render", action="store_true", help="save a strip of frames from MuJoCo's offscreen renderer (MUJOCO_GL=egl)")
     p.add_argument("--preset", choices=PRESET_NAMES, help="fidelity preset (default: the scenario's own settings, = balanced)")
     p.set_defaults(func=_cmd_run)
@@ -206,6 +209,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", help="output directory (default: out/grasp-range)")
     p.add_argument("--preset", choices=PRESET_NAMES, help="fidelity preset for every run")
     p.add_argument("--set", action="append", metavar="KEY=VALUE", help="override a config value of every run (repeatable)")
+    p.add_argument("--no-plot", action="store_true", help="no grasp_range.png")
     p.set_defaults(func=_cmd_experiment)
 
     p = sub.add_parser("figures", help="the paper's analysis figures (V_1 and sensitivities against k_e, c_e)")

@@ -156,8 +156,9 @@ _OUTCOME_COLOUR = {
 }
 
 
-def write_outputs(rows: list[dict], out_dir: Path) -> list[Path]:
-    """grasp_range.csv, grasp_range.json and grasp_range.png (outcome matrix and peak pressures)."""
+def write_outputs(rows: list[dict], out_dir: Path, plot: bool = True) -> list[Path]:
+    """grasp_range.csv, grasp_range.json and (with ``plot``) grasp_range.png (outcome matrix and
+    peak pressures)."""
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     csv_path = out_dir / "grasp_range.csv"
@@ -168,6 +169,8 @@ def write_outputs(rows: list[dict], out_dir: Path) -> list[Path]:
     json_path = out_dir / "grasp_range.json"
     units = {"peak_pressure_pa": "Pa", "held_pressure_pa": "Pa", "touch_latency_s": "s", "peak_grip_force_n": "N"}
     json_path.write_text(json.dumps(json_safe({"units": units, "rows": rows}), indent=2) + "\n")
+    if not plot:
+        return [csv_path, json_path]
     objects = list(dict.fromkeys(r["object"] for r in rows))
     controllers = list(dict.fromkeys(r["controller"] for r in rows))
     peak = np.full((len(objects), len(controllers)), np.nan)

@@ -126,3 +126,15 @@ def test_ctrl_c_ends_with_one_line_a_summary_marked_interrupted_and_status_130(t
     summary = json.loads((tmp_path / "summary.json").read_text())
     assert summary["interrupted"] is True and summary["reason"].startswith("interrupted")
     assert len(np.load(tmp_path / "run.npz")["time_s"]) == 50
+
+
+def test_no_plot_writes_no_png_and_never_imports_matplotlib(tmp_path):
+    script = (
+        "import sys, run_sim\n"
+        f"code = run_sim.main(['run', 'grasp-light', '--no-plot', '--json', '--out', {str(tmp_path)!r}])\n"
+        "print('MATPLOTLIB', 'matplotlib' in sys.modules, 'CODE', code, file=sys.stderr)\n"
+    )
+    proc = subprocess.run([sys.executable, "-c", script], cwd=ROOT, capture_output=True, text=True, timeout=300)
+    assert "MATPLOTLIB False CODE 0" in proc.stderr, proc.stderr[-500:]
+    assert (tmp_path / "run.npz").exists() and (tmp_path / "summary.json").exists()
+    assert not (tmp_path / "run.png").exists()
