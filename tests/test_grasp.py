@@ -196,3 +196,28 @@ def test_failed_self_test_stops_the_grasp(tmp_path):
     assert not summary["success"]
     faults = [e for e in summary["events"] if e["kind"] == "self_test"]
     assert faults and "coupling" in faults[0]["message"]
+
+
+def test_mode_ranges_are_computed_once_per_fingertip_and_never_shared_across_configs():
+    """The selectors' bands and limits are cached by every parameter they depend on."""
+    from cosim.control.selector import allowed_ranges
+    from sensor import Fingertip, GelModel, SensorElement
+    from sensor.readout import NoiseParams
+
+    base = make_fingertip(scenarios.get("grasp"))
+    first = allowed_ranges(base, (1, 2, 3, 4))
+    again = allowed_ranges(make_fingertip(scenarios.get("grasp")), (1, 2, 3, 4))
+    assert again[0] is first[0] and again[1] is first[1]  # the same computation, reused
+    variants = {
+        "modes": allowed_ranges(base, (1, 3)),
+        "coverage": allowed_ranges(make_fingertip(scenarios.get("grasp", ["sensor.coverage_mm=(6.0, 7.5)"])), (1, 2, 3, 4)),
+        "q": allowed_ranges(make_fingertip(scenarios.get("grasp", ["sensor.quality_factor=70"])), (1, 2, 3, 4)),
+        "noise": allowed_ranges(Fingertip(base.element, base.gel, base.coverage, NoiseParams(relative_floor=2e-3)), (1, 2, 3, 4)),
+        "gel": allowed_ranges(Fingertip(base.element, GelModel(layer="dynamic"), base.coverage, base.noise), (1, 2, 3, 4)),
+        "boundary": allowed_ranges(Fingertip(SensorElement(boundary="simply-supported"), base.gel, base.coverage, base.noise), (1, 3)),
+    }
+    for name, value in variants.items():
+        assert value[0] is not first[0], name
+        assert value[1] != first[1] or value[2] != first[2], name  # other bands or limits
+    first[2][1] = -1.0  # the caller's copy: the cache stays as it was
+    assert allowed_ranges(base, (1, 2, 3, 4))[2][1] > 0

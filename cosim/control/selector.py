@@ -22,6 +22,36 @@ from sensor import Fingertip
 
 from .interface import Why
 
+_RANGES: dict[tuple, tuple] = {}
+
+
+def allowed_ranges(fingertip: Fingertip, modes: tuple[int, ...]) -> tuple[Fingertip, tuple, dict[int, float], dict[int, float]]:
+    """The fingertip restricted to ``modes``, its mode bands and each mode's P_min and P_max, Pa.
+
+    Computed once per process for each fingertip configuration (element, boundary, gel,
+    coverage, noise, rating, mounting: every parameter they depend on, all immutable) and set
+    of modes: both pads of a grasp and every run of an experiment share them (0.15 s each).
+    The results are immutable values (tuples; the dicts are copied for the caller).
+    """
+    el = fingertip.element
+    tip = fingertip
+    key = (el.params, el.boundary, tip.gel, tip.coverage, tip.noise, tip.rated_pressure_pa, tip.mounting, modes)
+    if key not in _RANGES:
+        allowed = Fingertip(
+            element=el,
+            gel=fingertip.gel,
+            coverage=fingertip.coverage,
+            noise=fingertip.noise,
+            modes=modes,
+            rated_pressure_pa=fingertip.rated_pressure_pa,
+            mounting=fingertip.mounting,
+        )
+        p_min = {m: allowed.detection_limit(m) for m in modes}
+        p_max = {m: allowed.upper_limit(m) for m in modes}
+        _RANGES[key] = (allowed, allowed.mode_bands(), p_min, p_max)
+    allowed, bands, p_min, p_max = _RANGES[key]
+    return allowed, bands, dict(p_min), dict(p_max)
+
 
 class ModeSelector:
     """Chooses one fingertip's drive mode from its readout, with hysteresis and settling.
@@ -36,21 +66,9 @@ class ModeSelector:
 
     def __init__(self, fingertip: Fingertip, modes: tuple[int, ...], hysteresis: float = 0.25, persist: int = 3) -> None:
         self.modes = tuple(sorted(modes))
-        allowed = Fingertip(
-            element=fingertip.element,
-            gel=fingertip.gel,
-            coverage=fingertip.coverage,
-            noise=fingertip.noise,
-            modes=self.modes,
-            rated_pressure_pa=fingertip.rated_pressure_pa,
-            mounting=fingertip.mounting,
-        )
-        self.fingertip = allowed
-        self.bands = allowed.mode_bands()
+        self.fingertip, self.bands, self.p_min_pa, self.p_max_pa = allowed_ranges(fingertip, self.modes)
         # Switch pressure between consecutive allowed modes (the band edge), Pa.
         self.switch_pa = {(a[0], b[0]): a[2] for a, b in zip(self.bands, self.bands[1:], strict=False)}
-        self.p_max_pa = {m: allowed.upper_limit(m) for m in self.modes}
-        self.p_min_pa = {m: allowed.detection_limit(m) for m in self.modes}
         self.hysteresis = hysteresis
         self.persist = persist
         self.mode = self.modes[0]
