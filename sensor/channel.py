@@ -660,6 +660,21 @@ class SteadyInference:
         self.fits.append(self._fit(readings[-1][0])[4])
 
 
+_MODE_TABLES: dict[tuple, tuple] = {}
+
+
+def mode_tables(fingertip: Fingertip, mode: int, exact: bool) -> tuple[FoundationTable | None, ModeInverse]:
+    """One mode's (k_e, c_e) table (None for the exact gel) and its inverse, computed once per
+    process for each fingertip configuration (:meth:`Fingertip.config_key`), mode and gel
+    evaluation: every channel of every run with that fingertip shares them (both are read-only
+    after construction)."""
+    key = (fingertip.config_key(), mode, bool(exact))
+    if key not in _MODE_TABLES:
+        table = None if exact else FoundationTable(fingertip, mode)
+        _MODE_TABLES[key] = (table, ModeInverse(fingertip, mode, table))
+    return _MODE_TABLES[key]
+
+
 class SensorChannel:
     """The readout of one fingertip: drives one mode at a time, samples, switches.
 
@@ -705,8 +720,9 @@ class SensorChannel:
         self._weights = {m: b * el.cell_ratios(m, self.edges_m) for m in used}
         self._omega = {m: el.natural_angular_frequency(m) for m in used}
         self._sigma = {m: fingertip.sigma(m) for m in used}
-        self._tables = {m: FoundationTable(fingertip, m) for m in used} if not exact else {}
-        self._inverse = {m: ModeInverse(fingertip, m, self._tables.get(m)) for m in used}
+        tables = {m: mode_tables(fingertip, m, exact) for m in used}
+        self._tables = {m: tables[m][0] for m in used} if not exact else {}
+        self._inverse = {m: tables[m][1] for m in used}
         # For update_trusted: per mode (omega, sigma, table lookup, weights as floats).
         self._fast = {
             m: (float(self._omega[m]), float(self._sigma[m]), self._tables[m].at if not exact else None, self._weights[m].tolist())

@@ -69,6 +69,12 @@ class Fingertip:
     def __repr__(self) -> str:
         return f"Fingertip(modes={self.modes}, coverage_m={self.coverage}, rated_pressure_pa={self.rated_pressure_pa})"
 
+    def config_key(self) -> tuple:
+        """Every parameter the fingertip's outputs depend on, as one hashable value (all of them
+        immutable): equal keys, equal fingertips (a cache of derived tables keys on it)."""
+        el = self.element
+        return (el.params, el.boundary, self.gel, self.coverage, self.noise, self.modes, self.rated_pressure_pa, self.mounting)
+
     # -- forward model ---------------------------------------------------------------
 
     def _mode(self, mode: int) -> int:

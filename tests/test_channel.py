@@ -132,3 +132,24 @@ def test_bad_profiles_raise(tip):
         SensorChannel(tip, dynamics="bogus")
     with pytest.raises(ValueError, match="mode"):
         ch.select_mode(7)
+
+
+def test_mode_tables_are_built_once_per_fingertip_mode_and_gel_evaluation():
+    import scenarios
+    from cosim.loop import make_fingertip
+    from sensor.channel import mode_tables
+
+    tip = make_fingertip(scenarios.get("grasp"))
+    table, inverse = mode_tables(tip, 2, exact=False)
+    again = mode_tables(make_fingertip(scenarios.get("grasp")), 2, exact=False)
+    assert again[0] is table and again[1] is inverse  # an equal fingertip shares them
+    other = make_fingertip(scenarios.get("grasp", ["sensor.coverage_mm=(6.0, 7.5)"]))
+    assert mode_tables(other, 2, exact=False)[1] is not inverse
+    assert mode_tables(other, 2, exact=False)[1].p_max_pa != inverse.p_max_pa
+    assert mode_tables(tip, 3, exact=False)[1] is not inverse
+    exact_table, exact_inverse = mode_tables(tip, 2, exact=True)
+    assert exact_table is None and exact_inverse is not inverse
+    # Two channels of one fingertip use the one table, and read the same.
+    a, b = SensorChannel(tip, mode=2, noise=False), SensorChannel(tip, mode=2, noise=False)
+    assert a.inverse(2) is b.inverse(2)
+    assert a.update([500.0], 0.005).v1 == b.update([500.0], 0.005).v1

@@ -33,12 +33,10 @@ def allowed_ranges(fingertip: Fingertip, modes: tuple[int, ...]) -> tuple[Finger
     of modes: both pads of a grasp and every run of an experiment share them (0.15 s each).
     The results are immutable values (tuples; the dicts are copied for the caller).
     """
-    el = fingertip.element
-    tip = fingertip
-    key = (el.params, el.boundary, tip.gel, tip.coverage, tip.noise, tip.rated_pressure_pa, tip.mounting, modes)
+    key = (fingertip.config_key(), modes)
     if key not in _RANGES:
         allowed = Fingertip(
-            element=el,
+            element=fingertip.element,
             gel=fingertip.gel,
             coverage=fingertip.coverage,
             noise=fingertip.noise,
