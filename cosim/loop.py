@@ -26,7 +26,7 @@ from sensor.channel import Reading, SensorChannel
 from .control import Command, Controller, Observation, PadSignal, RobotLimits, ScriptedGrasp, make_observation, make_pad_signal
 from .pads import PAD_NAMES, PAD_SIDES, PadBridge
 from .recorder import Recorder
-from .scene import build_scene, check_reach, finite_state, object_height_m, reset_home, robot_limits
+from .scene import build_scene, check_reach, finite_state, reset_home, robot_limits
 
 
 class SimulationDiverged(RuntimeError):
@@ -160,7 +160,6 @@ class CoSimulation:
         self._finger_act = m.actuator("fingers_actuator").id
         self.time_s = 0.0
         self.steps = 0
-        self._start_object_height = object_height_m(m, self.data)
         self._finger_limit = float(m.actuator_forcerange[self._finger_act, 1])
         # Ground truth for the referee and the record (never in the Observation): each
         # finger's net contact force on the object alone, world x is the closing direction

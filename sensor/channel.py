@@ -612,26 +612,7 @@ class SteadyInference:
                 self._replay(keep)
                 return _NAN_ENVELOPE, math.inf, False
             trusted = worst <= (SUSPECT_STAT if worst_m < _SCALES[-1] else _SUSPECT_STAT_LONGEST)
-        # Add the reading to the window's running sums.
-        s = samples[-1] if samples else self.base
-        c1, c2 = x1.conjugate(), x2.conjugate()
-        samples.append(
-            (
-                t,
-                a,
-                x1,
-                x2,
-                y,
-                s[5] + x1,
-                s[6] + x2,
-                s[7] + y,
-                s[8] + (x1.real * x1.real + x1.imag * x1.imag),
-                s[9] + (x2.real * x2.real + x2.imag * x2.imag),
-                s[10] + c1 * x2,
-                s[11] + c1 * y,
-                s[12] + c2 * y,
-            )
-        )
+        self._add(t, a, x1, x2, y)  # the reading into the window's running sums
         w_target = self.w_target
         while t - samples[0][0] > w_target and len(samples) > _MIN_SAMPLES:
             self.base = samples.popleft()
