@@ -160,7 +160,7 @@ class CoSimulation:
         self._finger_act = m.actuator("fingers_actuator").id
         self.time_s = 0.0
         self.steps = 0
-        self._finger_limit = float(m.actuator_forcerange[self._finger_act, 1])
+        self._finger_limit = self.robot.finger_force_limit_n  # the model's, before _actuate rewrites its forcerange
         # Ground truth for the referee and the record (never in the Observation): each
         # finger's net contact force on the object alone, world x is the closing direction
         # ("found" then force).
