@@ -41,8 +41,7 @@ from pathlib import Path
 
 import mujoco
 import numpy as np
-
-from scenarios.config import ScenarioConfig
+from piezotip.scenarios.config import ScenarioConfig
 
 #: The issue's targets.
 TARGET_OVERHEAD_RATIO = 1.5
@@ -71,7 +70,7 @@ class BenchCase:
 
 def grasp_cases(all_scenes: bool = False, overrides: Sequence[str] = ()) -> list[BenchCase]:
     """The default grasp scene, or every registered grasp scene (default first)."""
-    import scenarios
+    from piezotip import scenarios
 
     names = ["grasp"]
     if all_scenes:
@@ -80,14 +79,14 @@ def grasp_cases(all_scenes: bool = False, overrides: Sequence[str] = ()) -> list
 
 
 def _new_sim(config: ScenarioConfig):
-    from cosim.loop import CoSimulation
+    from piezotip.cosim.loop import CoSimulation
 
     return CoSimulation(config)
 
 
 def _run(sim, on_step=None) -> float:
     """One full run with its recorder (as ``run_sim.py run``), in a temporary directory; wall s."""
-    from cosim.recorder import Recorder
+    from piezotip.cosim.recorder import Recorder
 
     with tempfile.TemporaryDirectory(prefix="piezotip-bench-") as tmp:
         result = sim.run(Recorder(Path(tmp) / "run"), on_step=on_step)
@@ -243,7 +242,7 @@ def _stage_times(config: ScenarioConfig, repeats: int) -> dict[str, float]:
     stage's fastest), the timers' own cost removed; "other" is the rest of the instrumented
     step (the loop's bookkeeping).  Timers disturb what they measure (caches, a few hundred
     ns each): the stages are shares of the cost, the totals come from the plain runs."""
-    from cosim.recorder import Recorder
+    from piezotip.cosim.recorder import Recorder
 
     inside, whole = _wrapper_costs()
     best: dict[str, float] = {}

@@ -35,7 +35,7 @@ class TestObject:
 
 
 def _objects() -> tuple[TestObject, ...]:
-    from scenarios import OBJECTS, object_overrides
+    from piezotip.scenarios import OBJECTS, object_overrides
 
     return tuple(TestObject(name, tuple(object_overrides(name))) for name in OBJECTS)
 
@@ -101,7 +101,7 @@ def run_grid(run_one, objects=None, controllers=CONTROLLERS, base_overrides: tup
             contact = np.nonzero(touching)[0]
             contact_t = float(data["time_s"][contact[0]]) if contact.size else math.nan
             touch_t = summary.get("touch_time_s", math.nan)
-            from scenarios.config import ObjectConfig
+            from piezotip.scenarios.config import ObjectConfig
 
             simulated = ObjectConfig(**{k: summary["object"][k] for k in ("shape", "mass_kg", "size_m", "friction", "crush_force_n")})
             ok, why_not = feasible(simulated)

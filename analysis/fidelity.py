@@ -30,8 +30,7 @@ import tempfile
 from pathlib import Path
 
 import numpy as np
-
-from scenarios.presets import PRESETS, REFERENCE_HALVED
+from piezotip.scenarios.presets import PRESETS, REFERENCE_HALVED
 
 #: The standard scenes: a light grasp and the heaviest (all modes in use).
 STANDARD_SCENES = ("grasp", "grasp-10kg")
@@ -43,7 +42,7 @@ FAST_TARGET, ACCURATE_TARGET = 0.05, 0.01
 def scripted_overrides(scene: str) -> list[str]:
     """The scripted controller at a fixed grip: twice what the scene's object's weight needs at
     its friction (m g / mu per finger, at most the fingers' 100 N), so it is held still."""
-    import scenarios
+    from piezotip import scenarios
 
     obj = scenarios.get(scene).object
     grip = min(100.0, obj.mass_kg * 9.81 / obj.friction)

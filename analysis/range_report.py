@@ -7,8 +7,7 @@ import math
 from pathlib import Path
 
 import numpy as np
-
-from sensor import Fingertip
+from piezotip.sensor import Fingertip
 
 from .plotting import new_figure, save_figure
 

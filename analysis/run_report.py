@@ -6,10 +6,9 @@ import math
 from pathlib import Path
 
 import numpy as np
-
-from cosim.loop import coverage_cells
-from scenarios.config import ObjectConfig, ScenarioConfig
-from sensor import Fingertip
+from piezotip.cosim.loop import coverage_cells
+from piezotip.scenarios.config import ObjectConfig, ScenarioConfig
+from piezotip.sensor import Fingertip
 
 from .plotting import new_figure, save_figure
 from .referee import judge, outside_model
@@ -87,7 +86,7 @@ def model_limits(config: ScenarioConfig, max_pressure_pa: float, data: dict[str,
     ``element_overstressed``: the element's static bending at the largest pressure
     (sensor/stress.py, the fingertip's mounting).
     """
-    from cosim.loop import make_fingertip
+    from piezotip.cosim.loop import make_fingertip
 
     tip = make_fingertip(config)
     state = tip.gel.state(max_pressure_pa)
@@ -206,7 +205,7 @@ def plot_run(config: ScenarioConfig, fingertip: Fingertip, data: dict[str, np.nd
 
 def _shade_phases(t: np.ndarray, phase: np.ndarray, axes) -> None:
     """Alternate light bands for the controller's phases, named on the top panel."""
-    from cosim.control import PHASES
+    from piezotip.cosim.control import PHASES
 
     changes = np.flatnonzero(np.diff(phase)) + 1
     starts = np.concatenate([[0], changes])

@@ -65,17 +65,18 @@ def run_scenario(
     ``csv``, ``run.png`` with ``plot``, ``frames.png`` with ``render``, ``summary.json``.
     A divergence stops the run with the recording kept; the summary's ``error`` says why.
     """
-    import scenarios
-    from cosim.loop import CoSimulation
-    from cosim.recorder import Recorder
+    from piezotip.cosim.loop import CoSimulation
+    from piezotip.cosim.recorder import Recorder
+
+    from piezotip import scenarios
 
     from .run_report import plot_run, summary
 
     config = scenarios.get(name, overrides, preset)
     out = check_out_dir(Path(out))
     sim = CoSimulation(config)
-    from cosim.control import PHASES
-    from cosim.loop import STATUS_CODES
+    from piezotip.cosim.control import PHASES
+    from piezotip.cosim.loop import STATUS_CODES
 
     meta = {
         "scenario": name,

@@ -18,10 +18,9 @@ from pathlib import Path
 
 import mujoco
 import numpy as np
-
-from scenarios.config import ScenarioConfig
-from sensor import ElementParams, Fingertip, GelModel, SensorElement
-from sensor.channel import Reading, SensorChannel
+from piezotip.scenarios.config import ScenarioConfig
+from piezotip.sensor import ElementParams, Fingertip, GelModel, SensorElement
+from piezotip.sensor.channel import Reading, SensorChannel
 
 from .control import Command, Controller, Observation, PadSignal, RobotLimits, ScriptedGrasp, make_observation, make_pad_signal
 from .pads import PAD_NAMES, PAD_SIDES, PadBridge
@@ -52,7 +51,7 @@ def make_controller(config: ScenarioConfig, robot: RobotLimits, fingertip: Finge
     pads = tuple(f"{p}_pad" for p in config.sensor.pads)
     if c.kind == "scripted":
         return ScriptedGrasp(c, robot, pads)
-    from sensor.selftest import damaged, self_test
+    from piezotip.sensor.selftest import damaged, self_test
 
     from .control import MultimodeGrasp
 

@@ -32,8 +32,7 @@ from pathlib import Path
 
 import mujoco
 import numpy as np
-
-from sensor.gel import GelModel, GelParams, gent_pressure_pa, modulus_ratio
+from piezotip.sensor.gel import GelModel, GelParams, gent_pressure_pa, modulus_ratio
 
 MODELS_DIR = Path(__file__).resolve().parent.parent / "models"
 """Where the MJCF files live (``gripper.xml``, ``table.xml``, ``scene_*.xml``)."""

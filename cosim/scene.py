@@ -14,9 +14,8 @@ from dataclasses import dataclass
 
 import mujoco
 import numpy as np
-
-from scenarios.config import RATED_MASS_KG, ObjectConfig, ScenarioConfig
-from sensor.gel import GelParams
+from piezotip.scenarios.config import RATED_MASS_KG, ObjectConfig, ScenarioConfig
+from piezotip.sensor.gel import GelParams
 
 from .control.interface import RobotLimits
 from .pads import MODELS_DIR, PadGeometry, build_model

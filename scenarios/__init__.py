@@ -2,7 +2,7 @@
 
 The command line, the docs and the tests all come from this one registry::
 
-    from scenarios import get, names
+    from piezotip.scenarios import get, names
     cfg = get("grasp", ["object.mass_kg=0.4"])
 """
 

@@ -5,10 +5,10 @@ import io
 import json
 
 import pytest
+from piezotip.analysis.bench import BenchCase, bench_cases
 
-import run_sim
-import scenarios
-from analysis.bench import BenchCase, bench_cases
+from piezotip import cli as run_sim
+from piezotip import scenarios
 
 TOP_KEYS = {"overhead_ratio", "realtime_factor", "wall_s_per_sim_s", "bare_step_us", "cosim_step_us", "stages_us", "scenes"}
 STAGES = {"physics", "gel_forces", "pressure", "sensor", "readout", "controller", "actuators", "record", "other"}
@@ -70,7 +70,7 @@ def test_bench_rejects_bad_arguments(capsys):
 def test_fidelity_presets_report_cost_and_errors_against_reference():
     """The presets' table on one scene: every preset named, errors against reference, the
     reference's halving check; the reference against itself has no error."""
-    from analysis.fidelity import fidelity_report
+    from piezotip.analysis.fidelity import fidelity_report
 
     report = fidelity_report(scenes=("grasp",))
     names = [e["name"] for e in report["presets"]]

@@ -5,11 +5,10 @@ import math
 import numpy as np
 import pytest
 from numpy.testing import assert_allclose
+from piezotip.sensor import SensorElement
+from piezotip.sensor.carrier import CarrierResonator
+from piezotip.sensor.readout import envelope_rate, steady_envelope
 from scipy.integrate import solve_ivp
-
-from sensor import SensorElement
-from sensor.carrier import CarrierResonator
-from sensor.readout import envelope_rate, steady_envelope
 
 EL = SensorElement().with_quality_factor(70)
 RHO_A = EL.params.mass_per_length_kg_m

@@ -5,10 +5,9 @@ import math
 import numpy as np
 import pytest
 from numpy.testing import assert_allclose
-
-from sensor import Fingertip, SensorElement
-from sensor.channel import SensorChannel
-from sensor.readout import envelope_rate, envelope_step, steady_envelope
+from piezotip.sensor import Fingertip, SensorElement
+from piezotip.sensor.channel import SensorChannel
+from piezotip.sensor.readout import envelope_rate, envelope_step, steady_envelope
 
 
 @pytest.fixture(scope="module")
@@ -135,9 +134,10 @@ def test_bad_profiles_raise(tip):
 
 
 def test_mode_tables_are_built_once_per_fingertip_mode_and_gel_evaluation():
-    import scenarios
-    from cosim.loop import make_fingertip
-    from sensor.channel import mode_tables
+    from piezotip.cosim.loop import make_fingertip
+    from piezotip.sensor.channel import mode_tables
+
+    from piezotip import scenarios
 
     tip = make_fingertip(scenarios.get("grasp"))
     table, inverse = mode_tables(tip, 2, exact=False)

@@ -21,13 +21,11 @@ import mujoco
 import numpy as np
 import pytest
 from numpy.testing import assert_allclose
-
-import scenarios
-from cosim.loop import CoSimulation
-from cosim.pads import PadBridge, PadGeometry, _GelTable, _TableLookup, build_model
-from cosim.recorder import Recorder
-from sensor import Fingertip, SensorElement
-from sensor.channel import (
+from piezotip.cosim.loop import CoSimulation
+from piezotip.cosim.pads import PadBridge, PadGeometry, _GelTable, _TableLookup, build_model
+from piezotip.cosim.recorder import Recorder
+from piezotip.sensor import Fingertip, SensorElement
+from piezotip.sensor.channel import (
     _SETTLE_TAUS,
     _TABLE_P,
     Estimate,
@@ -41,8 +39,10 @@ from sensor.channel import (
     _steady,
     _step,
 )
-from sensor.gel import GelModel
-from sensor.readout import envelope_rate, envelope_step, steady_envelope
+from piezotip.sensor.gel import GelModel
+from piezotip.sensor.readout import envelope_rate, envelope_step, steady_envelope
+
+from piezotip import scenarios
 
 RTOL = 1e-12
 
@@ -351,7 +351,7 @@ def test_a_deep_copy_steps_on_its_own_model_and_data():
 
 
 def test_fast_controller_records_equal_their_constructors():
-    from cosim.control import Command, Observation, PadSignal, make_command, make_observation, make_pad_signal
+    from piezotip.cosim.control import Command, Observation, PadSignal, make_command, make_observation, make_pad_signal
 
     r = Reading(2, 0.5, 0.49, 0.1, 1.5, 0.6, True, 3.0, 0.02, 0.4 + 0.3j)
     e = Estimate(120.0, 3.0, "ok")

@@ -9,9 +9,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from piezotip.analysis.runner import default_out_dir
 
-import run_sim
-from analysis.runner import default_out_dir
+from piezotip import cli as run_sim
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -105,7 +105,7 @@ def test_runs_with_overrides_get_their_own_folder():
 
 
 def test_ctrl_c_ends_with_one_line_a_summary_marked_interrupted_and_status_130(tmp_path, capsys, monkeypatch):
-    from cosim.loop import CoSimulation
+    from piezotip.cosim.loop import CoSimulation
 
     advance = CoSimulation.advance
     calls = {"n": 0}

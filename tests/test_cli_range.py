@@ -7,7 +7,7 @@ import math
 import pytest
 from numpy.testing import assert_allclose
 
-import run_sim
+from piezotip import cli as run_sim
 
 KEYS = {
     "p_min_pa",

@@ -21,10 +21,9 @@ import pytest
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 from numpy.testing import assert_allclose
+from piezotip.sensor.element import ElementParams, SensorElement
+from piezotip.sensor.modes import Boundary
 from scipy import integrate
-
-from sensor.element import ElementParams, SensorElement
-from sensor.modes import Boundary
 
 # Table I, written out here (physics.md section 1).
 B_W = 5e-3  # width b, m

@@ -4,10 +4,10 @@ import csv
 import json
 
 import pytest
+from piezotip.analysis.experiment import COLUMNS, CONTROLLERS, OBJECTS
 
-import run_sim
-import scenarios
-from analysis.experiment import COLUMNS, CONTROLLERS, OBJECTS
+from piezotip import cli as run_sim
+from piezotip import scenarios
 
 
 @pytest.fixture(scope="module")
@@ -39,7 +39,7 @@ def test_multimode_succeeds_on_every_feasible_object_and_each_single_mode_fails_
 
 def test_overrides_reach_every_run():
     """--set applies after the object's and the controller's own settings."""
-    from analysis.experiment import run_grid
+    from piezotip.analysis.experiment import run_grid
 
     seen = []
 

@@ -4,11 +4,11 @@ import math
 
 import numpy as np
 import pytest
+from piezotip.analysis.runner import run_scenario
+from piezotip.cosim.loop import CoSimulation
+from piezotip.cosim.recorder import Recorder
 
-import scenarios
-from analysis.runner import run_scenario
-from cosim.loop import CoSimulation
-from cosim.recorder import Recorder
+from piezotip import scenarios
 
 
 @pytest.mark.parametrize("timestep", [1e-6, 0.05])
@@ -83,8 +83,9 @@ def test_a_divergence_stops_with_a_clear_message_and_keeps_the_recording(tmp_pat
 
 
 def test_run_command_reports_a_divergence_and_exits_nonzero(tmp_path, monkeypatch, capsys):
-    import run_sim
-    from cosim import loop
+    from piezotip.cosim import loop
+
+    from piezotip import cli as run_sim
 
     original = loop.CoSimulation._physics
 

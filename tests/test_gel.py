@@ -13,9 +13,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from numpy.testing import assert_allclose
-from scipy.optimize import brentq
-
-from sensor.gel import (
+from piezotip.sensor.gel import (
     GelModel,
     GelParams,
     contact_fraction,
@@ -26,6 +24,7 @@ from sensor.gel import (
     modulus_ratio,
     stretch_from_pressure,
 )
+from scipy.optimize import brentq
 
 EPS = np.finfo(float).eps
 GEL = GelParams()

@@ -6,9 +6,8 @@ import mpmath as mp
 import numpy as np
 import pytest
 from numpy.testing import assert_allclose
-
-from sensor import Fingertip, GelModel, GelParams
-from sensor.gel import gent_tangent_pa, layer_dynamic_stiffness, modulus_ratio, stretch_from_pressure, winkler_stiffness_n_m3
+from piezotip.sensor import Fingertip, GelModel, GelParams
+from piezotip.sensor.gel import gent_tangent_pa, layer_dynamic_stiffness, modulus_ratio, stretch_from_pressure, winkler_stiffness_n_m3
 
 GEL = GelParams()
 
@@ -80,7 +79,7 @@ def test_unknown_layer_is_refused():
 
 
 def test_a_scene_runs_with_the_dynamic_layer(tmp_path):
-    from analysis.runner import run_scenario
+    from piezotip.analysis.runner import run_scenario
 
     summary, data = run_scenario("grasp", ["sensor.gel_layer=dynamic", "duration_s=1.0"], tmp_path, plot=False, quiet=True)
     assert summary["error"] is None

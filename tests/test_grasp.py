@@ -5,11 +5,11 @@ import math
 
 import numpy as np
 import pytest
+from piezotip.cosim.control import ModeSelector, TouchDetector
+from piezotip.cosim.loop import make_fingertip
+from piezotip.sensor.channel import SensorChannel
 
-import scenarios
-from cosim.control import ModeSelector, TouchDetector
-from cosim.loop import make_fingertip
-from sensor.channel import SensorChannel
+from piezotip import scenarios
 
 DT = 0.005
 
@@ -151,7 +151,7 @@ def test_saturation_in_the_only_mode_is_reported(tip):
 
 
 def grasp(tmp_path, name, *overrides):
-    from analysis.runner import run_scenario
+    from piezotip.analysis.runner import run_scenario
 
     return run_scenario(name, list(overrides), tmp_path, plot=False, quiet=True)
 
@@ -200,9 +200,9 @@ def test_failed_self_test_stops_the_grasp(tmp_path):
 
 def test_mode_ranges_are_computed_once_per_fingertip_and_never_shared_across_configs():
     """The selectors' bands and limits are cached by every parameter they depend on."""
-    from cosim.control.selector import allowed_ranges
-    from sensor import Fingertip, GelModel, SensorElement
-    from sensor.readout import NoiseParams
+    from piezotip.cosim.control.selector import allowed_ranges
+    from piezotip.sensor import Fingertip, GelModel, SensorElement
+    from piezotip.sensor.readout import NoiseParams
 
     base = make_fingertip(scenarios.get("grasp"))
     first = allowed_ranges(base, (1, 2, 3, 4))

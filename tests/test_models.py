@@ -21,9 +21,7 @@ import re
 import mujoco
 import numpy as np
 import pytest
-
-import scenarios
-from cosim.pads import (
+from piezotip.cosim.pads import (
     DEFAULT_PAD_SEGMENTS,
     PAD_NAMES,
     PadBridge,
@@ -33,9 +31,11 @@ from cosim.pads import (
     scene_names,
     scene_path,
 )
-from cosim.scene import SCENE_FILE, build_scene, object_shape, reset_home
-from scenarios.config import RATED_MASS_KG
-from sensor.gel import GelModel
+from piezotip.cosim.scene import SCENE_FILE, build_scene, object_shape, reset_home
+from piezotip.scenarios.config import RATED_MASS_KG
+from piezotip.sensor.gel import GelModel
+
+from piezotip import scenarios
 
 GEL = GelModel()
 GEOMETRY = PadGeometry()

@@ -6,9 +6,8 @@ import math
 import numpy as np
 import pytest
 from numpy.testing import assert_allclose
-
-from sensor import SensorElement
-from sensor.readout import envelope_rate, ring_up_steady, steady_envelope
+from piezotip.sensor import SensorElement
+from piezotip.sensor.readout import envelope_rate, ring_up_steady, steady_envelope
 
 EL = SensorElement()
 OMEGA = EL.natural_angular_frequency(2)

@@ -26,11 +26,10 @@ import functools
 import math
 
 import numpy as np
+import piezotip.sensor.channel as channel_module
 import pytest
-
-import sensor.channel as channel_module
-from sensor import ElementParams, Fingertip, GelModel, SensorElement
-from sensor.channel import SensorChannel, SteadyInference, _steady
+from piezotip.sensor import ElementParams, Fingertip, GelModel, SensorElement
+from piezotip.sensor.channel import SensorChannel, SteadyInference, _steady
 
 DT = 0.005
 #: The oracle's detection horizon: a change counts as visible once the noise-free readings since

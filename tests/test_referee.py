@@ -2,8 +2,7 @@
 
 import numpy as np
 import pytest
-
-from analysis.referee import OUTCOMES, Criteria, judge, outside_model
+from piezotip.analysis.referee import OUTCOMES, Criteria, judge, outside_model
 
 DT = 0.005
 LIFT = 0.05

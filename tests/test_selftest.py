@@ -12,9 +12,8 @@ import math
 import numpy as np
 import pytest
 from numpy.testing import assert_allclose
-
-from sensor import SensorElement
-from sensor.selftest import damaged, frequency_response_v, self_test
+from piezotip.sensor import SensorElement
+from piezotip.sensor.selftest import damaged, frequency_response_v, self_test
 
 TABLE_I = SensorElement()
 Q70 = TABLE_I.with_quality_factor(70)

@@ -5,10 +5,9 @@ import math
 import numpy as np
 import pytest
 from numpy.testing import assert_allclose
-
-from sensor import Fingertip, Mounting, SensorElement
-from sensor.modes import Boundary
-from sensor.stress import _GRID, stress_report, unit_load_response
+from piezotip.sensor import Fingertip, Mounting, SensorElement
+from piezotip.sensor.modes import Boundary
+from piezotip.sensor.stress import _GRID, stress_report, unit_load_response
 
 # Table I, restated (physics.md section 1)
 B, L, TS, TP, YS, YP = 5e-3, 7.5e-3, 25e-6, 200e-6, 105e9, 62e9

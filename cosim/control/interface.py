@@ -12,7 +12,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Protocol, runtime_checkable
 
-from sensor.channel import Estimate, Reading
+from piezotip.sensor.channel import Estimate, Reading
 
 from .phases import Phase
 

@@ -44,9 +44,8 @@ import math
 from enum import Enum
 
 import numpy as np
-
-from scenarios.config import ControllerConfig
-from sensor import Fingertip
+from piezotip.scenarios.config import ControllerConfig
+from piezotip.sensor import Fingertip
 
 from .interface import Command, Event, Observation, RobotLimits, Why, make_command
 from .phases import Phase

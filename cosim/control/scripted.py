@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from scenarios.config import ControllerConfig
+from piezotip.scenarios.config import ControllerConfig
 
 from .interface import Command, Event, Observation, RobotLimits
 from .phases import Phase

@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import math
 
-from sensor import Fingertip
+from piezotip.sensor import Fingertip
 
 from .interface import Why
 

@@ -1,0 +1,1 @@
+"""piezotip: co-simulation of a robot fingertip that feels through a multimode piezoelectric sensor."""

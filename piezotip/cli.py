@@ -1,0 +1,256 @@
+#!/usr/bin/env python3
+"""piezotip's command line.
+
+    python run_sim.py list                       the registered scenarios
+    python run_sim.py run SCENARIO [--set KEY=VALUE ...] [--preset NAME] [--out DIR] [--json] [--csv] [--render] [--no-plot]
+                                                 a scenario, headless: summary, plots, recording;
+                                                 exit 0 on success, 1 on any other outcome, 2 on bad input,
+                                                 130 on Ctrl-C (the recording and a summary marked interrupted kept)
+    python run_sim.py experiment grasp-range [--json] [--out DIR] [--preset NAME] [--set KEY=VALUE ...]
+                                                 objects 1 g to 10 kg, multimode vs each mode alone
+    python run_sim.py bench [--json] [--out DIR] [--no-presets]
+                                                 cost (vs bare mj_step) and each preset's error
+    python run_sim.py figures [--out DIR]        the paper's analysis figures + crossovers.json
+    python run_sim.py range [--coverage X1_MM X2_MM] [--json] [--out DIR]
+                                                 the fingertip's dynamic range and switch pressures
+
+Every command is headless; figures are PNG (matplotlib Agg), data CSV/JSON with units in
+their column and key names.  Errors print one line naming the bad value and exit with 2.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+from pathlib import Path
+
+# Headless rendering: MuJoCo reads MUJOCO_GL when it is first imported (commands import it lazily).
+os.environ.setdefault("MUJOCO_GL", "egl")
+
+PRESET_NAMES = ("fast", "balanced", "accurate", "reference")
+
+
+def _cmd_figures(args: argparse.Namespace) -> int:
+    from piezotip.analysis.figures import write_figures
+
+    written = write_figures(Path(args.out))
+    print(f"wrote {len(written)} files to {args.out}:")
+    for path in written:
+        print(f"  {path}")
+    return 0
+
+
+def _json_safe(value):
+    """Strict JSON (NaN and inf as null): analysis.runner.json_safe, imported when needed."""
+    from piezotip.analysis.runner import json_safe
+
+    return json_safe(value)
+
+
+def _cmd_range(args: argparse.Namespace) -> int:
+    from piezotip.analysis.range_report import format_table, write_range_files
+    from piezotip.sensor import Fingertip
+
+    coverage = None
+    if args.coverage is not None:
+        x1_mm, x2_mm = args.coverage
+        length_mm = 7.5
+        if not (0 <= x1_mm < x2_mm <= length_mm):
+            raise ValueError(f"--coverage must satisfy 0 <= X1_MM < X2_MM <= {length_mm} (the element's length), got {x1_mm:g} {x2_mm:g}")
+        coverage = (x1_mm * 1e-3, x2_mm * 1e-3)
+    from piezotip.sensor import GelModel
+
+    tip = Fingertip(coverage=coverage, gel=GelModel(layer=args.gel_layer))
+    report = tip.dynamic_range()
+    files = []
+    if args.out:
+        out = Path(args.out)
+        files = [str(p) for p in write_range_files(tip, out)]
+        json_path = out / "range.json"
+        json_path.write_text(json.dumps(_json_safe(report), indent=2) + "\n")
+        files.append(str(json_path))
+    if args.json:
+        print(json.dumps(_json_safe(report), indent=2))
+    else:
+        print(format_table(report))
+        for f in files:
+            print(f"wrote {f}")
+    return 0
+
+
+def _cmd_list(args: argparse.Namespace) -> int:
+    from piezotip import scenarios
+
+    width = max(len(n) for n in scenarios.names())
+    for name in scenarios.names():
+        print(f"{name:<{width}}  {scenarios.get(name).description}")
+    return 0
+
+
+def _cmd_run(args: argparse.Namespace) -> int:
+    from piezotip.analysis.run_report import format_summary
+    from piezotip.analysis.runner import default_out_dir, run_scenario
+
+    out = Path(args.out) if args.out else default_out_dir(args.scenario, args.set or [], args.preset)
+    report, _ = run_scenario(
+        args.scenario, args.set or [], out, csv=args.csv, render=args.render, plot=not args.no_plot, quiet=args.json, preset=args.preset
+    )
+    if args.json:
+        print(json.dumps(_json_safe(report), indent=2))
+    else:
+        print(format_summary(report))
+    if report.get("interrupted"):
+        print(f"interrupted at t = {report['sim_time_s']:.2f} s; the recording up to there is in {out}", file=sys.stderr)
+        return 130
+    # A batch script tells the outcomes apart: 0 success, 1 any other outcome (2: bad input).
+    return 0 if report["success"] else 1
+
+
+def _cmd_experiment(args: argparse.Namespace) -> int:
+    from tqdm import tqdm
+
+    from piezotip.analysis.experiment import CONTROLLERS, OBJECTS, format_table, run_grid, write_outputs
+    from piezotip.analysis.runner import check_out_dir, run_scenario
+
+    if args.name != "grasp-range":
+        raise ValueError(f"unknown experiment {args.name!r}; valid experiments: grasp-range")
+    out = check_out_dir(Path(args.out or "out/grasp-range"))
+    from piezotip import scenarios
+
+    scenarios.get("grasp", list(args.set or ()), args.preset)  # bad overrides stop here, before any run
+    counter = iter(range(10**6))
+
+    def run_one(overrides: list[str]):
+        return run_scenario("grasp", overrides, out / "runs" / f"{next(counter):02d}", plot=False, quiet=True, preset=args.preset)
+
+    with tqdm(total=len(OBJECTS) * len(CONTROLLERS), desc="grasp-range", unit="grasp", disable=args.json, leave=False) as bar:
+        rows = run_grid(run_one, base_overrides=tuple(args.set or ()), progress=bar)
+    files = [str(p) for p in write_outputs(rows, out, plot=not args.no_plot)]
+    if args.json:
+        print(json.dumps(_json_safe({"rows": rows, "files": files}), indent=2))
+    else:
+        print(format_table(rows))
+        for f in files:
+            print(f"wrote {f}")
+    # Success: multimode carries every object the gripper can, and nothing it cannot.
+    expected = all(r["success"] == r["feasible"] for r in rows if r["controller"] == "multimode")
+    return 0 if expected else 1
+
+
+def _cmd_bench(args: argparse.Namespace) -> int:
+    from piezotip.analysis.bench import bench_report, format_report, grasp_cases, write_report
+
+    if args.repeats < 1:
+        raise ValueError(f"--repeats must be at least 1, got {args.repeats}")
+    from piezotip.scenarios.presets import preset_overrides
+
+    base = [*preset_overrides(args.preset), *(args.set or [])]
+    cases = grasp_cases(all_scenes=args.all_scenes, overrides=base)
+    if not args.no_presets:
+        # The per-step cost grows with instrumented pads (x active modes, which is one each):
+        # the same scene with one fingertip instrumented, beside the default two.
+        from piezotip import scenarios
+        from piezotip.analysis.bench import BenchCase
+
+        cases.append(BenchCase("grasp, 1 pad", scenarios.get("grasp", [*base, "sensor.pads=['left']"])))
+    progress = None if args.json else (lambda name: print(f"benchmarking {name} ...", file=sys.stderr, flush=True))
+    try:
+        report = bench_report(cases, repeats=args.repeats, duration_s=args.duration, progress=progress)
+    except RuntimeError as err:  # a run diverged or was not deterministic: no numbers to report
+        print(f"error: {err}", file=sys.stderr)
+        return 1
+    if not args.no_presets:
+        from piezotip.analysis.fidelity import fidelity_report, format_fidelity, plot_pareto
+
+        fidelity = fidelity_report(progress=progress)
+        report["presets"] = fidelity["presets"]
+        report["convergence"] = fidelity["convergence"]
+        report["fidelity_checks"] = fidelity["checks"]
+    files = [str(p) for p in write_report(report, Path(args.out))] if args.out else []
+    if args.out and not args.no_presets:
+        files.append(str(plot_pareto(fidelity, Path(args.out) / "pareto.png")))
+    if args.json:
+        print(json.dumps(_json_safe(report), indent=2))
+    else:
+        print(format_report(report))
+        if not args.no_presets:
+            print()
+            print(format_fidelity(fidelity))
+        for f in files:
+            print(f"wrote {f}")
+    return 0
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="run_sim.py", description="piezotip: a robot fingertip with a multimode piezoelectric tactile sensor"
+    )
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+
+    p = sub.add_parser("list", help="the registered scenarios")
+    p.set_defaults(func=_cmd_list)
+
+    p = sub.add_parser("run", help="run a scenario headless: summary, plots, recording")
+    p.add_argument("scenario", help="scenario name (see 'list')")
+    p.add_argument("--set", action="append", metavar="KEY=VALUE", help="override a config value, e.g. object.mass_kg=0.4 (repeatable)")
+    p.add_argument("--out", help="output directory (default: out/SCENARIO, or out/SCENARIO-<hash> with --set or --preset)")
+    p.add_argument("--json", action="store_true", help="print the summary as JSON")
+    p.add_argument("--csv", action="store_true", help="also write the recording as CSV")
+    p.add_argument("--no-plot", action="store_true", help="no run.png (batch use: matplotlib is then never imported)")
+    p.add_argument("--render", action="store_true", help="save a strip of frames from MuJoCo's offscreen renderer (MUJOCO_GL=egl)")
+    p.add_argument("--preset", choices=PRESET_NAMES, help="fidelity preset (default: the scenario's own settings, = balanced)")
+    p.set_defaults(func=_cmd_run)
+
+    p = sub.add_parser("experiment", help="grasp experiments: grasp-range (objects 1 g to 10 kg, multimode vs single-mode)")
+    p.add_argument("name", help="experiment name: grasp-range")
+    p.add_argument("--json", action="store_true", help="print the table as JSON")
+    p.add_argument("--out", help="output directory (default: out/grasp-range)")
+    p.add_argument("--preset", choices=PRESET_NAMES, help="fidelity preset for every run")
+    p.add_argument("--set", action="append", metavar="KEY=VALUE", help="override a config value of every run (repeatable)")
+    p.add_argument("--no-plot", action="store_true", help="no grasp_range.png")
+    p.set_defaults(func=_cmd_experiment)
+
+    p = sub.add_parser("figures", help="the paper's analysis figures (V_1 and sensitivities against k_e, c_e)")
+    p.add_argument("--out", default="out/figures", help="output directory (default: out/figures)")
+    p.set_defaults(func=_cmd_figures)
+
+    p = sub.add_parser("range", help="the fingertip's dynamic range, per mode, and its switch pressures")
+    p.add_argument(
+        "--coverage", nargs=2, type=float, metavar=("X1_MM", "X2_MM"), help="gel coverage on the element, mm (default: whole beam)"
+    )
+    p.add_argument("--json", action="store_true", help="print the report as JSON")
+    p.add_argument("--out", help="directory for plots, CSV and range.json")
+    p.add_argument(
+        "--gel-layer", choices=("winkler", "dynamic"), default="winkler", help="the gel layer's model (default winkler; see README)"
+    )
+    p.set_defaults(func=_cmd_range)
+
+    p = sub.add_parser("bench", help="the co-simulation's cost: real-time factor, overhead over bare mj_step, per-stage times")
+    p.add_argument("--json", action="store_true", help="print the report as JSON")
+    p.add_argument("--out", help="directory for bench.json and bench.png")
+    p.add_argument("--repeats", type=int, default=5, help="timed runs and bare-step passes; the fastest is kept (default 5)")
+    p.add_argument("--duration", type=float, metavar="SECONDS", help="simulated seconds per run (default: the scenario's)")
+    p.add_argument("--all-scenes", action="store_true", help="also the other registered grasp scenes")
+    p.add_argument("--set", action="append", metavar="KEY=VALUE", help="override a config value of every benchmarked scene (repeatable)")
+    p.add_argument("--preset", choices=PRESET_NAMES, help="fidelity preset of the benchmarked scenes (the overhead part)")
+    p.add_argument("--no-presets", action="store_true", help="skip the fidelity presets' cost and error table")
+    p.set_defaults(func=_cmd_bench)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    try:
+        return args.func(args)
+    except (ValueError, OSError) as exc:  # bad input, or a file that cannot be read or written
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:  # Ctrl-C outside a run's loop (set-up, plots, sweeps)
+        print("interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())
