@@ -41,6 +41,7 @@ from pathlib import Path
 
 import mujoco
 import numpy as np
+
 from piezotip.scenarios.config import ScenarioConfig
 
 #: The issue's targets.

@@ -81,52 +81,70 @@ def feasible(obj, finger_force_limit_n: float = 100.0) -> tuple[bool, str]:
     return False, f"holding it needs {need:.3g} N per finger, over the {limit:.3g} N allowed"
 
 
-def run_grid(run_one, objects=None, controllers=CONTROLLERS, base_overrides: tuple[str, ...] = (), progress=None) -> list[dict]:
-    """Run every (object, controller); ``run_one(overrides) -> (summary dict, data dict)``.
+def experiment_points(objects=None, controllers=CONTROLLERS, base_overrides: tuple[str, ...] = ()) -> list:
+    """A sweep point per (object, controller), labelled by both.
 
     ``base_overrides`` (the user's ``--set``) come last, so they win over the object's and the
     controller's own settings.
     """
-    objects = OBJECTS if objects is None else objects
-    rows = []
-    for obj in objects:
-        for ctrl_name, ctrl_overrides in controllers:
-            summary, data = run_one([*obj.overrides, *ctrl_overrides, *base_overrides])
-            held = data["phase"] == 4.0 if data else np.zeros(0, bool)
-            pads = [k.removesuffix("_true_pressure_pa") for k in data if k.endswith("_true_pressure_pa")] if data else []
-            true_p = np.max([data[f"{p}_true_pressure_pa"] for p in pads], axis=0) if pads else np.zeros(0)
-            # First contact: a finger touches the object (ground truth), not a pressure reading
-            # (the pads' own inertia presses a fraction of a pascal as the fingers start).
-            touching = np.maximum(data["left_finger_force_n"], data["right_finger_force_n"]) > 0 if data else np.zeros(0, bool)
-            contact = np.nonzero(touching)[0]
-            contact_t = float(data["time_s"][contact[0]]) if contact.size else math.nan
-            touch_t = summary.get("touch_time_s", math.nan)
-            from piezotip.scenarios.config import ObjectConfig
+    from .sweep import Point
 
-            simulated = ObjectConfig(**{k: summary["object"][k] for k in ("shape", "mass_kg", "size_m", "friction", "crush_force_n")})
-            ok, why_not = feasible(simulated)
-            rows.append(
-                {
-                    "object": obj.name,
-                    "controller": ctrl_name,
-                    "outcome": summary["outcome"],
-                    "reason": summary["reason"] + (f" (infeasible: {why_not})" if not ok else ""),
-                    "success": summary["success"],
-                    "feasible": ok,
-                    "crushed": summary["crushed"],
-                    "slipped": summary["slipped"],
-                    "lifted": summary["lifted"],
-                    "peak_pressure_pa": summary["max_pressure_pa"],
-                    "held_pressure_pa": float(np.mean(true_p[held])) if held.any() else math.nan,
-                    "touch_latency_s": touch_t - contact_t if math.isfinite(touch_t) and math.isfinite(contact_t) else math.nan,
-                    "mode_switches": summary["mode_switches"],
-                    "peak_grip_force_n": summary["peak_grip_force_n"],
-                    "outside_model": "; ".join(summary.get("outside_model", [])),
-                }
-            )
-            if progress is not None:
-                progress.update(1)
-    return rows
+    objects = OBJECTS if objects is None else objects
+    return [
+        Point({"object": obj.name, "controller": ctrl_name}, (*obj.overrides, *ctrl_overrides, *base_overrides), f"{obj.name}, {ctrl_name}")
+        for obj in objects
+        for ctrl_name, ctrl_overrides in controllers
+    ]
+
+
+def experiment_row(row: dict) -> dict:
+    """A sweep row as a row of the experiment's table (:data:`COLUMNS`), with the gripper's
+    feasibility for the object that was simulated (after every override)."""
+    from piezotip.scenarios.config import ObjectConfig
+
+    ok, why_not = True, ""
+    if row.get("object_config"):
+        simulated = ObjectConfig(**{k: row["object_config"][k] for k in ("shape", "mass_kg", "size_m", "friction", "crush_force_n")})
+        ok, why_not = feasible(simulated)
+    return {
+        "object": row["object"],
+        "controller": row["controller"],
+        "outcome": row["outcome"],
+        "reason": row["reason"] + (f" (infeasible: {why_not})" if not ok else ""),
+        "success": row["success"],
+        "feasible": ok,
+        "crushed": row["crushed"],
+        "slipped": row["slipped"],
+        "lifted": row["lifted"],
+        "peak_pressure_pa": row["max_pressure_pa"],
+        "held_pressure_pa": row["held_pressure_pa"],
+        "touch_latency_s": row["touch_latency_s"],
+        "mode_switches": row["mode_switches"],
+        "peak_grip_force_n": row["peak_grip_force_n"],
+        "outside_model": row["outside_model"],
+    }
+
+
+def run_experiment(
+    preset: str | None = None,
+    base_overrides: tuple[str, ...] = (),
+    out: Path | None = None,
+    workers: int | None = None,
+    scheduler: str | None = None,
+    progress: bool = True,
+    options: dict | None = None,
+    objects=None,
+    controllers=CONTROLLERS,
+) -> list[dict]:
+    """Every (object, controller) on the sweep machinery (:func:`analysis.sweep.run_points`:
+    Dask, resumable from ``out``); each run's files in ``out/runs/NN``."""
+    from .sweep import run_points
+
+    points = experiment_points(objects, controllers, base_overrides)
+    result = run_points(
+        "grasp", points, preset, out, workers, scheduler, progress, keep_runs=out is not None, desc="grasp-range", options=options
+    )
+    return [experiment_row(r) for r in result.rows]
 
 
 def format_table(rows: list[dict]) -> str:

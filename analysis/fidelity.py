@@ -30,6 +30,7 @@ import tempfile
 from pathlib import Path
 
 import numpy as np
+
 from piezotip.scenarios.presets import PRESETS, REFERENCE_HALVED
 
 #: The standard scenes: a light grasp and the heaviest (all modes in use).

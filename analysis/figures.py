@@ -15,8 +15,9 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 
 import numpy as np
-from piezotip.sensor import SensorElement
 from scipy.optimize import brentq
+
+from piezotip.sensor import SensorElement
 
 from .plotting import new_figure, save_figure
 

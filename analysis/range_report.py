@@ -7,6 +7,7 @@ import math
 from pathlib import Path
 
 import numpy as np
+
 from piezotip.sensor import Fingertip
 
 from .plotting import new_figure, save_figure

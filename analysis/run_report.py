@@ -6,6 +6,7 @@ import math
 from pathlib import Path
 
 import numpy as np
+
 from piezotip.cosim.loop import coverage_cells
 from piezotip.scenarios.config import ObjectConfig, ScenarioConfig
 from piezotip.sensor import Fingertip

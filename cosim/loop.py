@@ -18,6 +18,7 @@ from pathlib import Path
 
 import mujoco
 import numpy as np
+
 from piezotip.scenarios.config import ScenarioConfig
 from piezotip.sensor import ElementParams, Fingertip, GelModel, SensorElement
 from piezotip.sensor.channel import Reading, SensorChannel

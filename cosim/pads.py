@@ -32,6 +32,7 @@ from pathlib import Path
 
 import mujoco
 import numpy as np
+
 from piezotip.sensor.gel import GelModel, GelParams, gent_pressure_pa, modulus_ratio
 
 MODELS_DIR = Path(__file__).resolve().parent.parent / "models"

@@ -14,6 +14,7 @@ from dataclasses import dataclass
 
 import mujoco
 import numpy as np
+
 from piezotip.scenarios.config import RATED_MASS_KG, ObjectConfig, ScenarioConfig
 from piezotip.sensor.gel import GelParams
 

@@ -3,11 +3,16 @@
 
     python run_sim.py list                       the registered scenarios
     python run_sim.py run SCENARIO [--set KEY=VALUE ...] [--preset NAME] [--out DIR] [--json] [--csv] [--render] [--no-plot]
+                      [--video [--video-fps FPS] [--video-size WxH]]   run.mp4: camera and a live strip
                                                  a scenario, headless: summary, plots, recording;
                                                  exit 0 on success, 1 on any other outcome, 2 on bad input,
                                                  130 on Ctrl-C (the recording and a summary marked interrupted kept)
-    python run_sim.py experiment grasp-range [--json] [--out DIR] [--preset NAME] [--set KEY=VALUE ...]
+    python run_sim.py experiment grasp-range [--json] [--out DIR] [--preset NAME] [--set KEY=VALUE ...] [--video ...]
                                                  objects 1 g to 10 kg, multimode vs each mode alone
+    python run_sim.py sweep SCENARIO --grid KEY=V1,V2,... [--grid ...] [--set KEY=VALUE ...] [--preset NAME]
+                      [--workers N | --scheduler ADDRESS] [--out DIR] [--json] [--no-plot]
+                                                 every grid point on Dask: sweep.csv, sweep.parquet, sweep.png;
+                                                 resumable (same --out); exit 1 if a point raised
     python run_sim.py bench [--json] [--out DIR] [--no-presets]
                                                  cost (vs bare mj_step) and each preset's error
     python run_sim.py figures [--out DIR]        the paper's analysis figures + crossovers.json
@@ -89,13 +94,47 @@ def _cmd_list(args: argparse.Namespace) -> int:
     return 0
 
 
+def _video_options(args: argparse.Namespace) -> dict:
+    """run_scenario's video keywords from --video, --video-fps and --video-size (checked before any run)."""
+    if not args.video:
+        if args.video_fps is not None or args.video_size is not None:
+            raise ValueError("--video-fps and --video-size need --video")
+        return {}
+    from piezotip.analysis.video import parse_size
+
+    return {"video": True, "video_fps": args.video_fps, "video_size": parse_size(args.video_size) if args.video_size else None}
+
+
+def _add_video_arguments(p: argparse.ArgumentParser, what: str) -> None:
+    p.add_argument("--video", action="store_true", help=f"write {what} (H.264): the scene's camera and a live strip (MUJOCO_GL=egl)")
+    p.add_argument("--video-fps", type=float, metavar="FPS", help="video frames per simulated second (default 30)")
+    p.add_argument("--video-size", metavar="WxH", help="video frame size in pixels, even (default 960x540)")
+
+
+def _add_dask_arguments(p: argparse.ArgumentParser) -> None:
+    group = p.add_mutually_exclusive_group()
+    group.add_argument(
+        "--workers", type=int, metavar="N", help="local Dask cluster's processes (default: this machine's cores; 0: no Dask, one by one)"
+    )
+    group.add_argument("--scheduler", metavar="ADDRESS", help="a running Dask scheduler, e.g. tcp://host:8786 (see README)")
+
+
 def _cmd_run(args: argparse.Namespace) -> int:
     from piezotip.analysis.run_report import format_summary
     from piezotip.analysis.runner import default_out_dir, run_scenario
 
+    video = _video_options(args)
     out = Path(args.out) if args.out else default_out_dir(args.scenario, args.set or [], args.preset)
     report, _ = run_scenario(
-        args.scenario, args.set or [], out, csv=args.csv, render=args.render, plot=not args.no_plot, quiet=args.json, preset=args.preset
+        args.scenario,
+        args.set or [],
+        out,
+        csv=args.csv,
+        render=args.render,
+        plot=not args.no_plot,
+        quiet=args.json,
+        preset=args.preset,
+        **video,
     )
     if args.json:
         print(json.dumps(_json_safe(report), indent=2))
@@ -109,10 +148,8 @@ def _cmd_run(args: argparse.Namespace) -> int:
 
 
 def _cmd_experiment(args: argparse.Namespace) -> int:
-    from tqdm import tqdm
-
-    from piezotip.analysis.experiment import CONTROLLERS, OBJECTS, format_table, run_grid, write_outputs
-    from piezotip.analysis.runner import check_out_dir, run_scenario
+    from piezotip.analysis.experiment import format_table, run_experiment, write_outputs
+    from piezotip.analysis.runner import check_out_dir
 
     if args.name != "grasp-range":
         raise ValueError(f"unknown experiment {args.name!r}; valid experiments: grasp-range")
@@ -120,13 +157,11 @@ def _cmd_experiment(args: argparse.Namespace) -> int:
     from piezotip import scenarios
 
     scenarios.get("grasp", list(args.set or ()), args.preset)  # bad overrides stop here, before any run
-    counter = iter(range(10**6))
-
-    def run_one(overrides: list[str]):
-        return run_scenario("grasp", overrides, out / "runs" / f"{next(counter):02d}", plot=False, quiet=True, preset=args.preset)
-
-    with tqdm(total=len(OBJECTS) * len(CONTROLLERS), desc="grasp-range", unit="grasp", disable=args.json, leave=False) as bar:
-        rows = run_grid(run_one, base_overrides=tuple(args.set or ()), progress=bar)
+    _check_workers(args)
+    video = _video_options(args)  # one clip per run: runs/NN/run.mp4, NN the row's index in the table
+    rows = run_experiment(
+        args.preset, tuple(args.set or ()), out, args.workers, args.scheduler, progress=not args.json, options=video
+    )
     files = [str(p) for p in write_outputs(rows, out, plot=not args.no_plot)]
     if args.json:
         print(json.dumps(_json_safe({"rows": rows, "files": files}), indent=2))
@@ -137,6 +172,62 @@ def _cmd_experiment(args: argparse.Namespace) -> int:
     # Success: multimode carries every object the gripper can, and nothing it cannot.
     expected = all(r["success"] == r["feasible"] for r in rows if r["controller"] == "multimode")
     return 0 if expected else 1
+
+
+def _check_workers(args: argparse.Namespace) -> None:
+    if args.workers is not None and args.workers < 0:
+        raise ValueError(f"--workers must be 0 (in this process) or more, got {args.workers}")
+    if args.workers is not None and args.scheduler is not None:
+        raise ValueError("give --workers (a local cluster) or --scheduler (an existing one), not both")
+
+
+def _cmd_sweep(args: argparse.Namespace) -> int:
+    from piezotip import scenarios
+    from piezotip.analysis.runner import check_out_dir
+    from piezotip.analysis.sweep import check_points, format_rows, grid_points, parse_grid, run_points, write_sweep
+
+    grid = parse_grid(args.grid or [])
+    if args.scenario not in scenarios.names():
+        scenarios.get(args.scenario)  # the unknown-scenario error, naming the valid ones
+    points = grid_points(grid, list(args.set or ()))
+    check_points(args.scenario, points, args.preset)  # every point's config valid before any run
+    _check_workers(args)
+    out = check_out_dir(Path(args.out) if args.out else _sweep_out_dir(args))
+    result = run_points(args.scenario, points, args.preset, out, args.workers, args.scheduler, progress=not args.json)
+    files = [str(p) for p in write_sweep(result.rows, list(grid), out, plot=not args.no_plot)]
+    report = {
+        "scenario": args.scenario,
+        "preset": args.preset,
+        "overrides": list(args.set or ()),
+        "grid": {k: v for k, v in grid.items()},
+        "points": len(points),
+        "skipped_done": result.skipped,
+        "workers": result.workers,
+        "wall_time_s": result.wall_time_s,
+        "succeeded": sum(bool(r["success"]) for r in result.rows),
+        "errors": sum(r["outcome"] == "error" for r in result.rows),
+        "rows": result.rows,
+        "files": files,
+    }
+    (out / "sweep.json").write_text(json.dumps(_json_safe(report), indent=2) + "\n")
+    files.append(str(out / "sweep.json"))
+    if args.json:
+        print(json.dumps(_json_safe(report), indent=2))
+    else:
+        print(format_rows(result.rows, list(grid)))
+        print(
+            f"{report['succeeded']}/{len(points)} succeeded, {report['errors']} errors; {result.skipped} done before;"
+            f" {result.wall_time_s:.1f} s on {result.workers or 'no'} Dask workers"
+        )
+        for f in files:
+            print(f"wrote {f}")
+    return 0 if report["errors"] == 0 else 1
+
+
+def _sweep_out_dir(args: argparse.Namespace) -> Path:
+    from piezotip.analysis.runner import default_out_dir
+
+    return default_out_dir(f"sweep-{args.scenario}", [*(args.set or ()), *args.grid], args.preset)
 
 
 def _cmd_bench(args: argparse.Namespace) -> int:
@@ -201,6 +292,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--no-plot", action="store_true", help="no run.png (batch use: matplotlib is then never imported)")
     p.add_argument("--render", action="store_true", help="save a strip of frames from MuJoCo's offscreen renderer (MUJOCO_GL=egl)")
     p.add_argument("--preset", choices=PRESET_NAMES, help="fidelity preset (default: the scenario's own settings, = balanced)")
+    _add_video_arguments(p, "run.mp4")
     p.set_defaults(func=_cmd_run)
 
     p = sub.add_parser("experiment", help="grasp experiments: grasp-range (objects 1 g to 10 kg, multimode vs single-mode)")
@@ -210,7 +302,26 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--preset", choices=PRESET_NAMES, help="fidelity preset for every run")
     p.add_argument("--set", action="append", metavar="KEY=VALUE", help="override a config value of every run (repeatable)")
     p.add_argument("--no-plot", action="store_true", help="no grasp_range.png")
+    _add_video_arguments(p, "one clip per run, runs/NN/run.mp4")
+    _add_dask_arguments(p)
     p.set_defaults(func=_cmd_experiment)
+
+    p = sub.add_parser("sweep", help="a scenario over a grid of settings, on Dask: sweep.csv, sweep.parquet, sweep.png")
+    p.add_argument("scenario", help="scenario name (see 'list')")
+    p.add_argument(
+        "--grid",
+        action="append",
+        required=True,
+        metavar="KEY=V1,V2,...",
+        help="a key and its values, e.g. object.mass_kg=0.1,0.4 (repeatable)",
+    )
+    p.add_argument("--set", action="append", metavar="KEY=VALUE", help="override a config value of every point (repeatable)")
+    p.add_argument("--preset", choices=PRESET_NAMES, help="fidelity preset of every point")
+    p.add_argument("--out", help="output directory (default: out/sweep-SCENARIO-<hash>); run again with it to resume")
+    p.add_argument("--json", action="store_true", help="print the rows as JSON")
+    p.add_argument("--no-plot", action="store_true", help="no sweep.png")
+    _add_dask_arguments(p)
+    p.set_defaults(func=_cmd_sweep)
 
     p = sub.add_parser("figures", help="the paper's analysis figures (V_1 and sensitivities against k_e, c_e)")
     p.add_argument("--out", default="out/figures", help="output directory (default: out/figures)")

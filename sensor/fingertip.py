@@ -15,11 +15,11 @@ import math
 from collections.abc import Sequence
 
 import numpy as np
-from scipy.optimize import brentq
 
 from .element import SensorElement
 from .gel import GelModel, check_pressure
 from .modes import check_mode
+from .numerics import brentq
 from .readout import DETECTION_SIGMAS, RESOLVED_FRACTION, NoiseParams, PressureEstimate, output_sigma
 from .stress import Mounting, StressReport, stress_report
 

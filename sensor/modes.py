@@ -25,7 +25,9 @@ from dataclasses import dataclass
 from enum import StrEnum
 
 import numpy as np
-from scipy.optimize import brentq
+
+from .cache import disk_cached
+from .numerics import brentq
 
 #: Gauss-Legendre nodes per panel used for every modal integral (exact for polynomials of
 #: degree 2*12-1 = 23 on each panel).
@@ -93,7 +95,13 @@ def _characteristic_root(boundary: Boundary, mode: int) -> float:
     lo, hi = ((mode - 1) * math.pi, mode * math.pi)
     if boundary is Boundary.CLAMPED_CLAMPED:
         lo, hi = mode * math.pi, (mode + 1) * math.pi
-    return brentq(lambda z: _characteristic(boundary, z), lo, hi, xtol=1e-300, rtol=4 * np.finfo(float).eps, maxiter=200)
+
+    def solve() -> dict[str, np.ndarray]:
+        root = brentq(lambda z: _characteristic(boundary, z), lo, hi, xtol=1e-300, rtol=4 * np.finfo(float).eps, maxiter=200)
+        return {"root": np.array(root)}
+
+    # Kept on disk (exact float64): a run with cached tables then never imports scipy.optimize.
+    return float(disk_cached("characteristic-root", (boundary.value, mode), solve)["root"])
 
 
 def _basis(z: float, xi: np.ndarray, order: int) -> np.ndarray:

@@ -5,10 +5,10 @@ import io
 import json
 
 import pytest
-from piezotip.analysis.bench import BenchCase, bench_cases
 
 from piezotip import cli as run_sim
 from piezotip import scenarios
+from piezotip.analysis.bench import BenchCase, bench_cases
 
 TOP_KEYS = {"overhead_ratio", "realtime_factor", "wall_s_per_sim_s", "bare_step_us", "cosim_step_us", "stages_us", "scenes"}
 STAGES = {"physics", "gel_forces", "pressure", "sensor", "readout", "controller", "actuators", "record", "other"}

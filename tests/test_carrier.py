@@ -5,10 +5,11 @@ import math
 import numpy as np
 import pytest
 from numpy.testing import assert_allclose
+from scipy.integrate import solve_ivp
+
 from piezotip.sensor import SensorElement
 from piezotip.sensor.carrier import CarrierResonator
 from piezotip.sensor.readout import envelope_rate, steady_envelope
-from scipy.integrate import solve_ivp
 
 EL = SensorElement().with_quality_factor(70)
 RHO_A = EL.params.mass_per_length_kg_m

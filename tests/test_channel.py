@@ -5,6 +5,7 @@ import math
 import numpy as np
 import pytest
 from numpy.testing import assert_allclose
+
 from piezotip.sensor import Fingertip, SensorElement
 from piezotip.sensor.channel import SensorChannel
 from piezotip.sensor.readout import envelope_rate, envelope_step, steady_envelope
@@ -134,10 +135,9 @@ def test_bad_profiles_raise(tip):
 
 
 def test_mode_tables_are_built_once_per_fingertip_mode_and_gel_evaluation():
+    from piezotip import scenarios
     from piezotip.cosim.loop import make_fingertip
     from piezotip.sensor.channel import mode_tables
-
-    from piezotip import scenarios
 
     tip = make_fingertip(scenarios.get("grasp"))
     table, inverse = mode_tables(tip, 2, exact=False)

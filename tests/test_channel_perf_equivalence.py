@@ -21,6 +21,8 @@ import mujoco
 import numpy as np
 import pytest
 from numpy.testing import assert_allclose
+
+from piezotip import scenarios
 from piezotip.cosim.loop import CoSimulation
 from piezotip.cosim.pads import PadBridge, PadGeometry, _GelTable, _TableLookup, build_model
 from piezotip.cosim.recorder import Recorder
@@ -41,8 +43,6 @@ from piezotip.sensor.channel import (
 )
 from piezotip.sensor.gel import GelModel
 from piezotip.sensor.readout import envelope_rate, envelope_step, steady_envelope
-
-from piezotip import scenarios
 
 RTOL = 1e-12
 

@@ -9,9 +9,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from piezotip.analysis.runner import default_out_dir
 
 from piezotip import cli as run_sim
+from piezotip.analysis.runner import default_out_dir
 
 ROOT = Path(__file__).resolve().parent.parent
 

@@ -21,9 +21,10 @@ import pytest
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 from numpy.testing import assert_allclose
+from scipy import integrate
+
 from piezotip.sensor.element import ElementParams, SensorElement
 from piezotip.sensor.modes import Boundary
-from scipy import integrate
 
 # Table I, written out here (physics.md section 1).
 B_W = 5e-3  # width b, m

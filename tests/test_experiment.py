@@ -4,10 +4,10 @@ import csv
 import json
 
 import pytest
-from piezotip.analysis.experiment import COLUMNS, CONTROLLERS, OBJECTS
 
 from piezotip import cli as run_sim
 from piezotip import scenarios
+from piezotip.analysis.experiment import COLUMNS, CONTROLLERS, OBJECTS
 
 
 @pytest.fixture(scope="module")
@@ -39,21 +39,13 @@ def test_multimode_succeeds_on_every_feasible_object_and_each_single_mode_fails_
 
 def test_overrides_reach_every_run():
     """--set applies after the object's and the controller's own settings."""
-    from piezotip.analysis.experiment import run_grid
+    from piezotip.analysis.experiment import experiment_points
 
-    seen = []
-
-    class Seen(Exception):
-        pass
-
-    def run_one(overrides):  # record the first run's overrides, run nothing
-        seen.append(list(overrides))
-        raise Seen
-
-    with pytest.raises(Seen):
-        run_grid(run_one, base_overrides=("object.mass_kg=0.2", "controller.hold_s=0.5"))
-    config = scenarios.get("grasp", seen[0])
-    assert config.object.mass_kg == 0.2 and config.controller.hold_s == 0.5
+    points = experiment_points(base_overrides=("object.mass_kg=0.2", "controller.hold_s=0.5"))
+    assert len(points) == len(OBJECTS) * len(CONTROLLERS)
+    for point in points:
+        config = scenarios.get("grasp", list(point.overrides))
+        assert config.object.mass_kg == 0.2 and config.controller.hold_s == 0.5
 
 
 @pytest.mark.slow

@@ -4,11 +4,11 @@ import math
 
 import numpy as np
 import pytest
+
+from piezotip import scenarios
 from piezotip.analysis.runner import run_scenario
 from piezotip.cosim.loop import CoSimulation
 from piezotip.cosim.recorder import Recorder
-
-from piezotip import scenarios
 
 
 @pytest.mark.parametrize("timestep", [1e-6, 0.05])
@@ -83,9 +83,8 @@ def test_a_divergence_stops_with_a_clear_message_and_keeps_the_recording(tmp_pat
 
 
 def test_run_command_reports_a_divergence_and_exits_nonzero(tmp_path, monkeypatch, capsys):
-    from piezotip.cosim import loop
-
     from piezotip import cli as run_sim
+    from piezotip.cosim import loop
 
     original = loop.CoSimulation._physics
 

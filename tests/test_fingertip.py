@@ -13,8 +13,9 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from numpy.testing import assert_allclose
-from piezotip.sensor import Fingertip
 from scipy.optimize import brentq
+
+from piezotip.sensor import Fingertip
 
 MODES = (1, 2, 3, 4)
 TIP_COVERAGE = (6.5e-3, 7.5e-3)

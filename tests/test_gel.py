@@ -13,6 +13,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from numpy.testing import assert_allclose
+from scipy.optimize import brentq
+
 from piezotip.sensor.gel import (
     GelModel,
     GelParams,
@@ -24,7 +26,6 @@ from piezotip.sensor.gel import (
     modulus_ratio,
     stretch_from_pressure,
 )
-from scipy.optimize import brentq
 
 EPS = np.finfo(float).eps
 GEL = GelParams()

@@ -6,6 +6,7 @@ import mpmath as mp
 import numpy as np
 import pytest
 from numpy.testing import assert_allclose
+
 from piezotip.sensor import Fingertip, GelModel, GelParams
 from piezotip.sensor.gel import gent_tangent_pa, layer_dynamic_stiffness, modulus_ratio, stretch_from_pressure, winkler_stiffness_n_m3
 

@@ -5,11 +5,11 @@ import math
 
 import numpy as np
 import pytest
+
+from piezotip import scenarios
 from piezotip.cosim.control import ModeSelector, TouchDetector
 from piezotip.cosim.loop import make_fingertip
 from piezotip.sensor.channel import SensorChannel
-
-from piezotip import scenarios
 
 DT = 0.005
 

@@ -5,12 +5,12 @@ import math
 import mujoco
 import numpy as np
 import pytest
+
+from piezotip import scenarios
 from piezotip.analysis.referee import judge
 from piezotip.analysis.runner import run_scenario
 from piezotip.cosim.control import Phase, grip_floor_n
 from piezotip.cosim.loop import REST_MIN_S, CoSimulation, make_fingertip
-
-from piezotip import scenarios
 
 
 def grasp(tmp_path, name, *overrides):

@@ -21,6 +21,8 @@ import re
 import mujoco
 import numpy as np
 import pytest
+
+from piezotip import scenarios
 from piezotip.cosim.pads import (
     DEFAULT_PAD_SEGMENTS,
     PAD_NAMES,
@@ -34,8 +36,6 @@ from piezotip.cosim.pads import (
 from piezotip.cosim.scene import SCENE_FILE, build_scene, object_shape, reset_home
 from piezotip.scenarios.config import RATED_MASS_KG
 from piezotip.sensor.gel import GelModel
-
-from piezotip import scenarios
 
 GEL = GelModel()
 GEOMETRY = PadGeometry()

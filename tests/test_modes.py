@@ -25,8 +25,9 @@ import mpmath as mp
 import numpy as np
 import pytest
 from numpy.testing import assert_allclose
-from piezotip.sensor.modes import MAX_MODE, Boundary, characteristic_root, check_mode, mode_shape
 from scipy import integrate
+
+from piezotip.sensor.modes import MAX_MODE, Boundary, characteristic_root, check_mode, mode_shape
 
 L = 7.5e-3  # beam length of Table I, m
 CF, SS, CC = Boundary.CLAMPED_FREE, Boundary.SIMPLY_SUPPORTED, Boundary.CLAMPED_CLAMPED

@@ -6,6 +6,7 @@ import math
 import numpy as np
 import pytest
 from numpy.testing import assert_allclose
+
 from piezotip.sensor import SensorElement
 from piezotip.sensor.readout import envelope_rate, ring_up_steady, steady_envelope
 

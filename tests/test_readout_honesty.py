@@ -26,8 +26,9 @@ import functools
 import math
 
 import numpy as np
-import piezotip.sensor.channel as channel_module
 import pytest
+
+import piezotip.sensor.channel as channel_module
 from piezotip.sensor import ElementParams, Fingertip, GelModel, SensorElement
 from piezotip.sensor.channel import SensorChannel, SteadyInference, _steady
 

@@ -8,6 +8,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+
 from piezotip.cosim.recorder import Recorder, read_recording
 
 ROOT = Path(__file__).resolve().parent.parent

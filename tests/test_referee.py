@@ -2,6 +2,7 @@
 
 import numpy as np
 import pytest
+
 from piezotip.analysis.referee import OUTCOMES, Criteria, judge, outside_model
 
 DT = 0.005

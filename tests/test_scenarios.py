@@ -1,9 +1,9 @@
 """The scenario registry and --set overrides."""
 
 import pytest
-from piezotip.scenarios.config import valid_keys
 
 from piezotip import scenarios
+from piezotip.scenarios.config import valid_keys
 
 
 @pytest.mark.parametrize("name", scenarios.names())

@@ -12,6 +12,7 @@ import math
 import numpy as np
 import pytest
 from numpy.testing import assert_allclose
+
 from piezotip.sensor import SensorElement
 from piezotip.sensor.selftest import damaged, frequency_response_v, self_test
 

@@ -5,6 +5,7 @@ import math
 import numpy as np
 import pytest
 from numpy.testing import assert_allclose
+
 from piezotip.sensor import Fingertip, Mounting, SensorElement
 from piezotip.sensor.modes import Boundary
 from piezotip.sensor.stress import _GRID, stress_report, unit_load_response

@@ -9,10 +9,10 @@ horizon" at channel level).  Those readings are counted apart and bounded.
 
 import numpy as np
 import pytest
-from piezotip.analysis.runner import run_scenario
-from piezotip.cosim.loop import STATUS_CODES
 
 from piezotip import scenarios
+from piezotip.analysis.runner import run_scenario
+from piezotip.cosim.loop import STATUS_CODES
 
 OK = STATUS_CODES.index("ok")
 #: A 3-sigma interval covers 99.73 % of a Gaussian error; the readout's error is not exactly

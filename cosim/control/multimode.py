@@ -44,8 +44,10 @@ import math
 from enum import Enum
 
 import numpy as np
+
 from piezotip.scenarios.config import ControllerConfig
 from piezotip.sensor import Fingertip
+from piezotip.sensor.cache import disk_cached
 
 from .interface import Command, Event, Observation, RobotLimits, Why, make_command
 from .phases import Phase
@@ -63,12 +65,26 @@ def grip_floor_n(fingertip: Fingertip, mode: int, pad_area_m2: float, resolved_f
     A full-face contact is assumed (pressure = force / pad area); a smaller contact presses
     harder on the element, so it is measured at least as well.
     """
-    p_min, p_max = fingertip.detection_limit(mode), fingertip.upper_limit(mode)
-    if not (math.isfinite(p_min) and math.isfinite(p_max) and p_max > p_min):
+    return resolved_floor_pa(fingertip, mode, resolved_fraction) * pad_area_m2
+
+
+def resolved_floor_pa(fingertip: Fingertip, mode: int, resolved_fraction: float = RESOLVED_FRACTION) -> float:
+    """The lowest pressure ``mode`` resolves to ``resolved_fraction`` of itself, Pa (on a 400-point
+    log grid over [P_min, P_max]); kept in the disk cache, keyed by the fingertip's configuration."""
+
+    def compute() -> dict[str, np.ndarray]:
+        p_min, p_max = fingertip.detection_limit(mode), fingertip.upper_limit(mode)
+        if not (math.isfinite(p_min) and math.isfinite(p_max) and p_max > p_min):
+            return {"floor_pa": np.array(math.nan), "p_min_pa": np.array(p_min), "p_max_pa": np.array(p_max)}
+        grid = np.geomspace(p_min, p_max, 400)
+        ok = np.nonzero(fingertip.resolution(grid, mode) <= resolved_fraction * grid)[0]
+        return {"floor_pa": np.array(grid[ok[0]]), "p_min_pa": np.array(p_min), "p_max_pa": np.array(p_max)}
+
+    numbers = disk_cached("resolved-floor", (fingertip.config_key(), mode, float(resolved_fraction)), compute, extra_modules=[__file__])
+    if not math.isfinite(numbers["floor_pa"]):
+        p_min, p_max = float(numbers["p_min_pa"]), float(numbers["p_max_pa"])
         raise ValueError(f"mode {mode} has no measurable range (P_min {p_min!r} Pa, P_max {p_max!r} Pa)")
-    grid = np.geomspace(p_min, p_max, 400)
-    ok = np.nonzero(fingertip.resolution(grid, mode) <= resolved_fraction * grid)[0]
-    return float(grid[ok[0]] * pad_area_m2)
+    return float(numbers["floor_pa"])
 
 
 class Stage(Enum):

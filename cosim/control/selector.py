@@ -18,7 +18,10 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
+
 from piezotip.sensor import Fingertip
+from piezotip.sensor.cache import disk_cached
 
 from .interface import Why
 
@@ -28,10 +31,12 @@ _RANGES: dict[tuple, tuple] = {}
 def allowed_ranges(fingertip: Fingertip, modes: tuple[int, ...]) -> tuple[Fingertip, tuple, dict[int, float], dict[int, float]]:
     """The fingertip restricted to ``modes``, its mode bands and each mode's P_min and P_max, Pa.
 
-    Computed once per process for each fingertip configuration (element, boundary, gel,
-    coverage, noise, rating, mounting: every parameter they depend on, all immutable) and set
-    of modes: both pads of a grasp and every run of an experiment share them (0.15 s each).
-    The results are immutable values (tuples; the dicts are copied for the caller).
+    Computed once per fingertip configuration (element, boundary, gel, coverage, noise, rating,
+    mounting: every parameter they depend on, all immutable, :meth:`Fingertip.config_key`) and
+    set of modes: in a process, both pads of a grasp and every run of an experiment share them;
+    across processes (a sweep's workers, the next command) the disk cache
+    (:mod:`piezotip.sensor.cache`) does.  The results are immutable values (tuples; the dicts are
+    copied for the caller).
     """
     key = (fingertip.config_key(), modes)
     if key not in _RANGES:
@@ -44,9 +49,19 @@ def allowed_ranges(fingertip: Fingertip, modes: tuple[int, ...]) -> tuple[Finger
             rated_pressure_pa=fingertip.rated_pressure_pa,
             mounting=fingertip.mounting,
         )
-        p_min = {m: allowed.detection_limit(m) for m in modes}
-        p_max = {m: allowed.upper_limit(m) for m in modes}
-        _RANGES[key] = (allowed, allowed.mode_bands(), p_min, p_max)
+
+        def compute() -> dict[str, np.ndarray]:
+            return {
+                "p_min_pa": np.array([allowed.detection_limit(m) for m in modes]),
+                "p_max_pa": np.array([allowed.upper_limit(m) for m in modes]),
+                "bands": np.array(allowed.mode_bands(), float).reshape(-1, 3),
+            }
+
+        numbers = disk_cached("allowed-ranges", key, compute, extra_modules=[__file__])
+        bands = tuple((int(m), float(lo), float(hi)) for m, lo, hi in numbers["bands"])
+        p_min = {m: float(v) for m, v in zip(modes, numbers["p_min_pa"], strict=True)}
+        p_max = {m: float(v) for m, v in zip(modes, numbers["p_max_pa"], strict=True)}
+        _RANGES[key] = (allowed, bands, p_min, p_max)
     allowed, bands, p_min, p_max = _RANGES[key]
     return allowed, bands, dict(p_min), dict(p_max)
 

@@ -1,0 +1,520 @@
+"""Many runs at once on Dask: ``run_sim.py sweep`` and ``experiment grasp-range`` share this.
+
+A sweep is a list of points, each a list of ``key=value`` overrides of one scenario.  Every
+point runs in a Dask worker process (:func:`run_point`), which sends back one row of numbers
+(:func:`point_row`), never the recording.  By default the work goes to a local cluster over
+this machine's cores, started and stopped here; ``scheduler="tcp://host:8786"`` sends it to a
+cluster someone started (``dask scheduler`` on one machine, ``dask worker tcp://host:8786`` on
+each machine with piezotip installed).  ``workers=0`` runs in this process, one point after the
+other (no Dask), which is what the tests compare the parallel rows against.
+
+Resume: each finished point's row is appended at once to ``points.jsonl`` in the output
+folder, keyed by the scenario, preset and the point's overrides; a sweep run again with the
+same folder skips the points already there (a point that raised is run again).  A point that
+raises is recorded with its error (``outcome`` ``error``) and the sweep goes on.
+
+Worker processes keep their caches (mode bands, gel tables) across the points they run, and
+the on-disk cache (:mod:`piezotip.sensor.cache`) shares them across processes and runs.
+"""
+
+from __future__ import annotations
+
+import csv
+import itertools
+import json
+import math
+import os
+import time
+import traceback
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from .runner import check_out_dir, json_safe
+
+#: A sweep row's result columns, after the grid's keys (units in the names; modes_used is a list
+#: written "1 2 3").
+RESULT_COLUMNS = ("outcome", "reason", "success", "max_pressure_pa", "held_pressure_pa", "modes_used", "wall_time_s")
+
+#: More numbers every row carries, after the result columns (the experiment's table uses them).
+EXTRA_COLUMNS = (
+    "crushed",
+    "slipped",
+    "lifted",
+    "touch_latency_s",
+    "mode_switches",
+    "peak_grip_force_n",
+    "outside_model",
+    "sim_time_s",
+    "error",
+)
+
+#: The outcome of a point whose run raised.
+ERROR_OUTCOME = "error"
+
+#: The phase code of holding in the record (cosim.control.Phase.HOLD).
+_HOLD_PHASE = 4.0
+
+
+@dataclass(frozen=True)
+class Point:
+    """One run of a sweep.
+
+    Attributes
+    ----------
+    values : the point's coordinates, column name -> value (the grid's keys, or labels such as
+        the experiment's object and controller).
+    overrides : the run's ``key=value`` overrides, in the order applied.
+    """
+
+    values: Mapping[str, object]
+    overrides: tuple[str, ...]
+    label: str = field(default="")
+
+    def key(self, scenario: str, preset: str | None) -> str:
+        """What identifies the run (resume): scenario, preset and every override, in order."""
+        return json.dumps([scenario, preset, list(self.overrides)])
+
+
+def split_values(text: str) -> list[str]:
+    """``"0.1,0.4,[1, 2]"`` -> ``["0.1", "0.4", "[1, 2]"]``: commas inside brackets or quotes stay."""
+    items, depth, quote, current = [], 0, "", []
+    for ch in text:
+        if quote:
+            quote = "" if ch == quote else quote
+        elif ch in "'\"":
+            quote = ch
+        elif ch in "([{":
+            depth += 1
+        elif ch in ")]}":
+            depth -= 1
+        elif ch == "," and depth == 0:
+            items.append("".join(current).strip())
+            current = []
+            continue
+        current.append(ch)
+    items.append("".join(current).strip())
+    if depth != 0 or quote:
+        raise ValueError(f"--grid values {text!r}: unbalanced brackets or quotes")
+    if any(not item for item in items):
+        raise ValueError(f"--grid values {text!r}: an empty value")
+    return items
+
+
+def parse_grid(specs: Sequence[str]) -> dict[str, list[str]]:
+    """``["object.mass_kg=0.1,0.4", ...]`` -> ``{"object.mass_kg": ["0.1", "0.4"], ...}``."""
+    grid: dict[str, list[str]] = {}
+    for spec in specs:
+        key, sep, values = spec.partition("=")
+        key = key.strip()
+        if not sep or not key or not values.strip():
+            raise ValueError(f"--grid takes key=v1,v2,..., got {spec!r}")
+        if key in grid:
+            raise ValueError(f"--grid {key!r} given twice")
+        grid[key] = split_values(values)
+    if not grid:
+        raise ValueError("a sweep needs at least one --grid key=v1,v2,...")
+    return grid
+
+
+def grid_points(grid: Mapping[str, Sequence[object]], base_overrides: Sequence[str] = ()) -> list[Point]:
+    """Every combination of the grid's values (the last key varies fastest); ``base_overrides``
+    (the user's ``--set``) apply first, the point's own values after them."""
+    from piezotip.scenarios import override_strings
+    from piezotip.scenarios.config import parse_value
+
+    keys = list(grid)
+    points = []
+    for combo in itertools.product(*(grid[k] for k in keys)):
+        values, own = {}, []
+        for key, value in zip(keys, combo, strict=True):
+            # Text is the command line's (``0.1``, ``[1, 2]``): used as typed, read as --set reads it.
+            values[key] = parse_value(value) if isinstance(value, str) else value
+            own += [f"{key}={value}"] if isinstance(value, str) else override_strings({key: value})
+        points.append(Point(values, (*base_overrides, *own), label=", ".join(own)))
+    return points
+
+
+def point_row(summary: Mapping, data: Mapping[str, np.ndarray]) -> dict:
+    """A finished run's row: the result columns and the extras, from its summary and record."""
+    held = data["phase"] == _HOLD_PHASE if data else np.zeros(0, bool)
+    pads = [k.removesuffix("_true_pressure_pa") for k in data if k.endswith("_true_pressure_pa")] if data else []
+    true_p = np.max([data[f"{p}_true_pressure_pa"] for p in pads], axis=0) if pads else np.zeros(0)
+    # First contact: a finger touches the object (ground truth), not a pressure reading (the
+    # pads' own inertia presses a fraction of a pascal as the fingers start).
+    if data:
+        touching = np.maximum(data["left_finger_force_n"], data["right_finger_force_n"]) > 0
+        contact = np.nonzero(touching)[0]
+        contact_t = float(data["time_s"][contact[0]]) if contact.size else math.nan
+    else:
+        contact_t = math.nan
+    touch_t = summary.get("touch_time_s", math.nan)
+    touch_t = math.nan if touch_t is None else touch_t
+    return {
+        "outcome": summary["outcome"],
+        "reason": summary["reason"],
+        "success": bool(summary["success"]),
+        "max_pressure_pa": summary["max_pressure_pa"],
+        "held_pressure_pa": float(np.mean(true_p[held])) if held.any() else math.nan,
+        "modes_used": " ".join(str(m) for m in summary.get("modes_used", [])),
+        "wall_time_s": summary["wall_time_s"],
+        "crushed": summary["crushed"],
+        "slipped": summary["slipped"],
+        "lifted": summary["lifted"],
+        "touch_latency_s": touch_t - contact_t if math.isfinite(touch_t) and math.isfinite(contact_t) else math.nan,
+        "mode_switches": summary["mode_switches"],
+        "peak_grip_force_n": summary["peak_grip_force_n"],
+        "outside_model": "; ".join(summary.get("outside_model", [])),
+        "sim_time_s": summary["sim_time_s"],
+        "error": summary.get("error") or "",
+        "object_config": summary.get("object"),
+    }
+
+
+def error_row(message: str) -> dict:
+    """The row of a point whose run raised: its error, NaN numbers, ``success`` False."""
+    row = {c: math.nan for c in (*RESULT_COLUMNS, *EXTRA_COLUMNS)}
+    row.update(outcome=ERROR_OUTCOME, reason=message, success=False, modes_used="", outside_model="", error=message)
+    row.update(crushed=False, slipped=False, lifted=False, object_config=None)
+    return row
+
+
+def run_point(
+    scenario: str, overrides: Sequence[str], preset: str | None, run_dir: str | None = None, options: Mapping | None = None
+) -> dict:
+    """Run one point (in a worker) and return its row; an exception becomes an error row.
+
+    ``run_dir``: where the run's own files go (``run.npz``, ``summary.json``), or None to keep
+    the recording in memory only.  ``options``: more keywords of ``run_scenario`` (e.g. video).
+    The row's ``wall_time_s`` is the whole point (set-up, loop, summary), as the user waits.
+    """
+    options = dict(options or {})
+    import tempfile
+
+    from .runner import run_scenario
+
+    start = time.perf_counter()
+    try:
+        if run_dir is None:
+            with tempfile.TemporaryDirectory(prefix="piezotip-point-") as tmp:
+                summary, data = run_scenario(scenario, list(overrides), Path(tmp), plot=False, quiet=True, preset=preset, **options)
+        else:
+            summary, data = run_scenario(scenario, list(overrides), Path(run_dir), plot=False, quiet=True, preset=preset, **options)
+        row = point_row(summary, data)
+    except Exception as err:  # recorded, and the sweep goes on
+        last = traceback.extract_tb(err.__traceback__)[-1]
+        row = error_row(f"{type(err).__name__}: {err} ({Path(last.filename).name}:{last.lineno})")
+    row["wall_time_s"] = time.perf_counter() - start
+    row["pid"] = os.getpid()
+    return row
+
+
+#: The row's number columns (NaN where there is no value; JSON writes it null).
+_NUMBER_COLUMNS = (
+    "max_pressure_pa",
+    "held_pressure_pa",
+    "wall_time_s",
+    "touch_latency_s",
+    "mode_switches",
+    "peak_grip_force_n",
+    "sim_time_s",
+)
+
+
+def _normalized(row: dict) -> dict:
+    """The row as it reads back from ``points.jsonl`` (JSON types, NaN for null numbers): a fresh
+    row and a resumed one are then the same values."""
+    row = json.loads(json.dumps(json_safe(row)))
+    for key in _NUMBER_COLUMNS:
+        if key in row and row[key] is None:
+            row[key] = math.nan
+    return row
+
+
+def _load_done(path: Path) -> dict[str, dict]:
+    """The rows already in ``points.jsonl`` by key (a torn last line from a kill is skipped)."""
+    done: dict[str, dict] = {}
+    if not path.exists():
+        return done
+    for line in path.read_text().splitlines():
+        try:
+            entry = json.loads(line)
+        except json.JSONDecodeError:
+            continue
+        if entry.get("row", {}).get("outcome") != ERROR_OUTCOME:
+            done[entry["key"]] = _normalized(entry["row"])
+    return done
+
+
+@dataclass(frozen=True)
+class SweepRun:
+    """What :func:`run_points` did.
+
+    Attributes
+    ----------
+    rows : one row per point, in the points' order (the point's values, then the results).
+    skipped : points found done in the output folder and not run again.
+    workers : the Dask workers used (0: run in this process).
+    wall_time_s : the whole sweep, cluster start included, s.
+    """
+
+    rows: list[dict]
+    skipped: int
+    workers: int
+    wall_time_s: float
+
+
+def run_points(
+    scenario: str,
+    points: Sequence[Point],
+    preset: str | None = None,
+    out: Path | None = None,
+    workers: int | None = None,
+    scheduler: str | None = None,
+    progress: bool = True,
+    keep_runs: bool = False,
+    desc: str = "sweep",
+    options: Mapping | None = None,
+) -> SweepRun:
+    """Run every point (skipping those done in ``out``) and return the rows in the points' order.
+
+    ``workers``: processes of the local Dask cluster (default: this machine's cores); 0 runs the
+    points in this process.  ``scheduler``: the address of a running Dask scheduler (then
+    ``workers`` is ignored).  ``keep_runs``: each point's ``run.npz`` and ``summary.json`` in
+    ``out/runs/NN`` (NN the point's index).  ``options``: more keywords of ``run_scenario``.
+    """
+    from tqdm import tqdm
+
+    start = time.perf_counter()
+    journal = None
+    done: dict[str, dict] = {}
+    if out is not None:
+        out = check_out_dir(Path(out))
+        journal = out / "points.jsonl"
+        done = _load_done(journal)
+    keys = [p.key(scenario, preset) for p in points]
+    todo = [i for i, k in enumerate(keys) if k not in done]
+    results: dict[int, dict] = {}
+
+    def run_dir(i: int) -> str | None:
+        return str(out / "runs" / f"{i:02d}") if keep_runs and out is not None else None
+
+    def finish(i: int, row: dict) -> None:
+        results[i] = row = _normalized(row)
+        if journal is not None:
+            with journal.open("a") as fh:  # one line per point, appended at once: a kill loses only runs in flight
+                fh.write(json.dumps(json_safe({"key": keys[i], "row": row})) + "\n")
+        bar.update(1)
+
+    n_workers = 0
+    with tqdm(total=len(points), initial=len(points) - len(todo), desc=desc, unit="run", disable=not progress, leave=False) as bar:
+        if todo and scheduler is None and workers == 0:
+            for i in todo:
+                finish(i, run_point(scenario, points[i].overrides, preset, run_dir(i), options))
+        elif todo:
+            with _client(workers, scheduler) as client:
+                n_workers = len(client.scheduler_info()["workers"])
+                futures = {
+                    client.submit(run_point, scenario, points[i].overrides, preset, run_dir(i), options, pure=False): i for i in todo
+                }
+                from dask.distributed import as_completed
+
+                for future in as_completed(futures):
+                    i = futures[future]
+                    try:
+                        row = future.result()
+                    except Exception as err:  # a worker lost, not the run itself
+                        row = error_row(f"{type(err).__name__}: {err}")
+                    finish(i, row)
+    rows = []
+    for i, point in enumerate(points):
+        row = done.get(keys[i]) if i not in results else results[i]
+        rows.append({**point.values, **row})
+    return SweepRun(rows, len(points) - len(todo), n_workers, time.perf_counter() - start)
+
+
+class _client:
+    """A Dask client on a local cluster of ``workers`` processes (closed on exit), or on the
+    scheduler at ``address``."""
+
+    def __init__(self, workers: int | None, address: str | None) -> None:
+        self.workers, self.address = workers, address
+        self.cluster = self.client = None
+
+    def __enter__(self):
+        from dask.distributed import Client, LocalCluster
+
+        if self.address is not None:
+            try:
+                self.client = Client(self.address, timeout="10s")
+            except OSError as err:
+                raise ValueError(f"--scheduler {self.address}: cannot reach a Dask scheduler there ({err})") from None
+            return self.client
+        n = self.workers if self.workers is not None else (os.cpu_count() or 1)
+        # One thread per process: the loop holds the GIL; processes run side by side.
+        self.cluster = LocalCluster(
+            n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None, silence_logs=50, memory_limit=0
+        )
+        self.client = Client(self.cluster)
+        return self.client
+
+    def __exit__(self, *exc) -> None:
+        if self.client is not None:
+            self.client.close()
+        if self.cluster is not None:
+            self.cluster.close()
+
+
+# -- the command's files ---------------------------------------------------------------------
+
+
+def sweep_columns(grid_keys: Sequence[str]) -> list[str]:
+    """The columns of ``sweep.csv``: the grid's keys as given, the results, then the extras."""
+    return [*grid_keys, *RESULT_COLUMNS, *EXTRA_COLUMNS]
+
+
+def _cell(value):
+    if isinstance(value, (list, tuple)):
+        return json.dumps(value)
+    return value
+
+
+def write_sweep(rows: list[dict], grid_keys: Sequence[str], out: Path, plot: bool = True) -> list[Path]:
+    """``sweep.csv``, ``sweep.parquet`` (units in the column names) and ``sweep.png``."""
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    out = Path(out)
+    columns = sweep_columns(grid_keys)
+    csv_path = out / "sweep.csv"
+    with csv_path.open("w", newline="") as fh:
+        writer = csv.DictWriter(fh, fieldnames=columns, extrasaction="ignore")
+        writer.writeheader()
+        writer.writerows([{c: _cell(r.get(c)) for c in columns} for r in rows])
+    table = pa.table({c: _arrow_column([r.get(c) for r in rows]) for c in columns})
+    parquet_path = out / "sweep.parquet"
+    pq.write_table(table, parquet_path)
+    files = [csv_path, parquet_path]
+    if plot:
+        files.append(plot_sweep(rows, grid_keys, out / "sweep.png"))
+    return files
+
+
+def _arrow_column(values: list):
+    """A column's values for Arrow: numbers stay numbers (NaN for missing), lists as JSON text."""
+    import pyarrow as pa
+
+    if all(isinstance(v, bool) for v in values):
+        return pa.array(values, pa.bool_())
+    if all((isinstance(v, (int, float)) and not isinstance(v, bool)) or v is None for v in values):
+        return pa.array([math.nan if v is None else float(v) for v in values], pa.float64())
+    return pa.array([json.dumps(v) if isinstance(v, (list, tuple)) else ("" if v is None else str(v)) for v in values], pa.string())
+
+
+#: Colour per outcome in the plots.
+OUTCOME_COLOUR = {
+    "success": "#4caf50",
+    "never_lifted": "#bdbdbd",
+    "blind": "#ffb74d",
+    "timeout": "#ffe082",
+    "slipped": "#ff8a65",
+    "dropped": "#e57373",
+    "crushed": "#b71c1c",
+    "fault": "#7e57c2",
+    ERROR_OUTCOME: "#212121",
+}
+
+
+def plot_sweep(rows: list[dict], grid_keys: Sequence[str], path: Path) -> Path:
+    """The outcome over the grid: a coloured cell per point over the first two keys (the rest
+    listed in the cell), and the peak pressure against the first key."""
+    from matplotlib.patches import Patch, Rectangle
+
+    from .plotting import new_figure, save_figure
+
+    x_key = grid_keys[0]
+    y_key = grid_keys[1] if len(grid_keys) > 1 else None
+    xs = list(dict.fromkeys(_label(r[x_key]) for r in rows))
+    ys = list(dict.fromkeys(_label(r[y_key]) for r in rows)) if y_key else [""]
+    fig, axes = new_figure(1, 2, figsize=(14, 6))
+    ax, ax_p = axes[0]
+    cells: dict[tuple[int, int], list[dict]] = {}
+    for r in rows:
+        cells.setdefault((xs.index(_label(r[x_key])), ys.index(_label(r[y_key])) if y_key else 0), []).append(r)
+    for (i, j), group in cells.items():
+        outcomes = [g["outcome"] for g in group]
+        main = max(set(outcomes), key=outcomes.count)
+        ax.add_patch(Rectangle((i - 0.5, j - 0.5), 1, 1, facecolor=OUTCOME_COLOUR.get(main, "white"), edgecolor="white"))
+        text = main.replace("_", " ") if len(group) == 1 else f"{sum(g['success'] for g in group)}/{len(group)} ok"
+        ax.text(i, j, text, ha="center", va="center", fontsize=7)
+    ax.set_xlim(-0.5, len(xs) - 0.5)
+    ax.set_ylim(-0.5, len(ys) - 0.5)
+    ax.set_xticks(range(len(xs)), xs, rotation=30)
+    ax.set_yticks(range(len(ys)), ys)
+    ax.set(xlabel=x_key, ylabel=y_key or "", title="outcome per point (referee)")
+    present = list(dict.fromkeys(r["outcome"] for r in rows))
+    ax.legend(handles=[Patch(color=OUTCOME_COLOUR.get(o, "white"), label=o) for o in present], fontsize=7, loc="upper right")
+    for y in ys:
+        group = [r for r in rows if not y_key or _label(r[y_key]) == y]
+        xi = [xs.index(_label(r[x_key])) for r in group]
+        ax_p.semilogy(xi, [r["max_pressure_pa"] for r in group], "o-", label=f"{y_key} = {y}" if y_key else "peak")
+    ax_p.set_xticks(range(len(xs)), xs, rotation=30)
+    ax_p.set(xlabel=x_key, ylabel="peak pressure on the element [Pa]", title="peak pressure per point")
+    ax_p.grid(True, which="both", alpha=0.3)
+    ax_p.legend(fontsize=7)
+    return save_figure(fig, path)
+
+
+def _label(value) -> str:
+    if isinstance(value, (list, tuple)):
+        return json.dumps(value)
+    return f"{value:g}" if isinstance(value, float) else str(value)
+
+
+def format_rows(rows: list[dict], grid_keys: Sequence[str]) -> str:
+    """The sweep's rows as a text table."""
+    head = [*grid_keys, "outcome", "peak P [Pa]", "held P [Pa]", "modes", "wall [s]"]
+    lines = []
+    for r in rows:
+        numbers = [f"{r['max_pressure_pa']:.3g}", f"{r['held_pressure_pa']:.3g}", r["modes_used"], f"{r['wall_time_s']:.2f}"]
+        lines.append([*(_label(r[k]) for k in grid_keys), r["outcome"], *numbers])
+    widths = [max(len(h), *(len(line[i]) for line in lines)) if lines else len(h) for i, h in enumerate(head)]
+    text = ["  ".join(h.ljust(w) for h, w in zip(head, widths, strict=True))]
+    text += ["  ".join(c.ljust(w) for c, w in zip(line, widths, strict=True)) for line in lines]
+    return "\n".join(text)
+
+
+def sweep(
+    scenario: str,
+    grid: Mapping[str, Sequence[object]],
+    preset: str | None = None,
+    overrides: Sequence[str] | Mapping[str, object] | None = None,
+    workers: int | None = None,
+    scheduler: str | None = None,
+    out: str | Path | None = None,
+    progress: bool = False,
+    plot: bool = False,
+) -> list[dict]:
+    """Run ``scenario`` at every point of ``grid`` (``{"object.mass_kg": [0.1, 0.4], ...}``) on
+    Dask and return a row per point (see :data:`RESULT_COLUMNS`); with ``out``, write
+    ``sweep.csv``, ``sweep.parquet`` (and ``sweep.png`` with ``plot``) there and resume from it.
+    ``overrides`` apply to every point, before the grid's values."""
+    from piezotip import scenarios
+
+    base = scenarios.override_strings(overrides)
+    points = grid_points(grid, base)
+    check_points(scenario, points, preset)
+    result = run_points(scenario, points, preset, Path(out) if out is not None else None, workers, scheduler, progress)
+    if out is not None:
+        write_sweep(result.rows, list(grid), Path(out), plot=plot)
+    return result.rows
+
+
+def check_points(scenario: str, points: Sequence[Point], preset: str | None) -> None:
+    """Every point's config validated before any run (a bad value stops the sweep at once)."""
+    from piezotip import scenarios
+
+    for point in points:
+        scenarios.get(scenario, list(point.overrides), preset)

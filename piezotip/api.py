@@ -1,0 +1,168 @@
+"""The Python API for scripts: one call per run, the same numbers the command line gives.
+
+::
+
+    import piezotip
+
+    result = piezotip.run("grasp", overrides={"object.mass_kg": 0.4}, preset="fast")
+    print(result.outcome, result.reason)                  # "success", why
+    t_s, p_pa = result.data["time_s"], result.data["left_true_pressure_pa"]
+    result.units["left_true_pressure_pa"]                      # "Pa"
+
+    tip = piezotip.fingertip("grasp")                     # the scenario's sensor, as the loop builds it
+    tip.dynamic_range()["dynamic_range"]                  # P_max / P_min over the driven modes
+
+A run needs no output folder: without ``out`` the recording is kept in memory only.  With
+``out`` the run writes what ``run_sim.py run`` writes there (``run.npz``, ``summary.json``, and
+``run.png`` with ``plot=True``).  Bad input raises ``ValueError`` naming the bad value, as the
+command line prints it.
+"""
+
+from __future__ import annotations
+
+import tempfile
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from types import MappingProxyType
+
+import numpy as np
+
+#: Unit of a recorded column, by the suffix of its name (the record's naming convention).
+_UNIT_SUFFIXES = (
+    ("_m_s", "m/s"),
+    ("_rad_s", "rad/s"),
+    ("_pa", "Pa"),
+    ("_n", "N"),
+    ("_m", "m"),
+    ("_s", "s"),
+    ("_hz", "Hz"),
+    ("_v", "V"),
+)
+
+Overrides = Sequence[str] | Mapping[str, object] | None
+
+
+def column_unit(name: str) -> str:
+    """The unit of recorded column ``name`` from its suffix (``"1"`` for dimensionless ones)."""
+    for suffix, unit in _UNIT_SUFFIXES:
+        if name.endswith(suffix):
+            return unit
+    return "1"
+
+
+@dataclass(frozen=True)
+class Result:
+    """One finished run.
+
+    Attributes
+    ----------
+    scenario : the scenario's name.
+    overrides : the overrides applied, as ``key=value`` strings (a mapping is converted).
+    preset : the fidelity preset, or None.
+    summary : what ``run_sim.py run --json`` prints (``summary.json``): outcome, reason, the
+        referee's numbers, pressures, modes, timings; units in the key names.
+    data : the recording, one array per column, a row per control step; units in the column
+        names (see :attr:`units`).
+    events : the controller's events (time_s, pad, kind, message), in order.
+    out_dir : where the files were written, or None for an in-memory run.
+    """
+
+    scenario: str
+    overrides: tuple[str, ...]
+    preset: str | None
+    summary: Mapping[str, object]
+    data: Mapping[str, np.ndarray]
+    events: tuple[Mapping[str, object], ...]
+    out_dir: Path | None = None
+    units: Mapping[str, str] = field(init=False)
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "units", MappingProxyType({name: column_unit(name) for name in self.data}))
+
+    @property
+    def outcome(self) -> str:
+        """The referee's outcome: ``success``, ``crushed``, ``dropped``, ``slipped``, ... (see OUTCOMES)."""
+        return str(self.summary["outcome"])
+
+    @property
+    def reason(self) -> str:
+        """Why the referee judged the outcome it did, in words."""
+        return str(self.summary["reason"])
+
+    @property
+    def success(self) -> bool:
+        """Whether the grasp was a success as someone watching would judge it."""
+        return bool(self.summary["success"])
+
+
+def run(
+    scenario: str = "grasp",
+    overrides: Overrides = None,
+    preset: str | None = None,
+    *,
+    out: str | Path | None = None,
+    plot: bool = False,
+    csv: bool = False,
+    progress: bool = False,
+) -> Result:
+    """Run ``scenario`` headless and return its :class:`Result`.
+
+    Parameters
+    ----------
+    scenario : a registered scenario name (``run_sim.py list``).
+    overrides : ``{"object.mass_kg": 0.4}`` or ``["object.mass_kg=0.4"]``; applied after the preset.
+    preset : ``fast``, ``balanced``, ``accurate``, ``reference`` or None.
+    out : a folder to write the run's files into; None keeps everything in memory.
+    plot : write ``run.png`` (only with ``out``).
+    csv : write ``run.csv`` too (only with ``out``).
+    progress : show a progress bar.
+    """
+    from piezotip.analysis.runner import run_scenario
+    from piezotip.scenarios import override_strings
+
+    assignments = override_strings(overrides)
+    if out is None:
+        if plot or csv:
+            raise ValueError("plot=True and csv=True write files: give out=FOLDER")
+        with tempfile.TemporaryDirectory(prefix="piezotip-run-") as tmp:
+            summary, data = run_scenario(scenario, assignments, Path(tmp), plot=False, quiet=not progress, preset=preset)
+        summary = dict(summary, files=[])
+        out_dir = None
+    else:
+        out_dir = Path(out)
+        summary, data = run_scenario(scenario, assignments, out_dir, csv=csv, plot=plot, quiet=not progress, preset=preset)
+    events = tuple(MappingProxyType(dict(e)) for e in summary.get("events", []))
+    return Result(scenario, tuple(assignments), preset, MappingProxyType(summary), MappingProxyType(dict(data)), events, out_dir)
+
+
+def config(scenario: str = "grasp", overrides: Overrides = None, preset: str | None = None):
+    """The scenario's whole validated :class:`~piezotip.scenarios.ScenarioConfig` (nothing run)."""
+    from piezotip import scenarios
+
+    return scenarios.get(scenario, overrides, preset)
+
+
+def fingertip(scenario: str = "grasp", overrides: Overrides = None, preset: str | None = None):
+    """The scenario's fingertip sensor (:class:`~piezotip.sensor.Fingertip`), as the loop builds it.
+
+    A sensor designer's entry point: ``output(pressure_pa, mode)`` (eq. 21's normalized
+    amplitude), ``resolution(pressure_pa, mode)``, ``detection_limit(mode)``,
+    ``upper_limit(mode)``, ``mode_bands()``, ``dynamic_range()``, ``estimate(v1, mode)``.
+    """
+    from piezotip.cosim.loop import make_fingertip
+
+    return make_fingertip(config(scenario, overrides, preset))
+
+
+def dynamic_range(scenario: str = "grasp", overrides: Overrides = None, preset: str | None = None) -> dict:
+    """The scenario's fingertip's range: P_min, P_max (Pa), their ratio, per-mode limits and the
+    switch pressures, as ``run_sim.py range --json`` reports them for that sensor."""
+    return fingertip(scenario, overrides, preset).dynamic_range()
+
+
+def scenario_names() -> list[str]:
+    """The registered scenarios' names."""
+    from piezotip import scenarios
+
+    return scenarios.names()

@@ -1,0 +1,97 @@
+"""Derived tables kept on disk across processes: set-up paid once per sensor configuration.
+
+A fingertip's mode bands, per-mode limits and gel tables take a few hundred milliseconds to
+compute and depend only on its parameters.  Within a process they are cached by
+:meth:`Fingertip.config_key`; this module keeps them on disk too, so the workers of a sweep and
+the next command start with them.
+
+Safety, in order of importance:
+
+- The key is a SHA-256 of the namespace, the ``repr`` of the configuration key (every
+  parameter, floats written exactly) and a fingerprint of the source of every module of
+  ``piezotip.sensor`` (and of any module the caller names): a change of parameter or of code
+  computes afresh; an entry is never reused for anything else.
+- Entries are plain arrays (``.npz`` read with ``allow_pickle=False``): no code is loaded from
+  the cache.
+- Written to a temporary file and renamed (atomic on POSIX): a reader never sees half an entry;
+  two processes computing the same entry write the same content.  An unreadable entry is
+  computed again and replaced.
+
+Where: ``$PIEZOTIP_CACHE_DIR``, else ``$XDG_CACHE_HOME/piezotip``, else ``~/.cache/piezotip``.
+``PIEZOTIP_CACHE=off`` turns the disk cache off (every process computes its own).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+import tempfile
+import zipfile
+from collections.abc import Callable, Iterable
+from pathlib import Path
+
+import numpy as np
+
+_FINGERPRINTS: dict[tuple[str, ...], str] = {}
+
+
+def cache_dir() -> Path | None:
+    """The cache folder, or None when the disk cache is off."""
+    if os.environ.get("PIEZOTIP_CACHE", "").lower() in ("0", "off", "false", "no"):
+        return None
+    if os.environ.get("PIEZOTIP_CACHE_DIR"):
+        return Path(os.environ["PIEZOTIP_CACHE_DIR"])
+    base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
+    return Path(base) / "piezotip"
+
+
+def source_fingerprint(extra_modules: Iterable[str] = ()) -> str:
+    """SHA-256 of the source text of every ``piezotip.sensor`` module and of ``extra_modules``
+    (files, by path): the code that computes an entry is part of its key."""
+    extra = tuple(sorted(str(p) for p in extra_modules))
+    if extra not in _FINGERPRINTS:
+        digest = hashlib.sha256()
+        files = sorted(Path(__file__).parent.glob("*.py")) + [Path(p) for p in extra]
+        for path in files:
+            digest.update(path.name.encode())
+            digest.update(path.read_bytes())
+        _FINGERPRINTS[extra] = digest.hexdigest()
+    return _FINGERPRINTS[extra]
+
+
+def entry_key(namespace: str, key: object, extra_modules: Iterable[str] = ()) -> str:
+    """The file name stem of an entry: a hash of everything it depends on."""
+    text = f"{namespace}\n{key!r}\n{source_fingerprint(extra_modules)}"
+    return f"{namespace}-{hashlib.sha256(text.encode()).hexdigest()[:40]}"
+
+
+def disk_cached(
+    namespace: str, key: object, compute: Callable[[], dict[str, np.ndarray]], extra_modules: Iterable[str] = ()
+) -> dict[str, np.ndarray]:
+    """``compute()`` (a dict of arrays) stored under ``key``, or the stored copy when there is one.
+
+    ``key`` must hold every parameter the result depends on (its ``repr`` is hashed; use
+    immutable values whose repr is exact, e.g. frozen dataclasses of floats).
+    """
+    folder = cache_dir()
+    if folder is None:
+        return compute()
+    path = folder / f"{entry_key(namespace, key, extra_modules)}.npz"
+    if path.exists():
+        try:
+            with np.load(path, allow_pickle=False) as npz:
+                return {name: npz[name] for name in npz.files}
+        except (OSError, ValueError, EOFError, zipfile.BadZipFile):
+            pass  # torn or foreign: compute and replace below
+    value = compute()
+    tmp = None
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(dir=folder, prefix=".tmp-", suffix=".npz")
+        with os.fdopen(fd, "wb") as fh:
+            np.savez(fh, **value)
+        os.replace(tmp, path)
+    except OSError:  # a read-only or full disk: the value is still right, only not kept
+        if tmp is not None and os.path.exists(tmp):
+            os.unlink(tmp)
+    return value

@@ -1,0 +1,101 @@
+"""The Python API: the same numbers as the command line; one installed top-level name."""
+
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+import piezotip
+from piezotip import cli
+
+#: Keys of the summary that depend on the machine (timing) or on where files went.
+MACHINE_KEYS = {"wall_time_s", "realtime_factor", "files"}
+
+
+def test_the_api_result_equals_the_command_line(tmp_path, capsys):
+    overrides = {"object.mass_kg": 0.2, "duration_s": 3.0}
+    result = piezotip.run("grasp", overrides=overrides, preset="fast")
+    argv = ["run", "grasp", "--set", "object.mass_kg=0.2", "--set", "duration_s=3.0", "--preset", "fast"]
+    assert cli.main([*argv, "--no-plot", "--json", "--out", str(tmp_path)]) in (0, 1)
+    printed = json.loads(capsys.readouterr().out)
+    api = json.loads(json.dumps(piezotip.analysis.runner.json_safe(dict(result.summary))))
+    assert {k: v for k, v in api.items() if k not in MACHINE_KEYS} == {k: v for k, v in printed.items() if k not in MACHINE_KEYS}
+    recorded = np.load(tmp_path / "run.npz")
+    for name, values in result.data.items():
+        np.testing.assert_array_equal(values, recorded[name], err_msg=name)
+    assert result.outcome == printed["outcome"] and result.success == printed["success"]
+    assert result.overrides == ("object.mass_kg=0.2", "duration_s=3.0")
+    assert result.out_dir is None and result.summary["files"] == []
+
+
+def test_the_result_names_its_units_and_is_read_only():
+    result = piezotip.run("grasp", overrides=["duration_s=0.5"], preset="fast")
+    assert result.units["time_s"] == "s" and result.units["left_true_pressure_pa"] == "Pa"
+    assert result.units["object_vz_m_s"] == "m/s" and result.units["left_mode"] == "1"
+    assert set(result.units) == set(result.data)
+    with pytest.raises(TypeError):
+        result.data["time_s"] = None
+    assert [e["kind"] for e in result.events] == [e["kind"] for e in result.summary["events"]] and result.events
+
+
+def test_a_mapping_and_the_command_line_text_give_one_config():
+    from piezotip import scenarios
+
+    mapping = {"object.mass_kg": np.float64(0.4), "controller.modes": (1, 2), "sensor.dynamics": "steady", "sensor.quality_factor": None}
+    text = ["object.mass_kg=0.4", "controller.modes=(1, 2)", "sensor.dynamics=steady", "sensor.quality_factor=None"]
+    assert scenarios.get("grasp", mapping) == scenarios.get("grasp", text)
+    assert scenarios.override_strings(mapping) == text
+
+
+@pytest.mark.parametrize(
+    "call, named",
+    [
+        (lambda: piezotip.run("nothere"), "nothere"),
+        (lambda: piezotip.run("grasp", {"object.nope": 1}), "object.nope"),
+        (lambda: piezotip.run("grasp", {"object.mass_kg": -1.0}), "object.mass_kg"),
+        (lambda: piezotip.run("grasp", "object.mass_kg=1"), "object.mass_kg=1"),
+        (lambda: piezotip.run("grasp", plot=True), "out="),
+    ],
+)
+def test_bad_input_raises_the_command_lines_error(call, named):
+    with pytest.raises(ValueError, match=None) as err:
+        call()
+    assert named in str(err.value)
+
+
+def test_the_sensor_side_calls_match_the_loops_fingertip():
+    from piezotip import scenarios
+    from piezotip.cosim.loop import make_fingertip
+
+    tip = piezotip.fingertip("grasp", {"sensor.coverage_mm": (6.0, 7.5)})
+    assert tip.config_key() == make_fingertip(scenarios.get("grasp", ["sensor.coverage_mm=(6.0, 7.5)"])).config_key()
+    report = piezotip.dynamic_range("grasp")
+    assert report == make_fingertip(scenarios.get("grasp")).dynamic_range()
+    assert report["dynamic_range"] > 1e4
+
+
+def test_import_piezotip_is_cheap():
+    """No MuJoCo, scipy or matplotlib until a run asks for them."""
+    code = "import sys, piezotip; print(sorted(m for m in ('mujoco', 'scipy', 'matplotlib', 'numpy') if m in sys.modules))"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert json.loads(out.replace("'", '"')) == []
+
+
+@pytest.mark.parametrize("name", ["sensor", "analysis", "cosim", "scenarios", "models", "run_sim"])
+def test_only_piezotip_is_installed_at_the_top_level(name, tmp_path):
+    """From a folder outside the checkout, the repository's folders are not importable by
+    their own names (they would collide with a user's modules): only ``piezotip.<name>``."""
+    probe = f"import importlib.util as u; print(u.find_spec({name!r}) is None, u.find_spec('piezotip') is not None)"
+    out = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, cwd=tmp_path, check=True).stdout.split()
+    assert out == ["True", "True"]
+
+
+def test_the_subpackages_and_the_models_are_reachable_under_piezotip(tmp_path):
+    probe = (
+        "import piezotip.sensor, piezotip.cosim.control, piezotip.scenarios, piezotip.analysis.sweep;"
+        "from piezotip.cosim.pads import MODELS_DIR; print((MODELS_DIR / 'scene_grasp.xml').is_file())"
+    )
+    out = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, cwd=tmp_path, check=True).stdout
+    assert out.strip() == "True"

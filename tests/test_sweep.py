@@ -1,0 +1,172 @@
+"""Sweeps on Dask: grid parsing, parallel rows equal serial ones, resume, errors, the files."""
+
+import csv
+import json
+import math
+
+import pytest
+
+from piezotip import cli
+from piezotip.analysis import sweep as sweep_module
+from piezotip.analysis.sweep import (
+    ERROR_OUTCOME,
+    RESULT_COLUMNS,
+    grid_points,
+    parse_grid,
+    run_points,
+    split_values,
+)
+
+#: A short, cheap scenario: the fast preset, the grasp cut at 3 s (touch, squeeze, lift begins).
+SHORT = ("duration_s=3.0",)
+
+
+def _comparable(row: dict) -> dict:
+    """A row without what depends on the machine (time, process)."""
+    return {k: v for k, v in row.items() if k not in ("wall_time_s", "pid")}
+
+
+def _same(a: dict, b: dict) -> bool:
+    a, b = _comparable(a), _comparable(b)
+    if a.keys() != b.keys():
+        return False
+    for key in a:
+        x, y = a[key], b[key]
+        if isinstance(x, float) and isinstance(y, float) and math.isnan(x) and math.isnan(y):
+            continue
+        if x != y:
+            return False
+    return True
+
+
+def test_values_split_at_top_level_commas_only():
+    assert split_values("0.1,0.4, 2") == ["0.1", "0.4", "2"]
+    assert split_values("[1, 2],[3],(6.5, 7.5)") == ["[1, 2]", "[3]", "(6.5, 7.5)"]
+    assert split_values("'a,b',c") == ["'a,b'", "c"]
+    for bad in ("[1, 2", "0.1,,0.2", "'open"):
+        with pytest.raises(ValueError, match="--grid"):
+            split_values(bad)
+
+
+def test_grid_parses_keys_as_given_and_rejects_bad_specs():
+    grid = parse_grid(["object.mass_kg=0.1,0.4", "controller.modes=[1],[1, 2]"])
+    assert grid == {"object.mass_kg": ["0.1", "0.4"], "controller.modes": ["[1]", "[1, 2]"]}
+    for bad in (["object.mass_kg"], ["=1,2"], ["object.mass_kg="], ["a=1", "a=2"], []):
+        with pytest.raises(ValueError):
+            parse_grid(bad)
+
+
+def test_points_are_the_product_with_the_last_key_fastest_and_base_overrides_first():
+    points = grid_points({"object.mass_kg": ["0.1", "0.4"], "object.friction": ["0.5", "1"]}, ["controller.hold_s=0.5"])
+    assert [p.values for p in points] == [
+        {"object.mass_kg": 0.1, "object.friction": 0.5},
+        {"object.mass_kg": 0.1, "object.friction": 1},
+        {"object.mass_kg": 0.4, "object.friction": 0.5},
+        {"object.mass_kg": 0.4, "object.friction": 1},
+    ]
+    assert points[1].overrides == ("controller.hold_s=0.5", "object.mass_kg=0.1", "object.friction=1")
+    # Python values (the API) give the same overrides as the command line's text.
+    api = grid_points({"object.mass_kg": [0.1, 0.4], "object.friction": [0.5, 1]}, ["controller.hold_s=0.5"])
+    assert [p.overrides for p in api] == [p.overrides for p in points]
+
+
+def test_resume_skips_done_points_and_a_torn_line(tmp_path, monkeypatch):
+    points = grid_points({"object.mass_kg": ["0.05", "0.2"]}, SHORT)
+    first = run_points("grasp", points, "fast", tmp_path, workers=0, progress=False)
+    assert first.skipped == 0 and all(r["outcome"] != ERROR_OUTCOME for r in first.rows)
+    with (tmp_path / "points.jsonl").open("a") as fh:
+        fh.write('{"key": "torn')  # a kill in the middle of a line
+
+    def never(*args, **kwargs):
+        raise AssertionError("a done point ran again")
+
+    monkeypatch.setattr(sweep_module, "run_point", never)
+    again = run_points("grasp", points, "fast", tmp_path, workers=0, progress=False)
+    assert again.skipped == 2
+    assert all(_same(a, b) for a, b in zip(first.rows, again.rows, strict=True))
+    # A different point in the same folder is not "done".
+    monkeypatch.undo()
+    more = grid_points({"object.mass_kg": ["0.05", "0.2", "0.4"]}, SHORT)
+    third = run_points("grasp", more, "fast", tmp_path, workers=0, progress=False)
+    assert third.skipped == 2 and third.rows[2]["object.mass_kg"] == 0.4
+
+
+def test_a_point_that_raises_is_recorded_and_the_sweep_goes_on(tmp_path, monkeypatch):
+    from piezotip.analysis import runner
+
+    real = runner.run_scenario
+
+    def flaky(name, overrides, *args, **kwargs):
+        if "object.mass_kg=0.2" in overrides:
+            raise RuntimeError("the solver fell over")
+        return real(name, overrides, *args, **kwargs)
+
+    monkeypatch.setattr(runner, "run_scenario", flaky)
+    points = grid_points({"object.mass_kg": ["0.2", "0.05"]}, SHORT)
+    result = run_points("grasp", points, "fast", tmp_path, workers=0, progress=False)
+    bad, good = result.rows
+    assert bad["outcome"] == ERROR_OUTCOME and not bad["success"] and "the solver fell over" in bad["error"]
+    assert good["outcome"] != ERROR_OUTCOME and good["error"] == ""
+    # An errored point is run again on resume (it may have been the machine); a done one is not.
+    monkeypatch.setattr(runner, "run_scenario", real)
+    again = run_points("grasp", points, "fast", tmp_path, workers=0, progress=False)
+    assert again.skipped == 1 and again.rows[0]["outcome"] != ERROR_OUTCOME
+
+
+@pytest.mark.slow
+def test_parallel_rows_equal_serial_rows(tmp_path):
+    points = grid_points({"object.mass_kg": ["0.05", "0.3"], "object.friction": ["0.6", "1.0"]}, SHORT)
+    serial = run_points("grasp", points, "fast", None, workers=0, progress=False)
+    parallel = run_points("grasp", points, "fast", None, workers=2, progress=False)
+    assert parallel.workers == 2
+    assert len({r["pid"] for r in parallel.rows}) == 2  # both workers ran points
+    for a, b in zip(serial.rows, parallel.rows, strict=True):
+        assert _same(a, b), (a, b)
+
+
+@pytest.mark.slow
+def test_the_command_writes_csv_parquet_plot_and_json(tmp_path, capsys):
+    import pyarrow.parquet as pq
+
+    out = tmp_path / "sweep"
+    argv = ["sweep", "grasp", "--grid", "object.mass_kg=0.05,0.2", "--set", SHORT[0], "--preset", "fast"]
+    assert cli.main([*argv, "--workers", "0", "--out", str(out), "--json"]) == 0
+    report = json.loads(capsys.readouterr().out)
+    assert report["points"] == 2 and report["skipped_done"] == 0
+    with (out / "sweep.csv").open() as fh:
+        reader = csv.DictReader(fh)
+        header, rows = reader.fieldnames, list(reader)
+    assert header[: 1 + len(RESULT_COLUMNS)] == ["object.mass_kg", *RESULT_COLUMNS]
+    table = pq.read_table(out / "sweep.parquet").to_pylist()
+    assert [r["object.mass_kg"] for r in table] == [0.05, 0.2]
+    assert [r["outcome"] for r in table] == [r["outcome"] for r in rows] == [r["outcome"] for r in report["rows"]]
+    assert table[0]["max_pressure_pa"] == pytest.approx(float(rows[0]["max_pressure_pa"]))
+    assert (out / "sweep.png").stat().st_size > 10_000
+    # Run again: every point is skipped, the files are the same rows.
+    assert cli.main([*argv, "--workers", "0", "--out", str(out), "--json"]) == 0
+    again = json.loads(capsys.readouterr().out)
+    assert again["skipped_done"] == 2
+    assert [_comparable(r) for r in again["rows"]] == [_comparable(r) for r in report["rows"]]
+
+
+@pytest.mark.parametrize(
+    "argv, named",
+    [
+        (["sweep", "grasp", "--grid", "object.mass_kg=0.1,abc"], "abc"),
+        (["sweep", "grasp", "--grid", "object.nope=1"], "object.nope"),
+        (["sweep", "nothere", "--grid", "object.mass_kg=1"], "nothere"),
+        (["sweep", "grasp", "--grid", "object.mass_kg=1", "--workers", "-1"], "-1"),
+        (["sweep", "grasp", "--grid", "object.mass_kg=[1"], "[1"),
+    ],
+)
+def test_bad_sweeps_stop_before_any_run_with_one_line(argv, named, capsys, tmp_path):
+    assert cli.main([*argv, "--out", str(tmp_path / "never")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("error:") and named in err and "\n" not in err
+    assert not (tmp_path / "never" / "points.jsonl").exists()
+
+
+def test_a_scheduler_that_is_not_there_is_named(capsys, tmp_path):
+    argv = ["sweep", "grasp", "--grid", "object.mass_kg=0.1", "--scheduler", "tcp://127.0.0.1:1", "--out", str(tmp_path)]
+    assert cli.main(argv) == 2
+    assert "tcp://127.0.0.1:1" in capsys.readouterr().err
