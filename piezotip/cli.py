@@ -31,8 +31,17 @@ import os
 import sys
 from pathlib import Path
 
-# Headless rendering: MuJoCo reads MUJOCO_GL when it is first imported (commands import it lazily).
-os.environ.setdefault("MUJOCO_GL", "egl")
+
+def _rendering_backend() -> None:
+    """For a command that renders (--render, --video), before anything imports MuJoCo (commands
+    import it lazily; it reads MUJOCO_GL on its first import): headless EGL unless MUJOCO_GL says
+    otherwise, and a backend that cannot load is one line naming MUJOCO_GL.  Commands that do not
+    render leave MUJOCO_GL alone, so they run where there is no EGL at all."""
+    os.environ.setdefault("MUJOCO_GL", "egl")
+    from piezotip.analysis.video import import_mujoco
+
+    import_mujoco()
+
 
 PRESET_NAMES = ("fast", "balanced", "accurate", "reference")
 
@@ -259,6 +268,10 @@ def _cmd_bench(args: argparse.Namespace) -> int:
         report["presets"] = fidelity["presets"]
         report["convergence"] = fidelity["convergence"]
         report["fidelity_checks"] = fidelity["checks"]
+    if args.throughput:
+        from piezotip.analysis.throughput import throughput_report
+
+        report["throughput"] = throughput_report(progress=progress)
     files = [str(p) for p in write_report(report, Path(args.out))] if args.out else []
     if args.out and not args.no_presets:
         files.append(str(plot_pareto(fidelity, Path(args.out) / "pareto.png")))
@@ -269,6 +282,11 @@ def _cmd_bench(args: argparse.Namespace) -> int:
         if not args.no_presets:
             print()
             print(format_fidelity(fidelity))
+        if args.throughput:
+            from piezotip.analysis.throughput import format_throughput
+
+            print()
+            print(format_throughput(report["throughput"]))
         for f in files:
             print(f"wrote {f}")
     return 0
@@ -347,6 +365,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--set", action="append", metavar="KEY=VALUE", help="override a config value of every benchmarked scene (repeatable)")
     p.add_argument("--preset", choices=PRESET_NAMES, help="fidelity preset of the benchmarked scenes (the overhead part)")
     p.add_argument("--no-presets", action="store_true", help="skip the fidelity presets' cost and error table")
+    p.add_argument(
+        "--throughput",
+        action="store_true",
+        help="also time whole commands: experiment (Dask + caches vs serial, no caches), sweep on 2 vs 1 workers, 300 s vs 10 s runs",
+    )
     p.set_defaults(func=_cmd_bench)
     return parser
 
@@ -354,6 +377,8 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     try:
+        if getattr(args, "render", False) or getattr(args, "video", False):
+            _rendering_backend()
         return args.func(args)
     except (ValueError, OSError) as exc:  # bad input, or a file that cannot be read or written
         print(f"error: {exc}", file=sys.stderr)

@@ -18,7 +18,8 @@ Safety, in order of importance:
   computed again and replaced.
 
 Where: ``$PIEZOTIP_CACHE_DIR``, else ``$XDG_CACHE_HOME/piezotip``, else ``~/.cache/piezotip``.
-``PIEZOTIP_CACHE=off`` turns the disk cache off (every process computes its own).
+``PIEZOTIP_CACHE=off`` turns caching off, on disk and in memory (:func:`enabled`): every run
+then computes its own set-up, which is what ``bench --throughput`` compares against.
 """
 
 from __future__ import annotations
@@ -35,9 +36,15 @@ import numpy as np
 _FINGERPRINTS: dict[tuple[str, ...], str] = {}
 
 
+def enabled() -> bool:
+    """Whether derived tables are cached at all (in memory and on disk): ``PIEZOTIP_CACHE=off``
+    says no.  The in-process caches (keyed by :meth:`Fingertip.config_key`) ask this too."""
+    return os.environ.get("PIEZOTIP_CACHE", "").lower() not in ("0", "off", "false", "no")
+
+
 def cache_dir() -> Path | None:
-    """The cache folder, or None when the disk cache is off."""
-    if os.environ.get("PIEZOTIP_CACHE", "").lower() in ("0", "off", "false", "no"):
+    """The cache folder, or None when caching is off."""
+    if not enabled():
         return None
     if os.environ.get("PIEZOTIP_CACHE_DIR"):
         return Path(os.environ["PIEZOTIP_CACHE_DIR"])

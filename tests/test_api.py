@@ -99,3 +99,20 @@ def test_the_subpackages_and_the_models_are_reachable_under_piezotip(tmp_path):
     )
     out = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, cwd=tmp_path, check=True).stdout
     assert out.strip() == "True"
+
+
+@pytest.mark.slow
+def test_the_readmes_script_runs(tmp_path, monkeypatch, capsys):
+    """The README's Python example, as printed there (a sweep on the default local cluster)."""
+    import pathlib
+    import re
+
+    readme = (pathlib.Path(__file__).resolve().parents[1] / "README.md").read_text()
+    blocks = re.findall(r"```python\n(.*?)```", readme, re.S)
+    script = next(b for b in blocks if "piezotip.run(" in b)
+    monkeypatch.chdir(tmp_path)
+    namespace: dict = {}
+    exec(compile(script, "README.md", "exec"), namespace)
+    assert namespace["result"].outcome == "success"
+    assert [r["outcome"] for r in namespace["rows"]] and all(r["outcome"] != "error" for r in namespace["rows"])
+    assert "success" in capsys.readouterr().out

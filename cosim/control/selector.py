@@ -22,6 +22,7 @@ import numpy as np
 
 from piezotip.sensor import Fingertip
 from piezotip.sensor.cache import disk_cached
+from piezotip.sensor.cache import enabled as cache_enabled
 
 from .interface import Why
 
@@ -39,7 +40,7 @@ def allowed_ranges(fingertip: Fingertip, modes: tuple[int, ...]) -> tuple[Finger
     copied for the caller).
     """
     key = (fingertip.config_key(), modes)
-    if key not in _RANGES:
+    if key not in _RANGES or not cache_enabled():
         allowed = Fingertip(
             element=fingertip.element,
             gel=fingertip.gel,
