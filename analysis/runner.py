@@ -58,17 +58,21 @@ def run_scenario(
     plot: bool = True,
     quiet: bool = False,
     preset: str | None = None,
+    video: bool = False,
+    video_fps: float | None = None,
+    video_size: tuple[int, int] | None = None,
 ) -> tuple[dict, dict[str, np.ndarray]]:
     """Run scenario ``name`` with ``overrides``; write into ``out``; return (summary, recorded data).
 
     Files: ``run.npz`` (every control step, units in the column names), ``run.csv`` with
-    ``csv``, ``run.png`` with ``plot``, ``frames.png`` with ``render``, ``summary.json``.
+    ``csv``, ``run.png`` with ``plot``, ``frames.png`` with ``render``, ``run.mp4`` with
+    ``video`` (``video_fps`` frames per simulated second, ``video_size`` (width, height):
+    analysis.video's defaults when None), ``summary.json``.
     A divergence stops the run with the recording kept; the summary's ``error`` says why.
     """
+    from piezotip import scenarios
     from piezotip.cosim.loop import CoSimulation
     from piezotip.cosim.recorder import Recorder
-
-    from piezotip import scenarios
 
     from .run_report import plot_run, summary
 
@@ -93,10 +97,21 @@ def run_scenario(
         from .render import FrameStrip
 
         strip = FrameStrip(sim.model, total)
+    on_step, movie = strip, None
+    if video:  # imported and created only when asked for (the renderer starts before the run)
+        from .video import DEFAULT_FPS, DEFAULT_SIZE, VideoWriter
+
+        fps, size = DEFAULT_FPS if video_fps is None else video_fps, DEFAULT_SIZE if video_size is None else video_size
+        movie = VideoWriter(sim, out / "run.mp4", recorder.data, config.duration_s, fps, size, not quiet)
+        on_step = movie if strip is None else (lambda s: (strip(s), movie(s)))
     from tqdm import tqdm
 
-    with tqdm(total=total, desc=name, unit="step", disable=quiet, leave=False) as bar:
-        result = sim.run(recorder, progress=bar, on_step=strip)
+    try:
+        with tqdm(total=total, desc=name, unit="step", disable=quiet, leave=False) as bar:
+            result = sim.run(recorder, progress=bar, on_step=on_step)
+    finally:
+        if movie is not None:
+            movie.close()
     data = recorder.data()
     files = [str(f) for f in result.files]
     events = [asdict(e) for e in sim.controller.events]
@@ -105,6 +120,8 @@ def run_scenario(
         files.append(str(plot_run(config, sim.fingertip, data, out, report)))
     if strip is not None and strip.images:
         files.append(str(strip.save(out / "frames.png")))
+    if movie is not None and movie.frames:
+        files.append(str(movie.path))
     report["events"] = events
     report["interrupted"] = result.interrupted
     if result.interrupted:

@@ -1,0 +1,308 @@
+"""Video of a run: the gripper and object from the scene's camera, with a live strip beside it.
+
+``run_sim.py run SCENARIO --video`` writes ``run.mp4`` (H.264, yuv420p, through imageio-ffmpeg's
+ffmpeg): each frame is the scene's ``grasp_camera`` (models/scene_grasp.xml) beside a strip of
+the run so far: each instrumented pad's true and estimated pressure on a log scale, the mode
+each pad drives, the controller's phase, and the time.  :class:`VideoWriter` is an ``on_step``
+of :meth:`piezotip.cosim.loop.CoSimulation.run`, as :class:`~piezotip.analysis.render.FrameStrip`
+is; nothing here is imported or created unless a video is asked for.
+
+Frames are taken in simulated time: frame ``n`` shows the first control step at or after
+``n / fps`` seconds (the control period, 5 ms, is the jitter), so a run of T simulated seconds
+gives ``floor(T fps) + 1`` frames and plays in real time.  The strip's axes are drawn once; a
+frame redraws only its lines onto the saved background (matplotlib's blitting), and the
+renderer skips shadows and reflections (a third of the cost in software OpenGL, invisible in a
+side view).  Headless machines render through EGL (``MUJOCO_GL=egl``, which the command line
+sets for a command that renders unless told otherwise); without a usable OpenGL the writer
+stops before the run with one line naming ``MUJOCO_GL``.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from fractions import Fraction
+from pathlib import Path
+
+import numpy as np
+
+#: Frames per second of simulated time.
+DEFAULT_FPS = 30.0
+#: Frame size (width, height), pixels: the camera on the left half, the strip on the right.
+DEFAULT_SIZE = (960, 540)
+#: The scene's camera for the video (models/scene_grasp.xml).
+CAMERA = "grasp_camera"
+#: Smallest and largest frame sides, pixels: below 160 the strip's text cannot be read; 4096 is
+#: H.264's level-5.1 limit and far beyond what MuJoCo's offscreen buffer needs.
+MIN_SIDE_PX, MAX_SIDE_PX = 160, 4096
+
+
+class RendererUnavailable(OSError):
+    """MuJoCo's offscreen renderer cannot be created (no EGL, no display): one line naming MUJOCO_GL."""
+
+
+def parse_size(text: str) -> tuple[int, int]:
+    """``"WxH"`` as (width, height) in pixels; both even (yuv420p halves them) and in range."""
+    parts = str(text).lower().replace(" ", "").split("x")
+    try:
+        width, height = (int(p) for p in parts)
+    except ValueError:
+        raise ValueError(f"--video-size must be WIDTHxHEIGHT in pixels, e.g. 960x540; got {text!r}") from None
+    return check_size((width, height))
+
+
+def check_size(size: tuple[int, int]) -> tuple[int, int]:
+    """``size`` (width, height) if both sides are even and within MIN_SIDE_PX..MAX_SIDE_PX, else a ValueError."""
+    width, height = (int(s) for s in size)
+    for name, side in (("width", width), ("height", height)):
+        if not MIN_SIDE_PX <= side <= MAX_SIDE_PX:
+            raise ValueError(f"--video-size {name} must be {MIN_SIDE_PX}-{MAX_SIDE_PX} pixels, got {side}")
+        if side % 2:
+            raise ValueError(f"--video-size {name} must be even (H.264 in yuv420p halves it), got {side}")
+    return width, height
+
+
+def check_fps(fps: float, control_period_s: float) -> float:
+    """``fps`` if it is positive and at most the control rate (a frame per control step), else a ValueError."""
+    rate = 1.0 / control_period_s
+    if isinstance(fps, bool) or not isinstance(fps, (int, float)) or not math.isfinite(fps) or not 0 < fps <= rate * (1 + 1e-9):
+        raise ValueError(f"--video-fps must be a number in (0, {rate:g}] (the control rate, one frame per control step), got {fps!r}")
+    return float(fps)
+
+
+def expected_frames(sim_time_s: float, fps: float) -> int:
+    """Frames a run of ``sim_time_s`` simulated seconds gives (see the module docstring)."""
+    return math.floor(sim_time_s * fps + 1e-9) + 1
+
+
+def _unavailable(what: str, err: Exception) -> RendererUnavailable:
+    gl = os.environ.get("MUJOCO_GL", "")
+    text = str(err).strip()
+    why = text.splitlines()[0][:200] if text else type(err).__name__
+    return RendererUnavailable(
+        f"{what} with MUJOCO_GL={gl!r} ({why}); "
+        "set MUJOCO_GL=egl (headless, needs libEGL), osmesa (software, needs libOSMesa) or glfw (needs a display)"
+    )
+
+
+def import_mujoco():
+    """``import mujoco``, or RendererUnavailable naming MUJOCO_GL: MuJoCo loads the OpenGL backend
+    MUJOCO_GL names when it is first imported, and with ``egl`` but no libEGL (or ``osmesa`` but
+    no libOSMesa) that import itself fails."""
+    try:
+        import mujoco
+    except Exception as err:  # AttributeError or ImportError from PyOpenGL's platform loading
+        raise _unavailable("cannot load MuJoCo's OpenGL backend", err) from None
+    return mujoco
+
+
+def open_renderer(model, width: int, height: int):
+    """A ``mujoco.Renderer`` of ``width`` x ``height`` pixels for ``model``, or RendererUnavailable.
+
+    The model's offscreen buffer is enlarged to the frame if needed (a visual setting only).
+    """
+    import warnings
+
+    mujoco = import_mujoco()
+    vis = model.vis.global_
+    vis.offwidth, vis.offheight = max(vis.offwidth, width), max(vis.offheight, height)
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # GLFW's own warnings ("failed to open display"): the error says it once
+            return mujoco.Renderer(model, height, width)
+    except Exception as err:  # FatalError (no display), ImportError (no EGL/OSMesa), AttributeError (a half-loaded GL)
+        raise _unavailable("cannot render: MuJoCo's offscreen renderer failed", err) from None
+
+
+class LiveStrip:
+    """The strip: pressures (true and estimated, log scale), driven modes and phase against time.
+
+    Parameters
+    ----------
+    width, height : pixels.
+    sides : the instrumented pads' sides ("left", "right"), as the record's column prefixes.
+    modes : the modes the sensor can drive (the mode axis's ticks).
+    duration_s : the time axis's end, s (the scenario's duration).
+    pressure_range_pa : (low, high) of the pressure axis, Pa.
+    """
+
+    def __init__(
+        self,
+        width: int,
+        height: int,
+        sides: tuple[str, ...],
+        modes: tuple[int, ...],
+        duration_s: float,
+        pressure_range_pa: tuple[float, float],
+    ) -> None:
+        from matplotlib.backends.backend_agg import FigureCanvasAgg
+        from matplotlib.figure import Figure
+
+        from piezotip.cosim.control import PHASES
+
+        self.width, self.height, self.sides = width, height, sides
+        dpi = 100.0
+        fig = Figure(figsize=(width / dpi, height / dpi), dpi=dpi)
+        self.canvas = FigureCanvasAgg(fig)
+        self.fig = fig
+        font = max(6.0, height / 60.0)
+        ax_p, ax_m, ax_ph = fig.subplots(3, 1, sharex=True, gridspec_kw={"height_ratios": [3.0, 1.0, 1.6]})
+        fig.subplots_adjust(left=0.2, right=0.97, top=0.9, bottom=0.09, hspace=0.12)
+        colours = {"left": "tab:blue", "right": "tab:orange"}
+        self.lines: list[tuple[str, object]] = []
+        for side in sides:
+            c = colours.get(side, "tab:green")
+            (true,) = ax_p.plot([], [], "-", color=c, lw=1.4, label=f"{side} true")
+            (est,) = ax_p.plot([], [], ":", color=c, lw=1.4, label=f"{side} estimate")
+            (mode,) = ax_m.plot([], [], "-", color=c, lw=1.4, drawstyle="steps-post")
+            self.lines += [(f"{side}_true_pressure_pa", true), (f"{side}_estimate_pa", est), (f"{side}_mode", mode)]
+        (phase,) = ax_ph.plot([], [], "-", color="black", lw=1.4, drawstyle="steps-post")
+        self.lines.append(("phase", phase))
+        ax_p.set_yscale("log")
+        ax_p.set_ylim(*pressure_range_pa)
+        ax_p.set_xlim(0.0, duration_s)
+        ax_p.set_ylabel("pressure [Pa]", fontsize=font)
+        ax_p.legend(fontsize=0.8 * font, loc="upper left", ncol=2, framealpha=0.8)
+        ax_m.set_ylim(min(modes) - 0.5, max(modes) + 0.5)
+        ax_m.set_yticks(list(modes))
+        ax_m.set_ylabel("mode", fontsize=font)
+        ax_ph.set_ylim(len(PHASES) - 0.5, -0.5)
+        ax_ph.set_yticks(range(len(PHASES)), PHASES)
+        ax_ph.set_xlabel("time [s]", fontsize=font)
+        for ax in (ax_p, ax_m, ax_ph):
+            ax.tick_params(labelsize=0.8 * font)
+            ax.grid(True, which="major", alpha=0.3)
+        self.phases = PHASES
+        self.title = fig.text(0.5, 0.955, "", ha="center", va="center", fontsize=1.1 * font)
+        self.artists = [line for _, line in self.lines] + [self.title]
+        for artist in self.artists:
+            artist.set_animated(True)  # left out of the background, drawn per frame
+        self.canvas.draw()
+        self.background = self.canvas.copy_from_bbox(fig.bbox)
+
+    def draw(self, data: dict[str, np.ndarray]) -> np.ndarray:
+        """The strip for the recorded ``data`` so far, as an (height, width, 3) uint8 image."""
+        t = data["time_s"]
+        if t.size and t[-1] > self.fig.axes[0].get_xlim()[1]:
+            # The recording's tail after the controller finishes can outlast the scenario's
+            # duration (cosim.loop.REST_MAX_S): a longer axis, drawn again once.
+            self.fig.axes[0].set_xlim(0.0, 1.25 * float(t[-1]))
+            self.canvas.draw()
+            self.background = self.canvas.copy_from_bbox(self.fig.bbox)
+        for column, line in self.lines:
+            y = data[column]
+            if column.endswith("_pa"):
+                y = np.where(y > 0.0, y, np.nan)  # nothing to draw on a log axis (and NaN: no estimate)
+            line.set_data(t, y)
+        phase = int(data["phase"][-1]) if t.size else 0
+        label = self.phases[phase] if 0 <= phase < len(self.phases) else str(phase)
+        modes = "  ".join(f"{side} mode {int(data[f'{side}_mode'][-1])}" for side in self.sides) if t.size else ""
+        self.title.set_text(f"t = {t[-1] if t.size else 0.0:6.2f} s   {label}   {modes}")
+        self.canvas.restore_region(self.background)
+        for artist in self.artists:
+            self.fig.draw_artist(artist)
+        image = np.asarray(self.canvas.buffer_rgba())[:, :, :3]
+        return _fit(image, self.height, self.width)
+
+
+def _fit(image: np.ndarray, height: int, width: int) -> np.ndarray:
+    """``image`` cropped or padded (white) to exactly height x width (a figure's pixel size can
+    round one pixel off its inches times dpi)."""
+    if image.shape[0] == height and image.shape[1] == width:
+        return image
+    out = np.full((height, width, 3), 255, np.uint8)
+    h, w = min(height, image.shape[0]), min(width, image.shape[1])
+    out[:h, :w] = image[:h, :w]
+    return out
+
+
+class VideoWriter:
+    """Writes a run's MP4 as it runs: use as ``on_step`` of ``CoSimulation.run``, then :meth:`close`.
+
+    Parameters
+    ----------
+    sim : the CoSimulation (its model, pads, channels and control period).
+    path : the MP4 to write.
+    data : a callable returning the recording so far (column name -> array), e.g. a Recorder's
+        ``data``; it is called once per frame.
+    duration_s : the time axis's end, s (the scenario's duration).
+    fps : frames per simulated second (at most the control rate).
+    size : (width, height) of a frame, pixels, even; the camera takes the left half of a
+        landscape frame and the top half of a portrait one, the strip the rest.
+    progress : show a progress bar of the frames written.
+
+    The renderer and the encoder start here, so a missing OpenGL stops before the run.
+    """
+
+    def __init__(self, sim, path: str | Path, data, duration_s: float, fps: float = DEFAULT_FPS, size=DEFAULT_SIZE, progress: bool = True):
+        import imageio_ffmpeg
+        import mujoco
+        from tqdm import tqdm
+
+        self.fps = check_fps(fps, sim.dt)
+        self.width, self.height = check_size(size)
+        self.path = Path(path)
+        self._data = data
+        beside = self.width >= self.height
+        # The camera's share, even so that the strip's is too.
+        if beside:
+            cam_w, cam_h = 2 * round(self.width / 4), self.height
+        else:
+            cam_w, cam_h = self.width, 2 * round(self.height / 4)
+        self._cam_slice = (slice(0, cam_h), slice(0, cam_w))
+        self._strip_slice = (slice(0, cam_h), slice(cam_w, self.width)) if beside else (slice(cam_h, self.height), slice(0, cam_w))
+        strip_w, strip_h = (self.width - cam_w, cam_h) if beside else (cam_w, self.height - cam_h)
+        self.renderer = open_renderer(sim.model, cam_w, cam_h)
+        flags = self.renderer.scene.flags
+        flags[mujoco.mjtRndFlag.mjRND_SHADOW] = False
+        flags[mujoco.mjtRndFlag.mjRND_REFLECTION] = False
+        self.option = mujoco.MjvOption()
+        self.option.geomgroup[:] = 1  # pads and objects are collision geoms (group 3)
+        sides = tuple(pad.removesuffix("_pad") for pad in sim.pads)
+        modes = tuple(sim.config.sensor.modes)
+        channel = sim.channels[sim.pads[0]]
+        p_low = min(channel.inverse(m).p_min_pa for m in modes)
+        p_high = max(channel.inverse(m).p_max_pa for m in modes)
+        # Whole decades around the fingertip's range, one more below its detection limit for the
+        # estimates' scatter there.
+        pressure_range = (10.0 ** (math.floor(math.log10(p_low)) - 1), 10.0 ** math.ceil(math.log10(p_high)))
+        self.strip = LiveStrip(strip_w, strip_h, sides, modes, duration_s, pressure_range)
+        self._frame = np.full((self.height, self.width, 3), 255, np.uint8)
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        self._writer = imageio_ffmpeg.write_frames(
+            str(self.path),
+            (self.width, self.height),
+            fps=Fraction(self.fps).limit_denominator(1000),
+            codec="libx264",
+            pix_fmt_in="rgb24",
+            pix_fmt_out="yuv420p",
+            quality=None,
+            macro_block_size=2,
+            ffmpeg_log_level="error",
+            output_params=["-crf", "23", "-preset", "veryfast"],
+        )
+        self._writer.send(None)  # starts ffmpeg
+        self.frames = 0
+        self._next_s = 0.0
+        self._bar = tqdm(total=expected_frames(duration_s, self.fps), desc=self.path.name, unit="frame", disable=not progress, leave=False)
+        self._closed = False
+
+    def __call__(self, sim) -> None:
+        if sim.time_s + 1e-9 < self._next_s:
+            return
+        self.renderer.update_scene(sim.data, camera=CAMERA, scene_option=self.option)
+        self._frame[self._cam_slice] = self.renderer.render()
+        self._frame[self._strip_slice] = self.strip.draw(self._data())
+        self._writer.send(self._frame.tobytes())
+        self.frames += 1
+        self._next_s = self.frames / self.fps
+        self._bar.update(1)
+
+    def close(self) -> Path:
+        """Finish the MP4 (ffmpeg writes its index) and free the renderer; safe to call twice."""
+        if not self._closed:
+            self._closed = True
+            self._bar.close()
+            self.renderer.close()
+            self._writer.close()
+        return self.path
