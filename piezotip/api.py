@@ -104,6 +104,9 @@ def run(
     out: str | Path | None = None,
     plot: bool = False,
     csv: bool = False,
+    video: bool = False,
+    video_fps: float | None = None,
+    video_size: tuple[int, int] | None = None,
     progress: bool = False,
 ) -> Result:
     """Run ``scenario`` headless and return its :class:`Result`.
@@ -116,6 +119,8 @@ def run(
     out : a folder to write the run's files into; None keeps everything in memory.
     plot : write ``run.png`` (only with ``out``).
     csv : write ``run.csv`` too (only with ``out``).
+    video : write ``run.mp4`` (only with ``out``; ``video_fps`` frames per simulated second,
+        ``video_size`` (width, height) in pixels; see the README's "Video").
     progress : show a progress bar.
     """
     from piezotip.analysis.runner import run_scenario
@@ -123,15 +128,16 @@ def run(
 
     assignments = override_strings(overrides)
     if out is None:
-        if plot or csv:
-            raise ValueError("plot=True and csv=True write files: give out=FOLDER")
+        if plot or csv or video:
+            raise ValueError("plot=True, csv=True and video=True write files: give out=FOLDER")
         with tempfile.TemporaryDirectory(prefix="piezotip-run-") as tmp:
             summary, data = run_scenario(scenario, assignments, Path(tmp), plot=False, quiet=not progress, preset=preset)
         summary = dict(summary, files=[])
         out_dir = None
     else:
         out_dir = Path(out)
-        summary, data = run_scenario(scenario, assignments, out_dir, csv=csv, plot=plot, quiet=not progress, preset=preset)
+        options = {"video": True, "video_fps": video_fps, "video_size": video_size} if video else {}
+        summary, data = run_scenario(scenario, assignments, out_dir, csv=csv, plot=plot, quiet=not progress, preset=preset, **options)
     events = tuple(MappingProxyType(dict(e)) for e in summary.get("events", []))
     return Result(scenario, tuple(assignments), preset, MappingProxyType(summary), MappingProxyType(dict(data)), events, out_dir)
 
