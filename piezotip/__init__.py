@@ -27,6 +27,8 @@ _API = {
     "scenario_names": "piezotip.api",
     "column_unit": "piezotip.api",
     "sweep": "piezotip.analysis.sweep",
+    "GraspEnv": "piezotip.gym_env",  # also gymnasium.make("piezotip/Grasp-v0")
+    "MultimodePolicy": "piezotip.gym_env",
 }
 
 __all__ = [*_API, "__version__"]
