@@ -15,6 +15,7 @@ from hypothesis import strategies as st
 from numpy.testing import assert_allclose
 from scipy.optimize import brentq
 
+from piezotip.sensor import gel as gel_module
 from piezotip.sensor.gel import (
     GelModel,
     GelParams,
@@ -174,6 +175,191 @@ def test_stretch_from_pressure_inverts_gent_law_up_to_and_beyond_the_proof_load(
 def test_stretch_from_pressure_matches_an_independent_root_finder(p):
     # both are roots of the same smooth function; the condition number near lambda = 1 is ~ E/P
     assert_allclose(float(stretch_from_pressure(p, GEL)), stretch_ref(p, GEL), rtol=1e-12, atol=8 * EPS)
+
+
+def lock_mp(jm: float) -> mpmath.mpf:
+    """lambda_lim to 60 digits: lambda^3 - (J_m + 3) lambda + 2 falls from 2 to -J_m on (0, 1); bisection."""
+    jm_ = mpmath.mpf(jm)
+    lo, hi = mpmath.mpf(0), mpmath.mpf(1)
+    for _ in range(220):
+        mid = (lo + hi) / 2
+        if mid**3 - (jm_ + 3) * mid + 2 > 0:
+            lo = mid
+        else:
+            hi = mid
+    return (lo + hi) / 2
+
+
+def stretch_mp(p: float, gel: GelParams) -> mpmath.mpf:
+    """The exact root of Gent's law (the test's own formula) to ~60 digits, by bisection on (lambda_lim, 1]."""
+    if p == 0:
+        return mpmath.mpf(1)
+    jm, mu, target = mpmath.mpf(gel.gent_jm), mpmath.mpf(gel.youngs_modulus_pa) / 3, mpmath.mpf(p)
+    lo, hi = lock_mp(gel.gent_jm), mpmath.mpf(1)
+    for _ in range(220):
+        mid = (lo + hi) / 2
+        # P falls with lambda: the root lies above mid where P(mid) > P, or where mid is at or below the
+        # lock to working precision (the denominator not positive)
+        if jm - (mid**2 + 2 / mid - 3) <= 0 or gent_ref(mid, mu, jm) > target:
+            lo = mid
+        else:
+            hi = mid
+    return (lo + hi) / 2
+
+
+#: From nothing through subnormal and tiny loads to far past the lock (1e20 Pa and beyond put the
+#: root within an ulp of lambda_lim).
+EXTREME_P = [0.0, 5e-324, 1e-300, 1e-12, 1e-6, 1.0, 3e3, 1e5, 1.3e6, 1e9, 1e12, 1e15, 1e20, 1e100, 1e300]
+
+
+def _all_paths(p: np.ndarray, gel: GelParams) -> list[np.ndarray]:
+    """stretch_from_pressure through each of its paths: one float at a time, arrays of a few values
+    (Python floats) and one long array (vectorized)."""
+    assert p.size > gel_module._LOOP_MAX
+    one_by_one = np.array([float(stretch_from_pressure(float(v), gel)) for v in p])
+    few = np.concatenate([stretch_from_pressure(p[i : i + 5], gel) for i in range(0, p.size, 5)])
+    return [one_by_one, few, stretch_from_pressure(p, gel)]
+
+
+@pytest.mark.parametrize("jm", [0.01, 2.0, 20.0, 200.0, 1e4])
+def test_stretch_is_the_exact_root_rounded_at_the_extremes(jm):
+    gel = GelParams(gent_jm=jm)
+    with mpmath.workdps(60):
+        for p in EXTREME_P:
+            lam = float(stretch_from_pressure(p, gel))
+            exact = stretch_mp(p, gel)
+            # rounding the exact root costs half an ulp (1.1e-16 relative); the computed one may be off
+            # by one or two more.  (Past 1e20 Pa the root is within an ulp of lambda_lim and the answer is
+            # the first double above it.)
+            assert abs(lam - exact) <= 4 * EPS * exact, (p, lam, exact)
+            assert gel.locking_stretch < lam <= 1.0
+
+
+@pytest.mark.parametrize("jm", [0.01, 0.1, 1.0, 2.0, 20.0, 200.0, 1e4])
+@pytest.mark.parametrize("e", [1e3, 3e4, 1e6])
+def test_stretch_agrees_with_the_bracketed_newton_it_replaced(jm, e):
+    gel = GelParams(gent_jm=jm, youngs_modulus_pa=e)
+    p = np.concatenate([EXTREME_P, np.geomspace(1e-9, 1e9, 200)])
+    ref = gel_module._stretch_bracketed(p, gel)
+    for lam in _all_paths(p, gel):
+        # both are roots to rounding of the same law; the bracketed Newton evaluates lambda^2 + 2/lambda - 3
+        # with an absolute error of ~3 eps, which moves its root by 3 eps / |dg/dlambda| ~ eps sqrt(3/J_m) / 2
+        # when J_m is small: ~1e-15 at J_m = 0.01.
+        assert_allclose(lam, ref, rtol=1e-14, atol=0)
+
+
+@pytest.mark.parametrize("jm", [0.01, 20.0, 1e4])
+def test_stretch_paths_agree_and_decrease_monotonically(jm):
+    gel = GelParams(gent_jm=jm)
+    p = np.concatenate([[0.0, 5e-324], np.geomspace(1e-300, 1e300, 3001)])
+    paths = _all_paths(p, gel)
+    for lam in paths[1:]:
+        # the vectorized path's exp and log may differ from math's by an ulp, and so its guess
+        assert_allclose(lam, paths[0], rtol=2 * EPS, atol=0)
+    for lam in paths:
+        assert np.all(np.diff(lam) <= 0), "stretch must not increase with pressure"
+        # strictly where consecutive roots are many ulps apart (1.4 % steps in P, from 1 mPa to 1 GPa)
+        moving = (p[1:] >= 1e-3) & (p[1:] <= 1e9)
+        assert np.all(np.diff(lam)[moving] < 0)
+        assert np.all((lam > gel.locking_stretch) & (lam <= 1.0))
+
+
+@pytest.mark.parametrize("jm", [0.01, 2.0, 20.0, 200.0, 1e4])
+def test_pressure_of_the_stretch_is_the_pressure_to_rounding(jm):
+    gel = GelParams(gent_jm=jm)
+    mu, jm_ = mpmath.mpf(gel.youngs_modulus_pa) / 3, mpmath.mpf(jm)
+    p = np.geomspace(1e-9, 1e12, 120)
+    lam = stretch_from_pressure(p, gel)
+    tangent = gent_tangent_pa(lam, gel)
+    with mpmath.workdps(40):
+        back = np.array([float(gent_ref(mpmath.mpf(float(v)), mu, jm_)) for v in lam])
+    # The law evaluated exactly at the double lambda: off by the pressure change over the ulp or two
+    # by which lambda may miss the exact root (T lambda eps), and by at most half an ulp of P when the
+    # root itself is the double (tiny P: lambda = 1 - x is quantized to 1.1e-16, a step of E eps in P).
+    assert np.all(np.abs(back - p) <= 4 * EPS * tangent * lam + EPS * p)
+    # and with the module's own (double) formula, as the existing inversion test does, where that formula
+    # keeps its digits: its lambda^2 + 2/lambda - 3 is off by ~3 eps, which near the lock is a relative
+    # error of 3 eps / g in P: 1e-5 at J_m = 0.01 and 1e12 Pa, 5e-9 at J_m = 2 and 1e12 Pa
+    if jm >= 2:
+        upto = p <= 1e8
+        assert_allclose(gent_pressure_pa(lam[upto], gel), p[upto], rtol=1e-9, atol=4 * EPS * gel.youngs_modulus_pa)
+
+
+@pytest.mark.parametrize("jm", [1e-9, 1e-3, 1.0, 1.25, 1.3, 2.0, 20.0, 1e4, 1e9])
+def test_locking_stretch_is_the_root_to_rounding(jm):
+    with mpmath.workdps(60):
+        exact = lock_mp(jm)
+        assert abs(GelParams(gent_jm=jm).locking_stretch - exact) <= EPS * exact
+
+
+def test_stretch_converges_without_the_fallback(monkeypatch):
+    # The table's guess and Newton's steps prove every root themselves, from 1e-300 to 1e300 Pa and for
+    # gels from far softer to far stiffer locking than any in use: the bracketed solver is never called.
+    def refuse(p, gel):
+        raise AssertionError(f"fallback called for {p!r}")
+
+    monkeypatch.setattr(gel_module, "_stretch_bracketed", refuse)
+    p = np.geomspace(1e-300, 1e300, 1201)
+    for jm in [1e-6, 1e-3, 0.1, 1.0, 20.0, 1e3, 1e6]:
+        for e in [1.0, 3e4, 1e9]:
+            gel = GelParams(gent_jm=jm, youngs_modulus_pa=e)
+            _all_paths(p, gel)
+
+
+def test_stretch_falls_back_to_the_bracketed_newton_when_not_proven(monkeypatch):
+    p = np.concatenate([EXTREME_P, np.geomspace(1e-6, 1e9, 60)])
+    expected = stretch_from_pressure(p, GEL)
+    calls = []
+    bracketed = gel_module._stretch_bracketed
+
+    def counting(p_, gel):
+        calls.append(np.size(p_))
+        return bracketed(p_, gel)
+
+    monkeypatch.setattr(gel_module, "_stretch_bracketed", counting)
+    monkeypatch.setattr(gel_module, "_NEWTON_STEPS", 0)  # nothing is ever proven
+    for lam in _all_paths(p, GEL):
+        assert_allclose(lam, expected, rtol=1e-14, atol=0)
+    assert calls, "the fallback must have been used"
+
+
+def test_stretch_shapes_and_types():
+    one = stretch_from_pressure(1e3, GEL)
+    assert isinstance(one, np.ndarray) and one.shape == ()
+    assert stretch_from_pressure(0, GEL).shape == () and float(stretch_from_pressure(0, GEL)) == 1.0
+    assert stretch_from_pressure(np.float64(1e3), GEL).shape == ()
+    assert float(stretch_from_pressure(np.float32(1e3), GEL)) == pytest.approx(float(one), rel=1e-7)
+    assert stretch_from_pressure([1e3, 2e3], GEL).shape == (2,)
+    assert stretch_from_pressure(np.array([]), GEL).shape == (0,)
+    small, large = np.full((2, 3), 1e4), np.full((10, 10), 1e4)
+    assert_allclose(stretch_from_pressure(small, GEL), float(stretch_from_pressure(1e4, GEL)), rtol=0)
+    assert_allclose(stretch_from_pressure(large, GEL), float(stretch_from_pressure(1e4, GEL)), rtol=2 * EPS)
+    assert stretch_from_pressure(large, GEL).shape == (10, 10)
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    log_p=st.one_of(st.just(None), st.floats(-15.0, 15.0)),
+    log_e=st.floats(0.0, 9.0),
+    log_jm=st.floats(-3.0, 6.0),
+    index=st.integers(0, 99),
+)
+def test_stretch_property_any_gel_any_pressure(log_p, log_e, log_jm, index):
+    e, jm = 10.0**log_e, 10.0**log_jm
+    gel = GelParams(youngs_modulus_pa=e, gent_jm=jm)
+    p = 0.0 if log_p is None else e * 10.0**log_p  # from 1e-15 E to 1e15 E, and 0
+    lam = float(stretch_from_pressure(p, gel))
+    assert gel.locking_stretch < lam <= 1.0
+    with mpmath.workdps(60):
+        exact = stretch_mp(p, gel)
+    assert abs(lam - exact) <= 4 * EPS * exact
+    # the same value from a few-value array and, at any place, from a long one
+    assert float(stretch_from_pressure(np.array([p]), gel)[0]) == lam
+    long = np.geomspace(max(p, 1e-300) / 10, max(p, 1e-300) * 10, 100)
+    long[index] = p
+    assert_allclose(stretch_from_pressure(long, gel)[index], lam, rtol=2 * EPS, atol=0)
+    if jm >= 0.01:  # the bracketed Newton is good to 1e-14 there (see the agreement test)
+        assert_allclose(lam, float(gel_module._stretch_bracketed(np.array(p), gel)), rtol=1e-14)
 
 
 # ---------------------------------------------------------------------------------------
