@@ -46,7 +46,6 @@ from bisect import bisect_right
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.special import erf
 
 from .element import _require_positive
 
@@ -165,7 +164,16 @@ def _check_freq(freq_hz, name: str = "freq_hz") -> float:
 
 def contact_fraction(pressure_pa, gel: GelParams) -> np.ndarray:
     """Part 1: Persson's true contact fraction phi(P) = erf(sqrt(2) P / (E* h'_rms)), in [0, 1]."""
-    return erf(math.sqrt(2.0) * np.asarray(pressure_pa, float) / (gel.contact_modulus_pa * gel.surface_slope_rms))
+    return _erf()(math.sqrt(2.0) * np.asarray(pressure_pa, float) / (gel.contact_modulus_pa * gel.surface_slope_rms))
+
+
+@functools.cache
+def _erf():
+    """:func:`scipy.special.erf`, imported on first use: ``scipy.special`` takes about 0.13 s to
+    import, and a run whose tables come from the cache never evaluates it."""
+    from scipy.special import erf
+
+    return erf
 
 
 def gent_pressure_pa(stretch, gel: GelParams) -> np.ndarray:
