@@ -85,3 +85,265 @@ def write_range_files(tip: Fingertip, out_dir: Path) -> list[Path]:
             writer.writerow([f"{pi:.6e}", *(f"{c[i]:.9e}" for c in columns.values())])
     written.append(csv_path)
     return written
+
+
+# ---------------------------------------------------------------------------------------
+# A physical unit read through its calibration (sensor.variation, sensor.calibration).
+# ---------------------------------------------------------------------------------------
+
+#: Pressures at which the estimate's error is measured: this many, log-spaced over the
+#: reported range [P_min, P_max] (ends included).
+ERROR_POINTS = 41
+#: The unit's pressure grid for its limits, Pa (the Fingertip's: ~40 points per decade).
+_UNIT_GRID_PA = np.logspace(-4.0, 6.5, 421)
+#: Relative step of the central difference for dV/dP (its error ~ step^2, 1e-8).
+_SLOPE_STEP = 1e-4
+
+
+def _mode_limits(unit, mode: int) -> tuple[float, float, float]:
+    """(P_min, P_max, sigma) of one mode of a physical unit as its readout drives and reads it.
+
+    The definitions of physics.md section 5 on the unit's steady reading v(P) = |reading|
+    (:meth:`sensor.calibration.SensorUnit.reading`: the unit off resonance by what calibration
+    missed, over the readout's reference) and its noise sigma in the same normalization:
+    P_min is the smallest P with |v(P) - v(0)| >= 3 sigma, P_max the largest P up to the
+    rating with 3 sigma / |dv/dP| <= 0.1 P (dv/dP by a central difference in P).
+    """
+    from scipy.optimize import brentq
+
+    from piezotip.sensor.readout import DETECTION_SIGMAS, RESOLVED_FRACTION
+
+    tip = unit.model
+    sigma = unit.reading_sigma(mode)
+    v0 = float(abs(unit.reading(mode, 0.0)))
+
+    def v(p):
+        return np.abs(unit.reading(mode, p))
+
+    def excess(log_p: float) -> float:
+        return abs(float(v(math.exp(log_p))) - v0) - DETECTION_SIGMAS * sigma
+
+    grid = _UNIT_GRID_PA[_UNIT_GRID_PA <= tip.rated_pressure_pa]
+    moved = np.abs(v(grid) - v0) >= DETECTION_SIGMAS * sigma
+    p_min = math.inf
+    if np.any(moved):
+        i = int(np.argmax(moved))
+        p_min = float(grid[0]) if i == 0 else math.exp(brentq(excess, math.log(grid[i - 1]), math.log(grid[i]), xtol=1e-12))
+
+    def resolution(p):
+        slope = np.abs(v(p * (1 + _SLOPE_STEP)) - v(p * (1 - _SLOPE_STEP))) / (2 * _SLOPE_STEP * p)
+        with np.errstate(divide="ignore"):
+            return np.where(slope > 0, DETECTION_SIGMAS * sigma / np.maximum(slope, 1e-300), np.inf)
+
+    grid = np.append(grid, tip.rated_pressure_pa)
+    ok = np.nonzero(resolution(grid) <= RESOLVED_FRACTION * grid)[0]
+    if ok.size == 0:
+        return p_min, math.nan, sigma
+    i = int(ok[-1])
+    if i == grid.size - 1:
+        return p_min, float(tip.rated_pressure_pa), sigma
+
+    def resolved(log_p: float) -> float:
+        p = math.exp(log_p)
+        return math.log(float(resolution(np.array([p]))[0]) / (RESOLVED_FRACTION * p))
+
+    return p_min, math.exp(brentq(resolved, math.log(grid[i]), math.log(grid[i + 1]), xtol=1e-12)), sigma
+
+
+def estimate_errors(unit, p_min_pa: float, p_max_pa: float, points: int = ERROR_POINTS) -> tuple[np.ndarray, np.ndarray]:
+    """(pressures, relative errors) of the readout's estimate over [P_min, P_max] (log-spaced).
+
+    At each true pressure P the readout drives the mode whose band (its model's, the
+    controller's switch pressures) holds P, reads the unit's steady, noise-free reading and
+    inverts it with its model (:meth:`sensor.channel.ModeInverse.pressure`); the error is
+    |P_hat - P| / P, inf where the reading is past the model's table (no estimate at all).
+    """
+    from piezotip.sensor.channel import mode_tables
+
+    model = unit.model
+    bands = model.mode_bands()
+    pressures = np.geomspace(p_min_pa, p_max_pa, points)
+    errors = np.empty(points)
+    for k, p in enumerate(pressures):
+        mode = bands[-1][0] if bands else model.modes[0]
+        for m, _lo, hi in bands:
+            if p <= hi:
+                mode = m
+                break
+        inverse = mode_tables(model, mode, exact=model.gel.layer == "dynamic")[1]
+        p_hat = inverse.pressure(float(abs(unit.reading(mode, p))))
+        errors[k] = abs(p_hat - p) / p if math.isfinite(p_hat) else math.inf
+    return pressures, errors
+
+
+def unit_range_report(unit) -> dict:
+    """``Fingertip.dynamic_range()``'s keys for a physical unit read through its calibration,
+    plus ``max_estimate_error`` (the largest relative error of the estimate over pressures
+    spread across the reported range, :func:`estimate_errors`), ``calibration`` (what it
+    measured, :meth:`sensor.calibration.Calibration.summary`), ``unit`` (the draw and the
+    temperature) and ``temperature_estimate_c`` (what the readout inferred).
+
+    A nominal unit at 25 C without calibration is the model itself: its limits are
+    ``Fingertip.dynamic_range()``'s, to the last digit.
+    """
+    model = unit.model
+    if unit.config.is_nominal and unit.config.level == "none":
+        report = model.dynamic_range()
+    else:
+        per_mode = []
+        for m in model.modes:
+            lo, hi, sigma = _mode_limits(unit, m)
+            per_mode.append(
+                {
+                    "mode": m,
+                    "freq_hz": unit.physical.fingertip_at(unit.config.temperature_c).freq_hz(m),
+                    "p_min_pa": lo,
+                    "p_max_pa": hi,
+                    "sigma_v1": sigma,
+                }
+            )
+        p_min = min(r["p_min_pa"] for r in per_mode)
+        p_max = max((r["p_max_pa"] for r in per_mode if not math.isnan(r["p_max_pa"])), default=math.nan)
+        report = {
+            "p_min_pa": p_min,
+            "p_max_pa": p_max,
+            "dynamic_range": p_max / p_min if math.isfinite(p_min) else math.nan,
+            "modes": per_mode,
+            "switch_pressures_pa": model.switch_pressures(),
+            "mode_bands": [{"mode": m, "from_pa": lo, "to_pa": hi} for m, lo, hi in model.mode_bands()],
+            "coverage_m": list(unit.coverage),
+            "rated_pressure_pa": model.rated_pressure_pa,
+            "backstop_pressure_pa": model.backstop_pressure_pa(),
+        }
+    for entry in report["modes"]:
+        entry["drive_freq_hz"] = unit.drive_hz[entry["mode"]]
+    if math.isfinite(report["p_min_pa"]) and math.isfinite(report["p_max_pa"]) and report["p_max_pa"] > report["p_min_pa"]:
+        _, errors = estimate_errors(unit, report["p_min_pa"], report["p_max_pa"])
+        report["max_estimate_error"] = float(np.max(errors))
+    else:
+        report["max_estimate_error"] = math.inf
+    report["calibration"] = unit.calibration.summary()
+    c = unit.config
+    report["unit"] = {
+        "variation": c.variation,
+        "unit_seed": c.unit_seed,
+        "temperature_c": c.temperature_c,
+        "draw": {k: v for k, v in unit.physical.draw.__dict__.items()},
+    }
+    report["temperature_estimate_c"] = unit.temperature_estimate_c
+    return report
+
+
+#: A unit "yields" (is fit for the fingertip's job) with at least this dynamic range (the
+#: paper's, physics.md section 4) and an estimate error at most YIELD_MAX_ERROR.
+YIELD_MIN_DYNAMIC_RANGE = 1e4
+YIELD_MAX_ERROR = 0.05
+
+
+def _one_unit(args: tuple) -> dict:
+    """One Monte Carlo unit (a process pool's task: a plain tuple in, a plain dict out)."""
+    from piezotip.sensor.calibration import SensorUnit, UnitConfig
+
+    nominal, variation, seed, calibration, temperature_c = args
+    unit = SensorUnit(UnitConfig(variation, seed, calibration, temperature_c), nominal)
+    r = unit_range_report(unit)
+    return {
+        "unit_seed": seed,
+        "p_min_pa": r["p_min_pa"],
+        "p_max_pa": r["p_max_pa"],
+        "dynamic_range": r["dynamic_range"],
+        "max_estimate_error": r["max_estimate_error"],
+    }
+
+
+def monte_carlo(
+    nominal: Fingertip,
+    variation: str,
+    n_units: int,
+    calibration: str | None = None,
+    temperature_c: float = 25.0,
+    workers: int = 1,
+    progress: bool = False,
+    first_seed: int = 0,
+) -> dict:
+    """The range of ``n_units`` units drawn from ``variation`` (seeds first_seed, first_seed + 1, ...).
+
+    Returns ``units`` (per unit: seed, P_min, P_max, dynamic range, max estimate error),
+    ``summary`` (per quantity: median, 5th and 95th percentiles, min, max) and ``yield``: the
+    fraction of units with dynamic range >= 1e4 and estimate error <= 5 %.  ``workers`` > 1
+    spreads the units over a process pool.
+    """
+    from tqdm import tqdm
+
+    if not isinstance(n_units, int) or n_units < 1:
+        raise ValueError(f"--units must be a positive integer, got {n_units!r}")
+    tasks = [(nominal, variation, first_seed + k, calibration, temperature_c) for k in range(n_units)]
+    bar = tqdm(total=n_units, desc="units", unit="unit", disable=not progress)
+    if workers > 1:
+        from concurrent.futures import ProcessPoolExecutor
+
+        with ProcessPoolExecutor(max_workers=workers) as pool:
+            rows = []
+            for row in pool.map(_one_unit, tasks, chunksize=max(1, n_units // (4 * workers))):
+                rows.append(row)
+                bar.update()
+    else:
+        rows = []
+        for task in tasks:
+            rows.append(_one_unit(task))
+            bar.update()
+    bar.close()
+    summary = {}
+    for key in ("p_min_pa", "p_max_pa", "dynamic_range", "max_estimate_error"):
+        # a unit without a range (NaN) ranks lowest, one without an estimate (inf) highest;
+        # percentiles are order statistics ("nearest"), so inf stays inf, never NaN
+        values = np.array([r[key] for r in rows], float)
+        finite = values[np.isfinite(values)]
+        ranked = np.where(np.isnan(values), -np.inf, values)
+        q5, q50, q95 = (float(np.percentile(ranked, q, method="nearest")) for q in (5, 50, 95))
+        summary[key] = {
+            "median": q50,
+            "p5": q5,
+            "p95": q95,
+            "min": float(np.min(ranked)),
+            "max": float(np.max(ranked)),
+            "finite": int(finite.size),
+        }
+    good = [r["dynamic_range"] >= YIELD_MIN_DYNAMIC_RANGE and r["max_estimate_error"] <= YIELD_MAX_ERROR for r in rows]
+    return {
+        "variation": variation,
+        "calibration": calibration,
+        "temperature_c": temperature_c,
+        "n_units": n_units,
+        "units": rows,
+        "summary": summary,
+        "yield": float(np.mean(good)),
+        "yield_criterion": {"min_dynamic_range": YIELD_MIN_DYNAMIC_RANGE, "max_estimate_error": YIELD_MAX_ERROR},
+    }
+
+
+def write_monte_carlo_plot(report: dict, out_dir: Path) -> Path:
+    """Histograms of P_min, P_max, dynamic range and estimate error over the units."""
+    fig, ax = new_figure(1, 4, figsize=(16, 4))
+    rows = report["units"]
+    for a, key, label, log in (
+        (ax[0][0], "p_min_pa", "$P_{min}$ [Pa]", True),
+        (ax[0][1], "p_max_pa", "$P_{max}$ [Pa]", True),
+        (ax[0][2], "dynamic_range", "dynamic range [-]", True),
+        (ax[0][3], "max_estimate_error", "max estimate error [-]", True),
+    ):
+        values = np.array([r[key] for r in rows], float)
+        values = values[np.isfinite(values) & (values > 0)]
+        if values.size:
+            bins = np.geomspace(values.min() / 1.1, values.max() * 1.1, 15) if log else 15
+            a.hist(values, bins=bins, color="C0", alpha=0.8)
+            a.set_xscale("log" if log else "linear")
+        a.set(xlabel=label, ylabel="units", title=f"{label.split(' [')[0]} ({values.size} finite of {len(rows)})")
+        a.grid(True, which="both", alpha=0.3)
+    ax[0][2].axvline(YIELD_MIN_DYNAMIC_RANGE, color="k", ls="--", lw=0.8)
+    ax[0][3].axvline(YIELD_MAX_ERROR, color="k", ls="--", lw=0.8)
+    fig.suptitle(
+        f"{report['n_units']} {report['variation']} units, calibration {report['calibration'] or 'default'}, "
+        f"{report['temperature_c']:g} C: yield {100 * report['yield']:.0f} %"
+    )
+    return save_figure(fig, Path(out_dir) / "units.png")

@@ -21,6 +21,7 @@ import numpy as np
 
 from piezotip.scenarios.config import ScenarioConfig
 from piezotip.sensor import ElementParams, Fingertip, GelModel, SensorElement
+from piezotip.sensor.calibration import SensorUnit, sensor_unit
 from piezotip.sensor.channel import Reading, SensorChannel
 
 from .control import Command, Controller, Observation, PadSignal, RobotLimits, ScriptedGrasp, make_observation, make_pad_signal
@@ -34,7 +35,24 @@ class SimulationDiverged(RuntimeError):
 
 
 def make_fingertip(config: ScenarioConfig) -> Fingertip:
-    """The scenario's Fingertip: Table I element (or the configured Q), gel, coverage, modes."""
+    """The scenario's Fingertip as the readout and the controller know it: the nominal design
+    (below), plus what calibration measured when the physical unit is not that design
+    (``sensor.variation``, ``sensor.temperature_c``: :func:`make_unit`)."""
+    unit = make_unit(config)
+    return unit.model if unit is not None else _nominal_fingertip(config)
+
+
+def make_unit(config: ScenarioConfig) -> SensorUnit | None:
+    """The physical unit the simulation runs and its calibration (piezotip.sensor.calibration),
+    or None when the unit is the nominal design itself (``sensor.variation=none`` at 25 C)."""
+    unit = config.sensor.unit_config()
+    if unit.is_nominal and unit.level == "none":
+        return None
+    return sensor_unit(unit, _nominal_fingertip(config))
+
+
+def _nominal_fingertip(config: ScenarioConfig) -> Fingertip:
+    """The nominal design: Table I element (or the configured Q), gel, coverage, modes."""
     s = config.sensor
     element = SensorElement(ElementParams())
     if s.quality_factor is not None:
@@ -57,7 +75,9 @@ def make_controller(config: ScenarioConfig, robot: RobotLimits, fingertip: Finge
     from .control import MultimodeGrasp
 
     s = config.sensor
-    physical = damaged(fingertip.element, s.damage_stiffness, s.damage_coupling, s.damage_damping)
+    unit = make_unit(config)  # the element as built (and as warm as it is), not the model
+    element = unit.physical.fingertip_at(s.temperature_c).element if unit is not None else fingertip.element
+    physical = damaged(element, s.damage_stiffness, s.damage_coupling, s.damage_damping)
     report = self_test(physical, healthy=fingertip.element, modes=c.modes, noise=fingertip.noise, rng=np.random.default_rng(s.seed))
     message = None if report.passed else report.message
     return MultimodeGrasp(c, robot, pads, fingertip, message, config.physics.control_period_s)
@@ -124,6 +144,7 @@ class CoSimulation:
         self.data = mujoco.MjData(self.model)
         self.home = reset_home(self.model, self.data, config)
         self.fingertip = make_fingertip(config)
+        self.unit = make_unit(config)  # the physical unit, when it is not the model itself
         self.bridge = PadBridge(self.model, gel=self.fingertip.gel)
         self.robot = robot_limits(self.model, self.home, self.bridge.geometry, self.fingertip.gel.params)
         check_reach(config, self.robot)  # before the sensor's set-up: a bad lift fails fast
@@ -134,7 +155,8 @@ class CoSimulation:
         # the bridge orders strips from the distal end up, so a profile is reversed.
         n = self.bridge.geometry.segments
         length = self.fingertip.element.params.length_m
-        edges, self._cell_strip = coverage_cells(np.linspace(0.0, length, n + 1), self.fingertip.coverage)
+        coverage = self.unit.coverage if self.unit is not None else self.fingertip.coverage  # where the gel touches
+        edges, self._cell_strip = coverage_cells(np.linspace(0.0, length, n + 1), coverage)
         rng = np.random.default_rng(config.sensor.seed)
         self.pads = tuple(f"{p}_pad" for p in config.sensor.pads)
         self._pad_rows = [PAD_NAMES.index(p) for p in self.pads]
@@ -149,6 +171,7 @@ class CoSimulation:
                 rng=np.random.default_rng(rng.integers(2**63)),
                 exact=config.sensor.exact_gel or config.sensor.gel_layer == "dynamic",  # tables need k_e > 0
                 carrier_samples_per_cycle=config.sensor.carrier_samples_per_cycle,
+                unit=self.unit,
             )
             for pad in self.pads
         }
@@ -242,6 +265,23 @@ class CoSimulation:
         # 8. record
         return self._record(obs, command, profiles)
 
+    # -- the same step in two halves, for a driver outside the loop (a Gymnasium agent) -------
+
+    def sense(self) -> Observation:
+        """Steps 1-5 of :meth:`advance`: physics over one control period, then what the
+        controller would see.  Follow it with :meth:`act`."""
+        self._physics()
+        self._pending_profiles = self._pressures()
+        self._pending_obs = self._observe(self._readout(self._sense(self._pending_profiles)))
+        return self._pending_obs
+
+    def act(self, command: Command) -> list[float]:
+        """Steps 7-8 of :meth:`advance` for the observation :meth:`sense` returned: apply
+        ``command`` and return the recorded row.  ``sense(); act(controller.step(obs))`` is
+        exactly :meth:`advance`."""
+        self._actuate(command)
+        return self._record(self._pending_obs, command, self._pending_profiles)
+
     def step(self) -> dict[str, float]:
         """Advance one control period; return the recorded row (column name -> value)."""
         return dict(zip(self.columns, self.advance(), strict=True))
@@ -328,8 +368,10 @@ class CoSimulation:
 
     def _record(self, obs: Observation, command: Command, profiles: list[list[float]]) -> list[float]:
         """The row's values in :attr:`columns` order (all Python floats)."""
-        xpos, qvel, sensordata, body = self._xpos, self._qvel, self._sensordata, self._object_body
-        dof = self._object_dof_i
+        # One conversion per array to Python floats (a numpy scalar per value costs more).
+        x, y, z = self._xpos[self._object_body].tolist()
+        vx, vy, vz, wx, wy, wz = self._qvel[self._object_dof_i : self._object_dof_i + 6].tolist()
+        sensordata = self._sensordata.tolist()
         row = [
             self.time_s,
             float(command.phase),
@@ -338,14 +380,14 @@ class CoSimulation:
             obs.grip_force_n,
             obs.lift_force_n,
             # Ground truth (never observed): the object's pose and motion, what touches it.
-            float(xpos[body, 2]),
-            float(xpos[body, 0]),
-            float(xpos[body, 1]),
-            float(qvel[dof + 2]),
-            math.sqrt(float(qvel[dof] ** 2 + qvel[dof + 1] ** 2 + qvel[dof + 2] ** 2)),
-            math.sqrt(float(qvel[dof + 3] ** 2 + qvel[dof + 4] ** 2 + qvel[dof + 5] ** 2)),
-            abs(float(sensordata[self._table_i + 2])),
-            *(abs(float(sensordata[a])) for a in self._finger_list),
+            z,
+            x,
+            y,
+            vz,
+            math.sqrt(vx * vx + vy * vy + vz * vz),
+            math.sqrt(wx * wx + wy * wy + wz * wz),
+            abs(sensordata[self._table_i + 2]),
+            *(abs(sensordata[a]) for a in self._finger_list),
         ]
         for pad, profile, adr in zip(self.pads, profiles, self._contact_list, strict=True):
             sig = obs.pads[pad]
@@ -353,7 +395,7 @@ class CoSimulation:
             mean = profile[0] if len(profile) == 1 else float(np.mean(profile))
             row += (
                 mean,
-                abs(float(sensordata[adr])),
+                abs(sensordata[adr]),
                 e.pressure_pa,
                 e.uncertainty_pa,
                 _STATUS_INDEX[e.status],

@@ -77,6 +77,8 @@ def _cmd_range(args: argparse.Namespace) -> int:
     from piezotip.sensor import GelModel
 
     tip = Fingertip(coverage=coverage, gel=GelModel(layer=args.gel_layer))
+    if args.units is not None or any(v is not None for v in (args.variation, args.unit_seed, args.calibration, args.temperature_c)):
+        return _range_unit(args, tip)
     report = tip.dynamic_range()
     files = []
     if args.out:
@@ -91,6 +93,67 @@ def _cmd_range(args: argparse.Namespace) -> int:
         print(format_table(report))
         for f in files:
             print(f"wrote {f}")
+    return 0
+
+
+def _range_unit(args: argparse.Namespace, nominal) -> int:
+    """``range`` of a physical unit (--variation, --unit-seed, --calibration, --temperature-c),
+    or a Monte Carlo over --units of them."""
+    from piezotip.analysis.range_report import format_table, monte_carlo, unit_range_report, write_monte_carlo_plot
+    from piezotip.sensor.calibration import SensorUnit, UnitConfig
+
+    variation = args.variation or "none"
+    temperature = 25.0 if args.temperature_c is None else args.temperature_c
+    if args.units is not None:
+        if args.unit_seed is not None:
+            raise ValueError("give --unit-seed (one unit) or --units N (a Monte Carlo over seeds 0..N-1), not both")
+        UnitConfig(variation, 0, args.calibration, temperature)  # bad names stop here, before any unit
+        if args.units < 1:
+            raise ValueError(f"--units must be a positive integer, got {args.units}")
+        workers = args.workers if args.workers is not None else min(os.cpu_count() or 1, 2)
+        if workers < 1:
+            raise ValueError(f"--workers must be at least 1, got {workers}")
+        report = monte_carlo(nominal, variation, args.units, args.calibration, temperature, workers, progress=not args.json)
+        files = []
+        if args.out:
+            out = Path(args.out)
+            out.mkdir(parents=True, exist_ok=True)
+            files.append(str(write_monte_carlo_plot(report, out)))
+            (out / "units.json").write_text(json.dumps(_json_safe(report), indent=2) + "\n")
+            files.append(str(out / "units.json"))
+        if args.json:
+            print(json.dumps(_json_safe({**report, "files": files}), indent=2))
+        else:
+            s = report["summary"]
+            print(f"{args.units} {variation} units, calibration {args.calibration or 'default'}, {temperature:g} C:")
+            labels = {
+                "p_min_pa": "P_min [Pa]",
+                "p_max_pa": "P_max [Pa]",
+                "dynamic_range": "dynamic range",
+                "max_estimate_error": "max estimate error",
+            }
+            for key, label in labels.items():
+                q = s[key]
+                print(f"  {label:<20} median {q['median']:.3g}  5-95 % {q['p5']:.3g} .. {q['p95']:.3g}", end="")
+                print(f"  (min {q['min']:.3g}, max {q['max']:.3g})")
+            print(f"  yield (dynamic range >= 1e4 and estimate error <= 5 %): {100 * report['yield']:.0f} %")
+            for f in files:
+                print(f"wrote {f}")
+        return 0
+    unit = SensorUnit(UnitConfig(variation, 0 if args.unit_seed is None else args.unit_seed, args.calibration, temperature), nominal)
+    report = unit_range_report(unit)
+    if args.out:
+        out = Path(args.out)
+        out.mkdir(parents=True, exist_ok=True)
+        (out / "range.json").write_text(json.dumps(_json_safe(report), indent=2) + "\n")
+    if args.json:
+        print(json.dumps(_json_safe(report), indent=2))
+    else:
+        print(format_table(report))
+        c = report["calibration"]
+        seed, inferred = report["unit"]["unit_seed"], report["temperature_estimate_c"]
+        print(f"unit: {variation} seed {seed} at {temperature:g} C (readout infers {inferred:g} C), calibration {c['level']}")
+        print(f"max estimate error over the range: {100 * report['max_estimate_error']:.3g} %")
     return 0
 
 
@@ -354,6 +417,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--gel-layer", choices=("winkler", "dynamic"), default="winkler", help="the gel layer's model (default winkler; see README)"
     )
+    p.add_argument("--variation", help="the physical unit: none (the nominal model), typical or wide (manufacturing spreads)")
+    p.add_argument("--unit-seed", type=int, metavar="N", help="which unit (the same seed, the same unit; default 0)")
+    p.add_argument("--calibration", help="none, self (resonance sweep) or full (plus known loads); default self for a varied unit")
+    p.add_argument("--temperature-c", type=float, metavar="T", help="the unit's temperature, C (-20 to 80; calibrated at 25)")
+    p.add_argument("--units", type=int, metavar="N", help="a Monte Carlo over N units (seeds 0..N-1): distributions and yield")
+    p.add_argument("--workers", type=int, metavar="N", help="processes for --units (default: up to 2 cores)")
     p.set_defaults(func=_cmd_range)
 
     p = sub.add_parser("bench", help="the co-simulation's cost: real-time factor, overhead over bare mj_step, per-stage times")

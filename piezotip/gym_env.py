@@ -369,13 +369,12 @@ class GraspEnv(gym.Env):
             raise RuntimeError("call reset() before step()")
         sim = self.sim
         command = self._command(action)
-        # The rest of CoSimulation.advance, from its controller on: the agent's command is what
-        # the controller returns, then actuators and the record; then the next period's
-        # physics, pressures, sensor, readout and observation.
+        # CoSimulation.advance in its two halves (sense, act), the agent's command in place of
+        # the controller's: actuators and the record now, the next period's physics and
+        # observation below.
         sim.controller.command = command
         command = sim.controller.step(self._obs, self.dt)
-        sim._actuate(command)
-        row = sim._record(self._obs, command, self._profiles)
+        row = sim.act(command)
         self._rows.append(row)
         parts, ended = self._judge_step(row)
         terminated = ended != ""
@@ -445,10 +444,7 @@ class GraspEnv(gym.Env):
 
     def _sense_next(self) -> None:
         """CoSimulation.advance up to the controller: physics, pressures, sensor, readout, observation."""
-        sim = self.sim
-        sim._physics()
-        self._profiles = sim._pressures()
-        self._obs = sim._observe(sim._readout(sim._sense(self._profiles)))
+        self._obs = self.sim.sense()
 
     def _observation(self) -> dict[str, np.ndarray]:
         obs, n = self._obs, len(self.pads)

@@ -150,6 +150,15 @@ class SensorConfig:
     damage_stiffness, damage_coupling, damage_damping : injected element damage, factors on
         the healthy stiffness, d31 and damping (sensor.selftest.damaged); the multimode
         controller's start-up self-test must catch them.
+    variation : the physical unit: "none" (exactly the nominal model, the default), "typical"
+        or "wide" (a unit drawn from manufacturing spreads, sensor.variation; the simulation
+        runs it, the readout and controller see only the nominal model plus calibration).
+    unit_seed : which unit (a non-negative integer: the same seed, the same unit).
+    calibration : "none", "self" (the element's own resonance sweep per mode) or "full" (plus
+        a known-load bench fit), sensor.calibration; None: "self" for a unit that differs from
+        the nominal model (varied, not at 25 C, or drifting), else "none".
+    temperature_c : the fingertip's temperature at the start, C (-20 to 80; calibrated at 25).
+    temperature_drift_c_per_s : how fast it warms during the run, C/s.
     """
 
     pads: tuple[str, ...] = ("left", "right")
@@ -166,9 +175,15 @@ class SensorConfig:
     exact_gel: bool = False
     carrier_samples_per_cycle: int = 16
     gel_layer: str = "winkler"
+    variation: str = "none"
+    unit_seed: int = 0
+    calibration: str | None = None
+    temperature_c: float = 25.0
+    temperature_drift_c_per_s: float = 0.0
 
     def validate(self) -> None:
         _one_of("sensor.gel_layer", self.gel_layer, ("winkler", "dynamic"))
+        self.unit_config()  # variation, seed, calibration and temperature, each named if bad
         if not isinstance(self.carrier_samples_per_cycle, int) or not 4 <= self.carrier_samples_per_cycle <= 256:
             raise ValueError(f"sensor.carrier_samples_per_cycle must be an integer in 4..256, got {self.carrier_samples_per_cycle!r}")
         for name in ("damage_stiffness", "damage_coupling", "damage_damping"):
@@ -184,6 +199,12 @@ class SensorConfig:
             _positive("sensor.quality_factor", self.quality_factor)
         if len(self.coverage_mm) != 2 or not 0 <= self.coverage_mm[0] < self.coverage_mm[1] <= 7.5:
             raise ValueError(f"sensor.coverage_mm must be (x1, x2) with 0 <= x1 < x2 <= 7.5, got {self.coverage_mm!r}")
+
+    def unit_config(self):
+        """The physical unit and its calibration (piezotip.sensor.calibration.UnitConfig), validated."""
+        from piezotip.sensor.calibration import UnitConfig
+
+        return UnitConfig(self.variation, self.unit_seed, self.calibration, self.temperature_c, self.temperature_drift_c_per_s)
 
 
 @dataclass(frozen=True)

@@ -41,8 +41,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .cache import disk_cached
+from .cache import enabled as cache_enabled
+from .calibration import SensorUnit, detuning, reading_sigma_v
 from .carrier import CarrierResonator
 from .fingertip import Fingertip
+from .variation import REFERENCE_TEMPERATURE_C
 
 DYNAMICS = ("steady", "envelope", "carrier")
 #: Noise is drawn in blocks (one generator call per block, not per reading).
@@ -109,6 +113,13 @@ _REBASE_S = 30.0
 _MAX_REL_SQ = _MAX_REL * _MAX_REL
 _TWELFTH = 1.0 / 12.0
 _NAN_ENVELOPE = complex(math.nan, math.nan)
+#: A calibrated unit's readout re-zeroes after this long unloaded (below detection), s: longer
+#: than the inference's settling after a release (0.17 to 0.37 s with Table I's damping, see
+#: SteadyInference), so a re-zero takes the unloaded reading, not the tail of a load.
+REZERO_S = 0.5
+#: ...and corrects a drift only past this many sigmas of its unloaded reading's noise (a false
+#: correction at 4 sigma: 6e-5 per look, one in 8 hours of unloaded readout).
+REZERO_SIGMAS = 4.0
 #: The prefix sums of a sample before any (index 5.. of a sample tuple, see SteadyInference).
 _NO_SUMS = (0.0, 0j, 0j, 0j, 0j, 0j, 0j, 0j, 0.0, 0.0, 0j, 0j, 0j)
 
@@ -207,7 +218,13 @@ class FoundationTable:
     """
 
     def __init__(self, fingertip: Fingertip, mode: int) -> None:
-        k, c = fingertip.foundation(_TABLE_P, mode)
+        def compute() -> dict[str, np.ndarray]:
+            k, c = fingertip.foundation(_TABLE_P, mode)
+            return {"k": k, "c": c}
+
+        # Computed once per configuration and kept on disk (piezotip.sensor.cache).
+        columns = disk_cached("foundation-table", (fingertip.config_key(), mode), compute)
+        k, c = columns["k"], columns["c"]
         if np.any(k <= 0):
             raise ValueError("FoundationTable needs a positive k_e (the Winkler layer); use exact=True for the dynamic layer")
         self._log_p = np.log(_TABLE_P)
@@ -289,12 +306,24 @@ class ModeInverse:
     """
 
     def __init__(self, fingertip: Fingertip, mode: int, table: FoundationTable | None) -> None:
-        p = _TABLE_P
-        if table is None:
-            v = fingertip.output(p, mode)
-        else:
-            k, c = table(p)
-            v = fingertip.element.normalized_output(k, c, mode, fingertip.coverage)
+        def compute() -> dict[str, np.ndarray]:
+            if table is None:
+                v = fingertip.output(_TABLE_P, mode)
+            else:
+                k, c = table(_TABLE_P)
+                v = fingertip.element.normalized_output(k, c, mode, fingertip.coverage)
+            return {
+                "v": v,
+                "sigma": np.array(fingertip.sigma(mode)),
+                "p_min_pa": np.array(fingertip.detection_limit(mode)),
+                "p_max_pa": np.array(fingertip.upper_limit(mode)),
+                "slope0": np.array(abs(float(fingertip.output_slope(0.0, mode)))),
+            }
+
+        # Computed once per configuration, mode and gel evaluation, kept on disk (the table, when
+        # there is one, is the same configuration's and mode's).
+        numbers = disk_cached("mode-inverse", (fingertip.config_key(), mode, table is None), compute)
+        p, v = _TABLE_P, numbers["v"]
         # The inverse exists while the output falls with pressure; past the first rise (the
         # dynamic layer's resonances, deep in saturation) every reading counts as saturated.
         rising = np.nonzero(np.diff(v) > 1e-12)[0]
@@ -303,11 +332,11 @@ class ModeInverse:
         self._neg_v = -v  # increasing, for np.interp
         self._log_p = np.log(p)
         self._dv_dlogp = np.gradient(v, self._log_p)
-        self.sigma = fingertip.sigma(mode)
-        self.p_min_pa = fingertip.detection_limit(mode)
-        self.p_max_pa = fingertip.upper_limit(mode)
+        self.sigma = float(numbers["sigma"])
+        self.p_min_pa = float(numbers["p_min_pa"])
+        self.p_max_pa = float(numbers["p_max_pa"])
         self._v_first, self._v_last = float(v[0]), float(v[-1])
-        self._slope0 = abs(float(fingertip.output_slope(0.0, mode)))
+        self._slope0 = float(numbers["slope0"])
         self._neg_v_list = self._neg_v.tolist()
         self._sigma_f, self._p_min_f, self._p_max_f = float(self.sigma), float(self.p_min_pa), float(self.p_max_pa)
         self._three_sigma = 3.0 * self._sigma_f
@@ -332,6 +361,17 @@ class ModeInverse:
         slope = abs(_interp(log_p, self._log_p_list, self._dv_dlogp_list)) / p
         return _estimate(p, self._sigma_f / slope if slope > 0 else math.inf, "ok")
 
+    def pressure(self, v1: float) -> float:
+        """The inverse alone, Pa: the pressure whose uniform load reads ``v1`` in this mode
+        (linear in the first pressure's slope above the table's first point, as the estimates
+        are), NaN past the table's last (saturated) point.  No status, no uncertainty: for
+        measuring the inverse's accuracy against a known pressure."""
+        if v1 <= self._v_last:
+            return math.nan
+        if v1 >= self._v_first:
+            return max(1.0 - v1, 0.0) / self._slope0
+        return math.exp(_interp(-v1, self._neg_v_list, self._log_p_list))
+
     def inferred(self, v1: float, gain: float) -> Estimate:
         """The estimate of an inferred steady reading ``v1`` whose noise is ``gain`` times a
         reading's: as :meth:`__call__` with sigma scaled by max(gain, 1) for the below-detection
@@ -350,6 +390,34 @@ class ModeInverse:
             return _estimate(math.nan, math.nan, "saturated")
         slope = abs(_interp(log_p, self._log_p_list, self._dv_dlogp_list)) / p
         return _estimate(p, g * self._sigma_f / slope if slope > 0 else math.inf, "ok")
+
+
+class CalibratedInverse(ModeInverse):
+    """A :class:`ModeInverse` whose "ok" estimates also carry calibration's error.
+
+    ``rel_sigma`` (on the channel's pressure table) is the estimate's relative standard
+    deviation from what calibration did not measure or measured with noise
+    (:func:`sensor.calibration.model_uncertainty`); it is added in quadrature to the noise's
+    uncertainty of every "ok" estimate.
+    """
+
+    def __init__(self, fingertip: Fingertip, mode: int, table: FoundationTable | None, rel_sigma: np.ndarray) -> None:
+        super().__init__(fingertip, mode, table)
+        self._rel_log_p = np.log(_TABLE_P).tolist()
+        self._rel = np.asarray(rel_sigma, float).tolist()
+
+    def _with_model(self, est: Estimate) -> Estimate:
+        if est.status != "ok":
+            return est
+        p = est.pressure_pa
+        rel = _interp(math.log(p), self._rel_log_p, self._rel) if p > 0 else 0.0
+        return _estimate(p, math.hypot(est.uncertainty_pa, rel * p), "ok")
+
+    def __call__(self, v1: float, settled: bool = True) -> Estimate:
+        return self._with_model(super().__call__(v1, settled))
+
+    def inferred(self, v1: float, gain: float) -> Estimate:
+        return self._with_model(super().inferred(v1, gain))
 
 
 class SteadyInference:
@@ -650,10 +718,22 @@ def mode_tables(fingertip: Fingertip, mode: int, exact: bool) -> tuple[Foundatio
     evaluation: every channel of every run with that fingertip shares them (both are read-only
     after construction)."""
     key = (fingertip.config_key(), mode, bool(exact))
-    if key not in _MODE_TABLES:
-        table = None if exact else FoundationTable(fingertip, mode)
+    if key not in _MODE_TABLES or not cache_enabled():
+        table = None if exact else foundation_table(fingertip, mode)
         _MODE_TABLES[key] = (table, ModeInverse(fingertip, mode, table))
     return _MODE_TABLES[key]
+
+
+_FOUNDATION_TABLES: dict[tuple, FoundationTable] = {}
+
+
+def foundation_table(fingertip: Fingertip, mode: int) -> FoundationTable:
+    """One mode's (k_e, c_e) table alone (a physical unit's: the simulation needs no inverse of
+    it), once per process for each fingertip configuration and mode."""
+    key = (fingertip.config_key(), mode)
+    if key not in _FOUNDATION_TABLES or not cache_enabled():
+        _FOUNDATION_TABLES[key] = FoundationTable(fingertip, mode)
+    return _FOUNDATION_TABLES[key]
 
 
 class SensorChannel:
@@ -671,6 +751,11 @@ class SensorChannel:
     rng : noise generator.
     exact : evaluate the gel model exactly each sample instead of the tables.
     carrier_samples_per_cycle : carrier samples per drive cycle ("carrier" dynamics).
+    unit : the physical unit and its calibration (:class:`sensor.calibration.SensorUnit`), or
+        None: the unit is ``fingertip`` itself.  With a unit, the simulation runs the unit
+        (its element, gel, coverage, temperature, driven at the readout's drive frequencies
+        and read against its references) and ``fingertip`` must be the unit's ``model``: the
+        readout and the controller see nothing else (see :meth:`_setup_unit`).
     """
 
     def __init__(
@@ -683,15 +768,18 @@ class SensorChannel:
         rng: np.random.Generator | None = None,
         exact: bool = False,
         carrier_samples_per_cycle: int = 16,
+        unit: SensorUnit | None = None,
     ) -> None:
         if dynamics not in DYNAMICS:
             raise ValueError(f"unknown sensor dynamics {dynamics!r}; valid: {', '.join(DYNAMICS)}")
         self.tip = fingertip
         self.dynamics = dynamics
+        self._unit: SensorUnit | None = None  # a physical unit other than the model (_setup_unit)
         self.noise = noise
         self.rng = rng or np.random.default_rng(0)
         self.exact = exact
-        self.edges_m = np.asarray(edges_m if edges_m is not None else fingertip.coverage, float)
+        # default: one cell over the gel's contact (the unit's own, if there is a unit)
+        self.edges_m = np.asarray(edges_m if edges_m is not None else (unit.coverage if unit is not None else fingertip.coverage), float)
         el = fingertip.element
         self._rho_a = el.params.mass_per_length_kg_m
         self._c = el.params.damping_n_s_per_m2
@@ -730,8 +818,195 @@ class SensorChannel:
         self._inference: SteadyInference | None = None
         self._inference_mode = self.mode
         self._estimated_at, self._last_estimate = math.nan, _SETTLING
+        # The readout's history before the scene: settled, unloaded readings of this value.
+        self._seed_a = 1 + 0j
+        self.rezeros = 0  # re-zeroes while unloaded (a varied or warming unit's tracking)
+        if unit is not None and not (unit.config.is_nominal and unit.config.level == "none"):
+            self._setup_unit(unit)
+
+    # -- a physical unit other than the model ------------------------------------------
+
+    def _setup_unit(self, unit: SensorUnit) -> None:
+        """Simulate ``unit`` (not the readout's model) from now on.
+
+        The unit's mode n, driven at w_d (the readout's drive) with the gel's load, obeys eq. 4
+        off resonance: its envelope a (normalized by G / (j w_d c), G the unit's gain) relaxes
+        to a_ss = w_d c / (w_d (gamma + c) - j (kappa + K_d)) at the rate
+        lambda = (c + gamma) / (2 rho A) - j (kappa + K_d) / (2 w_d rho A), where
+        K_d = rho A (w_r^2 - w_d^2) is the detuning, a stiffness like the gel's: the same
+        equations as the nominal path (_steady, _rate) with kappa + K_d.  The lock-in's output
+        is V_s over the readout's reference R: reading = a G / (j w_d c R).  Temperature moves
+        w_r (sqrt(1 + beta dT)), G ((Y_p(T) / Y_p(25))^2) and the gel (its tables at T, to
+        0.1 K).  See :mod:`sensor.calibration` for the drive and references.
+        """
+        if unit.model is not self.tip:
+            raise ValueError("a channel with a physical unit must be given the unit's model as its fingertip")
+        phys = unit.physical
+        self._unit = unit
+        tip = phys.fingertip_at(phys.temperature_c)
+        el = tip.element
+        used = list(self._fast)
+        p25 = phys.fingertip_at(REFERENCE_TEMPERATURE_C).element
+        self._u_rho_a = float(el.params.mass_per_length_kg_m)
+        self._u_c = float(el.params.damping_n_s_per_m2)
+        self._u_omega25 = {m: float(p25.natural_angular_frequency(m)) for m in used}
+        self._u_gain25 = {m: float(p25.unloaded_voltage(m)) * self._u_omega25[m] * self._u_c for m in used}
+        self._u_sigma_v = {m: reading_sigma_v(tip, m) for m in used}
+        b = el.params.width_m
+        self._u_weights = {m: (b * el.cell_ratios(m, self.edges_m)).tolist() for m in used}
+        self._u_drive = {m: 2 * math.pi * unit.drive_hz[m] for m in used}
+        self._u_ref = {m: complex(unit.reference_v[m]) for m in used}
+        self._u_drifts = phys.drift_c_per_s != 0.0
+        self._u_time_s = 0.0
+        self._u_tables: dict[tuple[int, float], object] = {}
+        self._u_temperature_c = phys.temperature_c
+        # The readout: the model's inverses with calibration's error in their uncertainty.
+        cache = unit.readout_cache
+        for m in used:
+            key = ("inverse", m, self.exact)
+            if key not in cache:
+                rel = unit.uncertainty_tables(_TABLE_P)[m]
+                cache[key] = CalibratedInverse(self.tip, m, None if self.exact else self._tables[m], rel)
+            self._inverse[m] = cache[key]
+        # Unloaded and settled before the scene, at the start's drive.
+        steady0 = self._u_steady(self.mode, 0.0, 0.0, phys.temperature_c)
+        self.envelope = steady0
+        self._seed_a = steady0 * self._u_scale(self.mode, phys.temperature_c)
+        if self.dynamics == "carrier":
+            self._carrier = self._new_carrier(self.mode)
+            k_d = self._u_detuning(self.mode, phys.temperature_c)
+            a_p = self._carrier.force / (k_d + 1j * self._carrier.omega * self._u_c)
+            self._carrier.q, self._carrier.v = self._carrier._particular(a_p, self._carrier.phase_time_s)
+        self._unloaded_from = math.nan
+        self._unloaded_sum, self._unloaded_n = 0j, 0
+
+    def _u_detuning(self, mode: int, temperature_c: float) -> float:
+        """K_d = rho A (w_r(T)^2 - w_d^2), N/m^2: the unit's detuning from the drive, a stiffness."""
+        w_r = self._u_omega25[mode] * self._unit.physical.resonance_ratio(temperature_c)
+        w_d = self._u_drive[mode]
+        return self._u_rho_a * (w_r * w_r - w_d * w_d)
+
+    def _u_steady(self, mode: int, kappa: float, gamma: float, temperature_c: float) -> complex:
+        return _steady(self._u_drive[mode], self._u_c, kappa + self._u_detuning(mode, temperature_c), gamma)
+
+    def _u_scale(self, mode: int, temperature_c: float) -> complex:
+        """Envelope to reading: G(T) / (j w_d c R)."""
+        gain = self._u_gain25[mode] * self._unit.physical.gain_ratio(temperature_c)
+        return gain / (1j * self._u_drive[mode] * self._u_c) / self._u_ref[mode]
+
+    def _u_table(self, mode: int, temperature_c: float):
+        """The unit's (k_e, c_e) lookup for ``mode`` at ``temperature_c`` (tables to 0.1 K), or
+        None for the exact gel."""
+        t_q = round(temperature_c * 10.0) / 10.0
+        key = (mode, t_q)
+        if key not in self._u_tables:
+            tip = self._unit.physical.fingertip_at(t_q)
+            self._u_tables[key] = None if self.exact else foundation_table(tip, mode).at
+        return self._u_tables[key]
+
+    def _update_unit(self, pressure_cells_pa: Sequence[float], dt_s: float) -> Reading:
+        """:meth:`update_trusted` for a physical unit (see :meth:`_setup_unit`)."""
+        mode = self.mode
+        self._u_time_s += dt_s
+        temp = self._unit.physical.temperature_at(self._u_time_s) if self._u_drifts else self._u_temperature_c
+        self._u_temperature_c = temp
+        table_at = self._u_table(mode, temp)
+        weights = self._u_weights[mode]
+        self.evaluations += 1
+        if table_at is None:
+            tip = self._unit.physical.fingertip_at(round(temp * 10.0) / 10.0)
+            k_e, c_e = tip.foundation(np.asarray(pressure_cells_pa, float), mode)
+            kappa, gamma = float(k_e @ np.asarray(weights)), float(c_e @ np.asarray(weights))
+        else:
+            kappa = gamma = 0.0
+            for p, w in zip(pressure_cells_pa, weights, strict=True):
+                k_e, c_e = table_at(p)
+                kappa += k_e * w
+                gamma += c_e * w
+        c, rho_a, w_d = self._u_c, self._u_rho_a, self._u_drive[mode]
+        k_eff = kappa + self._u_detuning(mode, temp)
+        steady = _steady(w_d, c, k_eff, gamma)
+        rate = _rate(rho_a, w_d, c, k_eff, gamma)
+        self.time_in_mode_s += dt_s
+        self._clock_s += dt_s
+        self._dt_s = dt_s
+        tau = 1.0 / rate.real
+        if self.dynamics == "envelope":
+            self.envelope = envelope = _step(self.envelope, steady, dt_s, rate)
+            settled = self.time_in_mode_s >= tau * _SETTLE_TAUS
+        elif self.dynamics == "carrier":
+            self.envelope = envelope = self._carrier.step(k_eff, gamma, dt_s)
+            settled = self.time_in_mode_s >= tau * _SETTLE_TAUS
+        else:
+            self.envelope = envelope = steady
+            settled = True
+        out = envelope * self._u_scale(mode, temp)
+        ref = self._u_ref[mode]
+        sigma = self._u_sigma_v[mode] / math.hypot(ref.real, ref.imag)
+        iq = out + complex(self._normal() * sigma, self._normal() * sigma) if self.noise else out
+        v1_true = abs(out)
+        phase = -math.atan2(out.imag, out.real) if v1_true > 0 else 0.0
+        return _reading(mode, abs(iq), v1_true, phase, self.time_in_mode_s, tau, settled, kappa, gamma, iq)
+
+    def _track(self, t: float, est: Estimate, a_ss: complex, gain: float = 1.0) -> None:
+        """Re-zero while unloaded (calibrated units): re-centre the drive, renormalize.
+
+        While the estimate has been "below_detection" for REZERO_S, the steady reading a_ss
+        (the inference's, or the mean reading with steady dynamics) is the unloaded response,
+        g / (1 - j delta) (:func:`sensor.calibration.detuning`): the drive moves by
+        delta / tau0 in this mode and by the same fraction in every mode (temperature moves
+        them alike), every reference by g.  Only a drift of more than REZERO_SIGMAS times the
+        steady reading's own noise (``gain`` times a reading's sigma; a reading's sigma over
+        the square root of the readings averaged with steady dynamics) is corrected: below that
+        a correction would add noise, not remove drift.  A load below the detection limit is zeroed with it.
+        """
+        if est.status != "below_detection":
+            self._unloaded_from = math.nan
+            return
+        if not t >= self._unloaded_from:  # a new unloaded stretch
+            self._unloaded_from, self._unloaded_sum, self._unloaded_n = t, 0j, 0
+        self._unloaded_sum += a_ss
+        self._unloaded_n += 1
+        if t - self._unloaded_from < REZERO_S:
+            return
+        if self.dynamics == "steady":
+            z, sigma_z = self._unloaded_sum / self._unloaded_n, self._sigma[self.mode] / math.sqrt(self._unloaded_n)
+        else:
+            z, sigma_z = a_ss, gain * self._sigma[self.mode]
+        self._unloaded_from, self._unloaded_sum, self._unloaded_n = t, 0j, 0
+        delta, g = detuning(z)
+        if not (math.isfinite(delta) and g > 0):
+            return
+        # Each part only where it is significant (delta ~ Im z and g - 1 ~ Re z - 1 near resonance,
+        # each known to sigma_z): a correction of noise would add it to every later reading.
+        if not abs(delta) > REZERO_SIGMAS * sigma_z:
+            delta = 0.0
+        # The gain drifts slowly (eq. 17's Y_p^2: 0.04 %/K) and its estimate is the noisier part
+        # of a short window's a_ss: renormalized only from a settled window (gain <= GAIN_FLOOR).
+        if not (abs(g - 1.0) > REZERO_SIGMAS * sigma_z and gain <= GAIN_FLOOR):
+            g = 1.0
+        if delta == 0.0 and g == 1.0:
+            return
+        w_d = self._u_drive[self.mode]
+        frac = delta / (self._tau0 * w_d)
+        for m in self._u_drive:
+            old = self._u_drive[m]
+            self._u_drive[m] = new = old * (1.0 + frac)
+            self._u_ref[m] *= g * old / new
+        # The envelope's normalization G / (j w_d c) moved with w_d: the same V_s, rescaled.
+        self.envelope *= 1.0 + frac
+        if self._carrier is not None:
+            old = self._carrier
+            self._carrier = self._new_carrier(self.mode)
+            self._carrier.q, self._carrier.v, self._carrier.phase_time_s = old.q, old.v, old.phase_time_s
+        if self._inference is not None:
+            # in the new normalization the envelope is where it was: z / g now, relaxing to 1
+            self._inference.restart(t, z / g)
+        self.rezeros += 1
 
     def _new_carrier(self, mode: int) -> CarrierResonator:
+        if self._unit is not None:  # the unit's resonator, driven at the readout's frequency
+            return CarrierResonator(self._u_rho_a, self._u_c, self._u_drive[mode], self._carrier_spc)
         return CarrierResonator(self._rho_a_f, self._c_f, float(self._omega[mode]), self._carrier_spc)
 
     def _normal(self) -> float:
@@ -794,6 +1069,8 @@ class SensorChannel:
         wrong profile gives a wrong reading, not an error.  One table lookup per cell for the
         active mode (counted in :attr:`evaluations`), then the envelope in complex scalars.
         """
+        if self._unit is not None:
+            return self._update_unit(pressure_cells_pa, dt_s)
         mode = self.mode
         omega, sigma, table_at, weights = self._fast[mode]
         c = self._c_f
@@ -854,6 +1131,10 @@ class SensorChannel:
         """
         inverse = self._inverse[reading.mode]
         if self.dynamics == "steady":
+            if self._unit is not None and self._unit.tracking:
+                est = inverse(reading.v1)
+                self._track(self._clock_s, est, reading.iq)
+                return est
             return inverse(reading.v1)
         t = self._clock_s
         if t == self._estimated_at:  # this reading's estimate again
@@ -862,12 +1143,14 @@ class SensorChannel:
         if inference is None:
             # The instrument ran unloaded and settled before the scene: a settled history.
             inference = self._inference = SteadyInference(self._tau0, self._sigma[self.mode])
-            inference.seed(1.0 + 0j, t - self._dt_s, self._dt_s)
+            inference.seed(self._seed_a, t - self._dt_s, self._dt_s)
             self._inference_mode = self.mode
         if reading.mode != self._inference_mode:  # a reading of a mode no longer driven
             return _SETTLING
         a_ss, gain, trusted = inference.step(t, reading.iq)
         est = inverse.inferred(abs(a_ss), gain) if trusted and gain <= MAX_GAIN else _SETTLING
+        if self._unit is not None and self._unit.tracking and est is not _SETTLING:
+            self._track(t, est, a_ss, gain)
         self._estimated_at, self._last_estimate = t, est
         return est
 

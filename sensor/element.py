@@ -21,6 +21,7 @@ and damping down to 1e-12 give finite results without overflow or warnings.
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, fields
 
 import numpy as np
@@ -143,6 +144,34 @@ def sensitivity_c(kappa, gamma, omega: float, c: float, b_ratio: float) -> np.nd
     return (omega * c / h) * (omega * (gamma + c) / h) * (omega * b_ratio / h)
 
 
+@dataclass(frozen=True)
+class ModeTrim:
+    """How one mode of a particular element departs from beam theory with its ElementParams.
+
+    A physical unit's modes do not sit exactly where eq. 12's beam puts them (thickness and
+    clamp variations move each mode a little differently), and a calibrated model of a unit
+    carries what calibration measured per mode.  Each factor is dimensionless, 1 = none.
+
+    Attributes
+    ----------
+    freq_factor : factor on the natural angular frequency omega_n.
+    gain_factor : factor on eq. 17's amplitude (so on V_0): the electrode's coupling to this mode.
+    load_factor : factor on the gel's modal load on this mode (A_x / A_L, so kappa and gamma):
+        what a known-load calibration fits for the gel's thickness and coverage, which act on
+        a Winkler layer only through this product (k_e ~ 1 / h0, kappa ~ A_x).
+    """
+
+    freq_factor: float = 1.0
+    gain_factor: float = 1.0
+    load_factor: float = 1.0
+
+    def __post_init__(self) -> None:
+        _require_positive(self)
+
+
+_NO_TRIM = ModeTrim()
+
+
 class SensorElement:
     """The piezoelectric bimorph element driven at one bending resonance.
 
@@ -151,6 +180,8 @@ class SensorElement:
     params : ElementParams, default Table I.
     boundary : "clamped-free" (default, the paper's cantilever), "simply-supported" or
         "clamped-clamped".
+    trims : per-mode departures from beam theory, {mode: ModeTrim} (default none: every mode
+        exactly where eqs. 12-21 put it).
     **overrides : any ElementParams field, e.g. ``damping_n_s_per_m2=1e-3``.
 
     Every output method takes k_e (N/m^3) and c_e (N s/m^3) as scalars or arrays that
@@ -158,7 +189,13 @@ class SensorElement:
     part of the beam under the gel (default: the whole beam).
     """
 
-    def __init__(self, params: ElementParams | None = None, boundary: Boundary | str = Boundary.CLAMPED_FREE, **overrides: float) -> None:
+    def __init__(
+        self,
+        params: ElementParams | None = None,
+        boundary: Boundary | str = Boundary.CLAMPED_FREE,
+        trims: Mapping[int, ModeTrim] | None = None,
+        **overrides: float,
+    ) -> None:
         base = params or ElementParams()
         if overrides:
             valid = {f.name for f in fields(ElementParams)}
@@ -168,10 +205,27 @@ class SensorElement:
             base = ElementParams(**{**{f.name: getattr(base, f.name) for f in fields(base)}, **overrides})
         self.params = base
         self.boundary = Boundary.parse(boundary)
+        trims = dict(trims or {})
+        for mode, trim in trims.items():
+            check_mode(mode)
+            if not isinstance(trim, ModeTrim):
+                raise ValueError(f"trims must map modes to ModeTrim, got {trim!r} for mode {mode}")
+        # Sorted (mode, trim) pairs without the identity trims: equal elements, equal tuples.
+        self.trims: tuple[tuple[int, ModeTrim], ...] = tuple(sorted((m, t) for m, t in trims.items() if t != ModeTrim()))
+        self._trims = dict(self.trims)
         self._ratio_cache: dict[tuple[int, float, float], float] = {}
 
     def __repr__(self) -> str:
-        return f"SensorElement(boundary={self.boundary.value!r}, params={self.params!r})"
+        trims = f", trims={dict(self.trims)!r}" if self.trims else ""
+        return f"SensorElement(boundary={self.boundary.value!r}, params={self.params!r}{trims})"
+
+    def config_key(self) -> tuple:
+        """Every parameter the element's outputs depend on, hashable (params, boundary, trims)."""
+        return (self.params, self.boundary, self.trims)
+
+    def trim(self, mode: int) -> ModeTrim:
+        """Mode ``mode``'s ModeTrim (the identity when it has none)."""
+        return self._trims.get(mode, _NO_TRIM)
 
     # -- modes -------------------------------------------------------------------------
 
@@ -183,7 +237,8 @@ class SensorElement:
         """omega_n = (beta_n L)^2 / L^2 sqrt(EI / rho A), rad/s (physics.md section 2)."""
         p = self.params
         beta_l = self.mode_shape(mode).beta_l
-        return beta_l**2 / p.length_m**2 * math.sqrt(p.bending_stiffness_n_m2 / p.mass_per_length_kg_m)
+        omega = beta_l**2 / p.length_m**2 * math.sqrt(p.bending_stiffness_n_m2 / p.mass_per_length_kg_m)
+        return omega * self._trims[mode].freq_factor if mode in self._trims else omega
 
     def natural_frequency_hz(self, mode: int) -> float:
         """Natural frequency f_n = omega_n / 2 pi of mode ``mode``, Hz."""
@@ -204,16 +259,18 @@ class SensorElement:
             raise ValueError(f"quality factor must be positive and finite, got {q!r}")
         p = self.params
         c = self.natural_angular_frequency(mode) * p.mass_per_length_kg_m / q
-        return SensorElement(p, self.boundary, damping_n_s_per_m2=c)
+        return SensorElement(p, self.boundary, dict(self.trims), damping_n_s_per_m2=c)
 
     def coverage_ratio(self, mode: int, coverage: tuple[float, float] | None = None) -> float:
-        """A_x / A_L for gel over ``coverage`` = (x1_m, x2_m), dimensionless in [0, 1]."""
+        """A_x / A_L for gel over ``coverage`` = (x1_m, x2_m), dimensionless in [0, 1] (times the
+        mode's ``ModeTrim.load_factor``, when it has one)."""
         x1, x2 = self._check_coverage(coverage)
         key = (check_mode(mode), x1, x2)
         if key not in self._ratio_cache:
             shape = self.mode_shape(mode)
             self._ratio_cache[key] = float(shape.square_integral(x1, x2)) / self.params.length_m
-        return self._ratio_cache[key]
+        ratio = self._ratio_cache[key]
+        return ratio * self._trims[mode].load_factor if mode in self._trims else ratio
 
     def cell_ratios(self, mode: int, edges_m: np.ndarray) -> np.ndarray:
         """Per-cell ``integral_cell Z_n^2 dx / A_L`` for cells between ``edges_m`` (m).
@@ -226,7 +283,8 @@ class SensorElement:
         if edges.ndim != 1 or edges.size < 2 or np.any(np.diff(edges) <= 0):
             raise ValueError(f"edges_m must be a strictly increasing 1-D array of at least 2 positions, got {edges_m!r}")
         self._check_coverage((edges[0], edges[-1]))
-        return self.mode_shape(mode).square_integral(edges[:-1], edges[1:]) / self.params.length_m
+        ratios = self.mode_shape(mode).square_integral(edges[:-1], edges[1:]) / self.params.length_m
+        return ratios * self._trims[mode].load_factor if mode in self._trims else ratios
 
     def _check_coverage(self, coverage: tuple[float, float] | None) -> tuple[float, float]:
         length = self.params.length_m
@@ -336,4 +394,6 @@ class SensorElement:
             * (2 * p.substrate_half_thickness_m + p.pzt_thickness_m) ** 2
         )
         numerator *= self.coupling_factor_per_m2(mode)
+        if mode in self._trims:
+            numerator *= self._trims[mode].gain_factor
         return numerator / (4 * p.capacitance_f * p.length_m * np.hypot(kappa, omega * (gamma + c)))

@@ -72,8 +72,7 @@ class Fingertip:
     def config_key(self) -> tuple:
         """Every parameter the fingertip's outputs depend on, as one hashable value (all of them
         immutable): equal keys, equal fingertips (a cache of derived tables keys on it)."""
-        el = self.element
-        return (el.params, el.boundary, self.gel, self.coverage, self.noise, self.modes, self.rated_pressure_pa, self.mounting)
+        return (*self.element.config_key(), self.gel, self.coverage, self.noise, self.modes, self.rated_pressure_pa, self.mounting)
 
     # -- forward model ---------------------------------------------------------------
 

@@ -59,7 +59,7 @@ def damaged(element: SensorElement, stiffness: float = 1.0, coupling: float = 1.
         d31_m_per_v=p.d31_m_per_v * coupling,
         damping_n_s_per_m2=p.damping_n_s_per_m2 * damping,
     )
-    return SensorElement(new, element.boundary)
+    return SensorElement(new, element.boundary, dict(element.trims))
 
 
 @dataclass(frozen=True)
