@@ -22,6 +22,7 @@ import numpy as np
 
 from .plotting import new_figure, save_figure
 from .runner import json_safe
+from .sweep import OUTCOME_COLOUR
 
 G_M_S2 = 9.81
 
@@ -161,19 +162,6 @@ def format_table(rows: list[dict]) -> str:
     return "\n".join(lines)
 
 
-#: Colour per outcome in the plot.
-_OUTCOME_COLOUR = {
-    "success": "#4caf50",
-    "never_lifted": "#bdbdbd",
-    "blind": "#ffb74d",
-    "timeout": "#ffe082",
-    "slipped": "#ff8a65",
-    "dropped": "#e57373",
-    "crushed": "#b71c1c",
-    "fault": "#7e57c2",
-}
-
-
 def write_outputs(rows: list[dict], out_dir: Path, plot: bool = True) -> list[Path]:
     """grasp_range.csv, grasp_range.json and (with ``plot``) grasp_range.png (outcome matrix and
     peak pressures)."""
@@ -197,7 +185,7 @@ def write_outputs(rows: list[dict], out_dir: Path, plot: bool = True) -> list[Pa
     for r in rows:
         i, j = objects.index(r["object"]), controllers.index(r["controller"])
         peak[i, j] = r["peak_pressure_pa"]
-        ax.add_patch(_cell(j, i, _OUTCOME_COLOUR.get(r["outcome"], "white")))
+        ax.add_patch(_cell(j, i, OUTCOME_COLOUR.get(r["outcome"], "white")))
         label = r["outcome"].replace("_", " ") + ("\n(outside model)" if r["outside_model"] else "")
         ax.text(j, i, label, ha="center", va="center", fontsize=7)
     ax.set_xlim(-0.5, len(controllers) - 0.5)
