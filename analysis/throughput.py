@@ -30,9 +30,10 @@ TARGET_EXPERIMENT_SPEEDUP = 4.0
 TARGET_SWEEP_SPEEDUP = 1.7
 TARGET_LONG_RUN_RT_RATIO = 0.9
 
-#: The sweep timed for the worker speed-up: 8 grasps of different objects (fast enough to
-#: repeat, long enough that a worker's start-up is not the whole of it).
-SWEEP_GRID = ("object.mass_kg=0.02,0.1,0.4,1.0", "object.friction=0.6,1.0")
+#: The sweep timed for the worker speed-up: 24 grasps of different objects at the default
+#: fidelity, about 8 s of work on one core: a small sweep as users run them (dozens of
+#: points), so a worker's start-up (imports, about 1 s) is part of it but not the whole.
+SWEEP_GRID = ("object.mass_kg=0.02,0.1,0.4,1.0", "object.friction=0.5,0.8,1.1", "object.size_m=0.03,0.05")
 
 def _timed_command(args: list[str], env: dict[str, str]) -> float:
     """Wall time of ``python run_sim.py ARGS`` in a fresh process, s (it must succeed or exit 1)."""
@@ -72,10 +73,10 @@ def experiment_times(work: Path, workers: int | None = None) -> dict:
 
 
 def sweep_times(work: Path) -> dict:
-    """One sweep (fast preset) on 1 and on 2 local workers, whole command, s (cache warm)."""
+    """One sweep on 1 and on 2 local workers, whole command, s (cache warm)."""
     cache_dir = work / "cache"
     grid = [arg for g in SWEEP_GRID for arg in ("--grid", g)]
-    base = ["sweep", "grasp", *grid, "--preset", "fast", "--no-plot"]
+    base = ["sweep", "grasp", *grid, "--no-plot"]
     _timed_command([*base, "--workers", "0", "--out", str(work / "sweep-warmup")], _env(cache_dir))  # tables on disk
     one = _timed_command([*base, "--workers", "1", "--out", str(work / "sweep-1")], _env(cache_dir))
     two = _timed_command([*base, "--workers", "2", "--out", str(work / "sweep-2")], _env(cache_dir))
