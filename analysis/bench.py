@@ -16,7 +16,7 @@ included, writing into a temporary directory) and measures:
   restored and one ``mj_step`` timed, ``repeats`` passes (alternating with the timed runs,
   so that both sides see the machine alike), each state's fastest time kept;
 - ``overhead_ratio`` = cosim_step_us / bare_step_us over the whole run (the issue's target:
-  at most 1.5), and the same per controller phase in ``by_phase`` (``overhead_ratio_hold``:
+  at most 1.35, on the way to 1.2), and the same per controller phase in ``by_phase`` (``overhead_ratio_hold``:
   during the held grasp, where the contacts make mj_step dearest);
 - ``stages_us``: the time of each stage of a control step (physics incl. gel forces, of
   which gel forces, pressure, sensor, readout, controller, actuators, record, other), from
@@ -45,7 +45,7 @@ import numpy as np
 from piezotip.scenarios.config import ScenarioConfig
 
 #: The issue's targets.
-TARGET_OVERHEAD_RATIO = 1.5
+TARGET_OVERHEAD_RATIO = 1.35
 TARGET_REALTIME_FACTOR = 20.0
 
 #: Stage names, in the order of a control step; each maps to the CoSimulation methods timed.

@@ -26,10 +26,18 @@ sensor.gel_layer=dynamic`` runs it.
 ``discrete`` is the only integrator that integrates the gel's stiff law stably at these steps
 (models/README.md); the others are refused before a run starts, with the largest timestep
 they would need.  The benchmark (``run_sim.py bench``) measures each preset's cost and its
-errors against ``reference``, and shows ``reference`` converged by halving its steps.
+errors against ``reference``, and the reference's own convergence: the reference refined as a
+whole (:func:`reference_refined`: its timestep, pad strip width and carrier sampling interval
+halved once and twice) gives the observed order and the Richardson-extrapolated value of each
+compared quantity, hence the reference's own uncertainty (analysis/fidelity.py).
 """
 
 from __future__ import annotations
+
+#: The reference's three resolutions (refined together by :func:`reference_refined`).
+REFERENCE_TIMESTEP_S = 0.00025
+REFERENCE_PAD_SEGMENTS = 9
+REFERENCE_CARRIER_SAMPLES = 16
 
 PRESETS: dict[str, tuple[str, ...]] = {
     "fast": (
@@ -63,25 +71,49 @@ PRESETS: dict[str, tuple[str, ...]] = {
         "sensor.gel_layer=winkler",
     ),
     "reference": (
-        "physics.timestep_s=0.00025",
+        f"physics.timestep_s={REFERENCE_TIMESTEP_S!r}",
         "physics.integrator=discrete",
         "physics.gel_update=substep",
-        "physics.pad_segments=9",
+        f"physics.pad_segments={REFERENCE_PAD_SEGMENTS}",
         "sensor.dynamics=carrier",
-        "sensor.carrier_samples_per_cycle=16",
+        f"sensor.carrier_samples_per_cycle={REFERENCE_CARRIER_SAMPLES}",
         "sensor.gel_frequency_dependent=True",
         "sensor.exact_gel=True",
         "sensor.gel_layer=winkler",
     ),
 }
 
-#: The reference with its steps halved: the convergence check.
-REFERENCE_HALVED: tuple[str, ...] = (
-    *PRESETS["reference"],
-    "physics.timestep_s=0.000125",
-    "physics.pad_segments=17",
-    "sensor.carrier_samples_per_cycle=32",
-)
+#: The reference's resolution knobs, each a step that :func:`reference_refined` halves.
+RESOLUTION_KNOBS = ("timestep", "pad_segments", "carrier_samples")
+
+
+def reference_refined(halvings: int, knobs: tuple[str, ...] = RESOLUTION_KNOBS) -> tuple[str, ...]:
+    """The reference with the steps of ``knobs`` halved ``halvings`` times (0: the reference).
+
+    Every step shrinks by exactly 2**halvings, so that three rungs (0, 1, 2) give an observed
+    order and a Richardson extrapolation with one refinement ratio: the physics timestep, the
+    pad strips' width (9 -> 18 -> 36 strips over the element) and the carrier's sampling
+    interval (16 -> 32 -> 64 samples per cycle).  ``knobs`` (a subset of
+    :data:`RESOLUTION_KNOBS`) refines one knob alone, to tell them apart.
+    """
+    if not isinstance(halvings, int) or halvings < 0:
+        raise ValueError(f"halvings must be a whole number >= 0, got {halvings!r}")
+    unknown = set(knobs) - set(RESOLUTION_KNOBS)
+    if unknown:
+        raise ValueError(f"unknown resolution knobs {sorted(unknown)}; valid: {', '.join(RESOLUTION_KNOBS)}")
+    factor = 2**halvings
+    refined = []
+    if "timestep" in knobs:
+        refined.append(f"physics.timestep_s={REFERENCE_TIMESTEP_S / factor!r}")
+    if "pad_segments" in knobs:
+        refined.append(f"physics.pad_segments={REFERENCE_PAD_SEGMENTS * factor}")
+    if "carrier_samples" in knobs:
+        refined.append(f"sensor.carrier_samples_per_cycle={REFERENCE_CARRIER_SAMPLES * factor}")
+    return (*PRESETS["reference"], *refined)
+
+
+#: The reference with its steps halved: the first rung of its convergence check.
+REFERENCE_HALVED: tuple[str, ...] = reference_refined(1)
 
 
 def preset_overrides(name: str | None) -> list[str]:

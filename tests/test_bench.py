@@ -82,3 +82,104 @@ def test_fidelity_presets_report_cost_and_errors_against_reference():
     assert ref["pressure_estimate"] == 0 and ref["outcome"]
     assert report["convergence"]["name"] == "reference-halved"
     assert {"fast_speedup_over_accurate", "reference_converged", "targets_met"} <= report["checks"].keys()
+    # The reference's own convergence, from its steps halved once and twice.
+    found = report["convergence"]["ladder"]["scenes"]["grasp"]
+    for kind in ("pressure_estimate", "true_pressure", "output_v1"):
+        assert len(found[kind]["pads"]["left"]["values"]) == 3 and found[kind]["uncertainty"] >= 0
+    for e in report["presets"]:
+        assert e["reference_convergence"]["pressure_estimate"]["scene"] == "grasp"
+
+
+# ---------------------------------------------------------------------------------------
+# The presets' table through the command line, on a stand-in co-simulation whose answers are
+# known: the held true pressure converges at order 2 in the timestep, V_1 at order 1.
+# ---------------------------------------------------------------------------------------
+
+HELD_PA, HELD_V1 = 2000.0, 0.1
+SENSOR_BIAS = {"steady": 1e-2, "envelope": 1e-5, "carrier": 0.0}  # the estimate's, relative
+
+
+def _stand_in_run(scene, overrides, preset):
+    """(summary, data, wall s) as fidelity._run returns them, computed from the config."""
+    import numpy as np
+
+    config = scenarios.get(scene, list(overrides), preset)
+    dt_ms = 1e3 * config.physics.timestep_s
+    true_pa = HELD_PA * (1 + 1e-5 * dt_ms**2)
+    estimate_pa = true_pa * (1 + SENSOR_BIAS[config.sensor.dynamics])
+    v1 = HELD_V1 + 1e-4 * dt_ms
+    t = np.arange(1, round(config.duration_s / 0.005) + 1) * 0.005
+    phase = np.select([t < 1.0, t < 1.5, t < 3.0], [1.0, 3.0, 4.0], 5.0)
+    lift = np.where(t < 3.0, np.clip((t - 1.0) / 0.5, 0, 1) * 0.05, 0.05 - (t - 3.0) * 0.05)
+    data = {"time_s": t, "phase": phase, "lift_m": lift}
+    for pad in ("left", "right"):
+        data |= {f"{pad}_estimate_pa": np.full(t.size, estimate_pa), f"{pad}_true_pressure_pa": np.full(t.size, true_pa)}
+        data |= {f"{pad}_v1": np.full(t.size, v1), f"{pad}_mode": np.full(t.size, 2.0)}
+    touch_s = 0.5 + (0.01 if config.sensor.dynamics == "steady" else 0.0)
+    summary = {"outcome": "success", "touch_time_s": touch_s, "sim_time_s": float(t[-1]), "wall_time_s": 0.01 * dt_ms**-1}
+    return summary, data, summary["wall_time_s"]
+
+
+@pytest.fixture(scope="module")
+def preset_report(tmp_path_factory):
+    """``bench --json`` with the presets' table, its runs replaced by the stand-in."""
+    from piezotip.analysis import fidelity
+
+    out = tmp_path_factory.mktemp("bench-presets")
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(fidelity, "_run", _stand_in_run)
+        printed = io.StringIO()
+        with contextlib.redirect_stdout(printed):
+            code = run_sim.main(["bench", "--json", "--duration", "0.02", "--repeats", "1", "--out", str(out)])
+        assert code == 0
+        text = io.StringIO()
+        with contextlib.redirect_stdout(text):
+            report = fidelity.fidelity_report(scenes=("grasp",))
+            print(fidelity.format_fidelity(report))
+    return json.loads(printed.getvalue()), text.getvalue()
+
+
+def test_bench_json_carries_the_reference_convergence(preset_report):
+    data, _ = preset_report
+    kinds = {"pressure_estimate", "true_pressure", "output_v1", "touch_time_s"}
+    assert [e["name"] for e in data["presets"]] == ["fast", "balanced", "accurate", "reference"]
+    for e in data["presets"]:
+        assert set(e["error_bounds"]) == kinds and set(e["reference_convergence"]) == kinds
+        for c in e["reference_convergence"].values():
+            assert {"uncertainty", "halving_change", "finest_change", "observed_order", "extrapolated", "asymptotic"} <= c.keys()
+    ladder = data["convergence"]["ladder"]
+    assert ladder["halvings"] == [0, 1, 2] and set(ladder["scenes"]) == {"grasp", "grasp-10kg"}
+    checks = data["fidelity_checks"]
+    assert {
+        "reference_uncertainty",
+        "reference_observed_order",
+        "presets_certified_by_reference",
+        "presets_below_reference_uncertainty",
+    } <= checks.keys()
+
+
+def test_the_ladder_recovers_the_stand_ins_order_and_limit(preset_report):
+    """Through the whole pipeline (fixed-grip schedule, held window, ladder, bounds)."""
+    data, _ = preset_report
+    found = data["convergence"]["ladder"]["scenes"]["grasp"]
+    assert found["true_pressure"]["observed_order"] == pytest.approx(2.0, rel=1e-6)
+    assert found["true_pressure"]["extrapolated"] == pytest.approx(HELD_PA, rel=1e-12)
+    assert found["output_v1"]["observed_order"] == pytest.approx(1.0, rel=1e-6)
+    assert found["output_v1"]["extrapolated"] == pytest.approx(HELD_V1, rel=1e-12)
+    u_v1 = 1.25 * 1e-4 * 0.25  # 1.25 |V1(0.25 ms) - V1*|
+    assert found["output_v1"]["uncertainty"] == pytest.approx(u_v1, rel=1e-6)
+    assert found["touch_time_s"]["uncertainty"] == 0
+    by_name = {e["name"]: e for e in data["presets"]}
+    # accurate's V1 differs by 1e-4 x (0.5 - 0.25) = 2.5e-5 V, below u: reported as the bound.
+    accurate = by_name["accurate"]["error_bounds"]["output_v1"]
+    assert accurate["below_uncertainty"] and accurate["value"] == pytest.approx(u_v1, rel=1e-6)
+    assert by_name["fast"]["error_bounds"]["output_v1"]["certified"]  # 1e-4 >= 3 u
+    assert not by_name["balanced"]["error_bounds"]["output_v1"]["certified"]  # 7.5e-5 < 3 u
+    assert "fast" in data["fidelity_checks"]["presets_certified_by_reference"]
+
+
+def test_the_table_prints_an_error_below_the_uncertainty_as_a_bound(preset_report):
+    _, text = preset_report
+    accurate = next(line for line in text.splitlines() if line.startswith("accurate "))
+    assert "<3.1e-05" in accurate
+    assert "reference convergence" in text and "±" in next(line for line in text.splitlines() if line.startswith("reference "))
