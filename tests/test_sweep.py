@@ -170,3 +170,19 @@ def test_a_scheduler_that_is_not_there_is_named(capsys, tmp_path):
     argv = ["sweep", "grasp", "--grid", "object.mass_kg=0.1", "--scheduler", "tcp://127.0.0.1:1", "--out", str(tmp_path)]
     assert cli.main(argv) == 2
     assert "tcp://127.0.0.1:1" in capsys.readouterr().err
+
+
+@pytest.mark.slow
+def test_a_running_scheduler_takes_the_same_work(tmp_path, capsys):
+    """--scheduler ADDRESS sends the points to a cluster someone started (here: one in this
+    process, as `dask scheduler` + `dask worker` would be elsewhere); the rows equal serial ones."""
+    from dask.distributed import LocalCluster
+
+    argv = ["sweep", "grasp", "--grid", "object.mass_kg=0.05,0.2", "--set", SHORT[0], "--preset", "fast", "--json"]
+    with LocalCluster(n_workers=1, threads_per_worker=1, processes=True, dashboard_address=None, silence_logs=50) as cluster:
+        assert cli.main([*argv, "--scheduler", cluster.scheduler_address, "--out", str(tmp_path / "remote")]) == 0
+        remote = json.loads(capsys.readouterr().out)
+    assert cli.main([*argv, "--workers", "0", "--out", str(tmp_path / "serial")]) == 0
+    serial = json.loads(capsys.readouterr().out)
+    assert remote["workers"] == 1
+    assert [_comparable(r) for r in remote["rows"]] == [_comparable(r) for r in serial["rows"]]
