@@ -5,17 +5,10 @@ Fukuda, "Piezoelectric vibration-type tactile sensor with wide measurement range
 elasticity and viscosity change", IEEE Sensors Journal 7(7), 2007.  Equation numbers
 (eq. N) are the paper's.
 
-The gel acts on the driven mode only through two generalized (modal) quantities, both
-normalized by ``A_L = integral_0^L Z_n^2 dx`` so that the mode's normalization drops out:
-
-    kappa = b integral k_e(x) Z_n^2 dx / A_L      [N/m^2]   (= b k_e A_x / A_L if uniform)
-    gamma = b integral c_e(x) Z_n^2 dx / A_L      [N s/m^2] (= b c_e A_x / A_L if uniform)
-
-and with the element's own damping ``c`` (N s/m^2, per unit length) eq. 10's denominator
-divided by A_L is ``kappa + j omega_n (gamma + c)``.  Eqs. 13, 17, 19, 20 and 21 are written
-below in these terms; each function names the equation it implements.  All of them use
-``hypot`` and ratios of bounded quantities, so k_e up to 1e15 N/m^3, c_e up to 1e9 N s/m^3
-and damping down to 1e-12 give finite results without overflow or warnings.
+The element's outputs are the paper's eqs. 13 and 17 to 21, written once as functions of the
+gel's modal loads in :mod:`sensor.equations` (in the paper's order, each naming its equation
+and units); the methods here supply those loads (kappa = b k_e A_x / A_L, gamma likewise, from
+the mode shapes of :mod:`sensor.modes`) and the element's omega_n, c and coupling.
 """
 
 from __future__ import annotations
@@ -26,7 +19,11 @@ from dataclasses import dataclass, fields
 
 import numpy as np
 
+from .equations import normalized_output, phase_rad, sensed_voltage_v, sensitivity_c, sensitivity_k, unloaded_voltage_v
 from .modes import Boundary, ModeShape, check_mode, mode_shape
+
+# The paper's equations live in :mod:`sensor.equations`; these names stay importable from here.
+__all__ = ["ElementParams", "ModeTrim", "SensorElement", "normalized_output", "phase_rad", "sensitivity_c", "sensitivity_k"]
 
 VACUUM_PERMITTIVITY_F_PER_M = 8.8541878128e-12
 
@@ -108,40 +105,6 @@ def _as_load(name: str, value: np.ndarray | float) -> np.ndarray:
         first = arr[bad].flat[0]
         raise ValueError(f"{name} must be finite and non-negative, got {first!r}")
     return arr
-
-
-# ---------------------------------------------------------------------------------------
-# The paper's equations in the modal variables (kappa, gamma); physics.md section 3.
-# ---------------------------------------------------------------------------------------
-
-
-def phase_rad(kappa: np.ndarray, gamma: np.ndarray, omega: float, c: float) -> np.ndarray:
-    """Eq. 13: phi = atan(omega (gamma + c) / kappa), radians in (0, pi/2]."""
-    return np.arctan2(omega * (gamma + c), kappa)
-
-
-def normalized_output(kappa: np.ndarray, gamma: np.ndarray, omega: float, c: float) -> np.ndarray:
-    """Eq. 19: V_1 = omega c / sqrt(kappa^2 + omega^2 (gamma + c)^2), dimensionless in (0, 1]."""
-    return (omega * c) / np.hypot(kappa, omega * (gamma + c))
-
-
-def sensitivity_k(kappa, gamma, omega: float, c: float, b_ratio: float) -> np.ndarray:
-    """Eq. 20: S_k = -dV_1/dk_e, in m^3/N, for a uniform gel (``b_ratio`` = b A_x / A_L, m).
-
-    Written as the product of three ratios each at most 1 in size, so it cannot overflow:
-    S_k = (omega c / h) (kappa / h) (b_ratio / h), h = hypot(kappa, omega (gamma + c)).
-    """
-    h = np.hypot(kappa, omega * (gamma + c))
-    return (omega * c / h) * (kappa / h) * (b_ratio / h)
-
-
-def sensitivity_c(kappa, gamma, omega: float, c: float, b_ratio: float) -> np.ndarray:
-    """Eq. 21: S_c = -dV_1/dc_e, in m^3/(N s), for a uniform gel (``b_ratio`` = b A_x / A_L, m).
-
-    S_c = (omega c / h) (omega (gamma + c) / h) (omega b_ratio / h), h as in eq. 20.
-    """
-    h = np.hypot(kappa, omega * (gamma + c))
-    return (omega * c / h) * (omega * (gamma + c) / h) * (omega * b_ratio / h)
 
 
 @dataclass(frozen=True)
@@ -374,9 +337,13 @@ class SensorElement:
             return 0.0
         return slope_diff * slope_diff
 
+    def _gain_factor(self, mode: int) -> float:
+        return self._trims[mode].gain_factor if mode in self._trims else 1.0
+
     def unloaded_voltage(self, mode: int = 1) -> float:
-        """V_0: eq. 17's amplitude with k_e = c_e = 0, volts (drive V in the same measure)."""
-        return float(self.output_voltage(0.0, 0.0, mode))
+        """Eq. 18: V_0, eq. 17's amplitude with k_e = c_e = 0, volts (drive V in the same measure)."""
+        check_mode(mode)
+        return unloaded_voltage_v(self.params, self.coupling_factor_per_m2(mode), *self._omega_c(mode), self._gain_factor(mode))
 
     def output_voltage(self, k_e, c_e, mode: int = 1, coverage: tuple[float, float] | None = None) -> np.ndarray:
         """Eq. 17: amplitude |V_s| of the sensed voltage, volts (same measure as the drive).
@@ -385,15 +352,5 @@ class SensorElement:
         with F_n the coupling factor of :meth:`coupling_factor_per_m2` (see there for the one
         deviation from the printed equation) and A_L = L.
         """
-        p = self.params
         kappa, gamma = self.modal_load(k_e, c_e, mode, coverage)
-        omega, c = self._omega_c(mode)
-        numerator = (
-            (p.width_m * p.pzt_youngs_pa * p.d31_m_per_v) ** 2
-            * p.drive_voltage_v
-            * (2 * p.substrate_half_thickness_m + p.pzt_thickness_m) ** 2
-        )
-        numerator *= self.coupling_factor_per_m2(mode)
-        if mode in self._trims:
-            numerator *= self._trims[mode].gain_factor
-        return numerator / (4 * p.capacitance_f * p.length_m * np.hypot(kappa, omega * (gamma + c)))
+        return sensed_voltage_v(self.params, self.coupling_factor_per_m2(mode), kappa, gamma, *self._omega_c(mode), self._gain_factor(mode))

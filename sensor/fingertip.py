@@ -2,7 +2,8 @@
 
 ``Fingertip`` composes :class:`sensor.SensorElement`, :class:`sensor.gel.GelModel` and
 :class:`sensor.readout.NoiseParams` and computes what physics.md section 5 defines:
-per-mode outputs against pressure, resolution, detection and upper limits, the inverse,
+per-mode outputs against pressure, resolution, detection and upper limits, the inverse
+(the estimator's, :mod:`sensor.estimator`),
 the dynamic range and the pressures at which the most useful mode changes.
 
 Pressure is force over the element's face (b x L), in Pa, as the paper defines it.
@@ -17,6 +18,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from .element import SensorElement
+from .estimator import exact_estimate
 from .gel import GelModel, check_pressure
 from .modes import check_mode
 from .numerics import brentq
@@ -276,37 +278,17 @@ class Fingertip:
     def estimate(self, v1, mode: int = 1) -> PressureEstimate:
         """Pressure from a reading ``v1`` of V_1 in ``mode``, with uncertainty and status.
 
-        The forward model is tabulated on a log grid, inverted by interpolation in log P and
-        polished by Newton's method with the analytic slope.  Readings within 3 sigma of
-        unloaded are "below_detection" (estimate from the inverse, never negative, with the
-        detection limit as uncertainty); estimates past the mode's P_max are "saturated" and
-        NaN.
+        The readout's one inverse (:class:`sensor.estimator.ModeInverse`, with the exact gel),
+        polished by Newton's method on the forward model for arrays of readings
+        (:meth:`sensor.estimator.ModeInverse.polished`): readings within 3 sigma of unloaded
+        are "below_detection" (estimate from the inverse, never negative, with the detection
+        limit as uncertainty); estimates past the mode's P_max are "saturated" and NaN.
         """
         mode = self._mode(mode)
         v = np.asarray(v1, dtype=float)
         if np.any(np.isnan(v)):
             raise ValueError("v1 contains NaN")
-        table = self._table(mode)
-        log_p = np.interp(-v, -table, np.log(self._grid_pa))
-        p = np.exp(log_p)
-        inside = (v < table[0]) & (v > table[-1])
-        for _ in range(3):
-            step = (self.output(p, mode) - v) / self.output_slope(p, mode)
-            p = np.where(inside, np.clip(p - step, 0.5 * p, 2.0 * p), p)
-        # Above the table's first point the response is linear in P (phi ~ P): invert the slope.
-        p = np.where(v >= table[0], np.maximum(1.0 - v, 0.0) / abs(float(self.output_slope(0.0, mode))), p)
-        sigma = self.sigma(mode)
-        uncertainty = sigma / np.abs(self.output_slope(p, mode))
-        below = (1.0 - v) < DETECTION_SIGMAS * sigma
-        p_max = self.upper_limit(mode)
-        saturated = ~below & ((v <= table[-1]) | ~(p <= p_max))
-        status = np.where(below, "below_detection", np.where(saturated, "saturated", "ok"))
-        uncertainty = np.where(below, self.detection_limit(mode), uncertainty)
-        return PressureEstimate(
-            pressure_pa=np.where(saturated, np.nan, p),
-            uncertainty_pa=np.where(saturated, np.nan, uncertainty),
-            status=status,
-        )
+        return exact_estimate(self, v, mode)
 
     def estimate_pressure(self, v1, mode: int = 1) -> np.ndarray:
         """Pressure estimate in Pa from a reading of V_1 in ``mode`` (NaN where saturated)."""

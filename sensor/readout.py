@@ -1,4 +1,7 @@
-"""Reading the sensor: noise, detection and resolution, and the resonator's envelope.
+"""Reading the sensor: noise, detection and resolution, and the steady envelope of a relaxation.
+
+The envelope's own dynamics live in :mod:`sensor.resonator` (``envelope_rate``,
+``steady_envelope`` and ``envelope_step`` are importable from here too).
 
 Physics reference: ``shared/physics.md`` sections 5 and 6.  Definitions used throughout
 (stated here once, computed by :class:`sensor.Fingertip`):
@@ -21,6 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .element import _require_positive
+from .resonator import envelope_rate, envelope_step, steady_envelope  # noqa: F401 - their home is sensor.resonator
 
 #: A reading moves "detectably" when it moves by this many standard deviations.
 DETECTION_SIGMAS = 3.0
@@ -81,45 +85,9 @@ class PressureEstimate:
 
 
 # ---------------------------------------------------------------------------------------
-# Envelope dynamics of the driven resonator (physics.md section 6).
+# Inferring the steady envelope from a relaxation in progress (physics.md section 6); the
+# envelope's own dynamics are in :mod:`sensor.resonator`.
 # ---------------------------------------------------------------------------------------
-
-
-def envelope_rate(mass_per_length_kg_m: float, omega: float, c: float, kappa, gamma) -> np.ndarray:
-    """Complex relaxation rate lambda of the driven mode's envelope, 1/s.
-
-    Writing the modal displacement as Re(a(t) e^(j omega t)) with a slowly varying and
-    dropping a'' (first-order averaging of eq. 4 at the drive omega = omega_n), the modal
-    equation per unit A_L becomes  2 j omega rho A a' + (kappa + j omega (gamma + c)) a = F,
-    so a relaxes to its steady state (eq. 10) as exp(-lambda t) with
-
-        lambda = (c + gamma) / (2 rho A) - j kappa / (2 omega rho A).
-
-    Its real part is 1 / tau_n with tau_n = 2 M_n / C_n (physics.md section 6); the
-    imaginary part is the detuning by the gel's stiffness, which makes a loaded ring-up beat.
-    """
-    kappa = np.asarray(kappa, float)
-    gamma = np.asarray(gamma, float)
-    return (c + gamma) / (2.0 * mass_per_length_kg_m) - 1j * kappa / (2.0 * omega * mass_per_length_kg_m)
-
-
-def steady_envelope(omega: float, c: float, kappa, gamma) -> np.ndarray:
-    """Steady complex envelope normalized to the unloaded one: omega c / (omega (gamma + c) - j kappa).
-
-    Its magnitude is V_1 (eq. 19) and its angle is the phase change of eq. 13 relative to
-    the unloaded pi/2.
-    """
-    return omega * c / (omega * (np.asarray(gamma, float) + c) - 1j * np.asarray(kappa, float))
-
-
-def envelope_step(envelope, steady, dt_s: float, rate) -> np.ndarray:
-    """Advance the complex envelope toward ``steady`` over ``dt_s`` (exact for a constant load).
-
-    a(t + dt) = a_ss + (a - a_ss) exp(-lambda dt): the exact solution of
-    a' = -lambda (a - a_ss) with a_ss and lambda held over the step, so it is stable for any
-    dt and needs no substeps.
-    """
-    return steady + (np.asarray(envelope, complex) - steady) * np.exp(-np.asarray(rate) * dt_s)
 
 
 def ring_up_steady(envelope: complex, time_s: float, tau0_s: float, rate_guess: complex | None = None) -> tuple[complex, float]:

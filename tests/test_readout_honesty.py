@@ -28,7 +28,7 @@ import math
 import numpy as np
 import pytest
 
-import piezotip.sensor.channel as channel_module
+import piezotip.sensor.inference as channel_module
 from piezotip.sensor import ElementParams, Fingertip, GelModel, SensorElement
 from piezotip.sensor.channel import SensorChannel, SteadyInference, _steady
 
