@@ -272,19 +272,7 @@ class SensorChannel:
         k_eff = kappa + self._u_detuning(mode, temp)
         steady = normalized_response(k_eff, gamma, w_d, c)
         rate = _rate(rho_a, w_d, c, k_eff, gamma)
-        self.time_in_mode_s += dt_s
-        self._clock_s += dt_s
-        self._dt_s = dt_s
-        tau = 1.0 / rate.real
-        if self.dynamics == "envelope":
-            self.envelope = envelope = _step(self.envelope, steady, dt_s, rate)
-            settled = self.time_in_mode_s >= tau * _SETTLE_TAUS
-        elif self.dynamics == "carrier":
-            self.envelope = envelope = self._carrier.step(k_eff, gamma, dt_s)
-            settled = self.time_in_mode_s >= tau * _SETTLE_TAUS
-        else:
-            self.envelope = envelope = steady
-            settled = True
+        envelope, settled, tau = self._resonate(steady, rate, k_eff, gamma, dt_s)
         out = envelope * self._u_scale(mode, temp)
         ref = self._u_ref[mode]
         sigma = self._u_sigma_v[mode] / math.hypot(ref.real, ref.imag)
@@ -407,6 +395,22 @@ class SensorChannel:
         """Advance by ``dt_s`` under the pad's pressure profile (held over the step) and sample."""
         return self.update_trusted(self._checked(pressure_cells_pa).tolist(), dt_s)
 
+    def _resonate(self, steady: complex, rate: complex, kappa: float, gamma: float, dt_s: float) -> tuple[complex, bool, float]:
+        """Advance the resonator one sample under the load (kappa, gamma): (envelope, settled,
+        tau_s) for the channel's dynamics (steady, envelope or carrier; sensor/resonator.py)."""
+        self.time_in_mode_s += dt_s
+        self._clock_s += dt_s
+        self._dt_s = dt_s
+        tau = 1.0 / rate.real
+        if self.dynamics == "envelope":
+            self.envelope = envelope = _step(self.envelope, steady, dt_s, rate)
+            return envelope, self.time_in_mode_s >= tau * _SETTLE_TAUS, tau
+        if self.dynamics == "carrier":
+            self.envelope = envelope = self._carrier.step(kappa, gamma, dt_s)
+            return envelope, self.time_in_mode_s >= tau * _SETTLE_TAUS, tau
+        self.envelope = steady
+        return steady, True, tau
+
     def update_trusted(self, pressure_cells_pa: Sequence[float], dt_s: float) -> Reading:
         """:meth:`update` without checking the profile: the co-simulation's per-step path.
 
@@ -434,19 +438,7 @@ class SensorChannel:
                 gamma += c_e * w
         steady = normalized_response(kappa, gamma, omega, c)
         rate = _rate(self._rho_a_f, omega, c, kappa, gamma)
-        self.time_in_mode_s += dt_s
-        self._clock_s += dt_s
-        self._dt_s = dt_s
-        tau = 1.0 / rate.real
-        if self.dynamics == "envelope":
-            self.envelope = envelope = _step(self.envelope, steady, dt_s, rate)
-            settled = self.time_in_mode_s >= tau * _SETTLE_TAUS
-        elif self.dynamics == "carrier":
-            self.envelope = envelope = self._carrier.step(kappa, gamma, dt_s)
-            settled = self.time_in_mode_s >= tau * _SETTLE_TAUS
-        else:
-            self.envelope = envelope = steady
-            settled = True
+        envelope, settled, tau = self._resonate(steady, rate, kappa, gamma, dt_s)
         v1_true = abs(envelope)
         # The lock-in's in-phase and quadrature outputs each carry the readout's noise.
         iq = envelope + complex(self._normal() * sigma, self._normal() * sigma) if self.noise else envelope
