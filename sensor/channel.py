@@ -81,6 +81,20 @@ REZERO_S = 0.5
 REZERO_SIGMAS = 4.0
 
 
+def _modal_load(table_at, pressure_cells_pa, weights) -> tuple[float, float]:
+    """(kappa, gamma): the cells' tabulated (k_e, c_e) summed with the mode's weights (the modal
+    load of eq. 20's integrals, per cell), in Python floats for the per-step path."""
+    if len(weights) == 1:
+        k_e, c_e = table_at(pressure_cells_pa[0])
+        return k_e * weights[0], c_e * weights[0]
+    kappa = gamma = 0.0
+    for p, w in zip(pressure_cells_pa, weights, strict=True):
+        k_e, c_e = table_at(p)
+        kappa += k_e * w
+        gamma += c_e * w
+    return kappa, gamma
+
+
 class SensorChannel:
     """The readout of one fingertip: drives one mode at a time, samples, switches.
 
@@ -263,11 +277,7 @@ class SensorChannel:
             k_e, c_e = tip.foundation(np.asarray(pressure_cells_pa, float), mode)
             kappa, gamma = float(k_e @ np.asarray(weights)), float(c_e @ np.asarray(weights))
         else:
-            kappa = gamma = 0.0
-            for p, w in zip(pressure_cells_pa, weights, strict=True):
-                k_e, c_e = table_at(p)
-                kappa += k_e * w
-                gamma += c_e * w
+            kappa, gamma = _modal_load(table_at, pressure_cells_pa, weights)
         c, rho_a, w_d = self._u_c, self._u_rho_a, self._u_drive[mode]
         k_eff = kappa + self._u_detuning(mode, temp)
         steady = normalized_response(k_eff, gamma, w_d, c)
@@ -427,15 +437,8 @@ class SensorChannel:
         if table_at is None:  # exact: the gel model itself, on arrays
             k_e, c_e = self.tip.foundation(np.asarray(pressure_cells_pa, float), mode)
             kappa, gamma = float(k_e @ self._weights[mode]), float(c_e @ self._weights[mode])
-        elif len(weights) == 1:
-            k_e, c_e = table_at(pressure_cells_pa[0])
-            kappa, gamma = k_e * weights[0], c_e * weights[0]
         else:
-            kappa = gamma = 0.0
-            for p, w in zip(pressure_cells_pa, weights, strict=True):
-                k_e, c_e = table_at(p)
-                kappa += k_e * w
-                gamma += c_e * w
+            kappa, gamma = _modal_load(table_at, pressure_cells_pa, weights)
         steady = normalized_response(kappa, gamma, omega, c)
         rate = _rate(self._rho_a_f, omega, c, kappa, gamma)
         envelope, settled, tau = self._resonate(steady, rate, kappa, gamma, dt_s)
