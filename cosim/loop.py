@@ -220,6 +220,7 @@ class CoSimulation:
         self._qvel, self._sensordata = d.qvel, d.sensordata
         self._ctrl, self._forcerange = d.ctrl, m.actuator_forcerange
         self._warning_number = d.warning.number  # a live view of the warnings' counters
+        self._disable_flags = int(m.opt.disableflags)  # the model's own (kept in every substep)
         self._xpos, self._object_body = d.xpos, m.body("object").id
         self._contact_list = [int(self._contact_adr[pad]) for pad in self.pads]
         self._lift_q, self._finger_q = int(self._lift_qpos), [int(a) for a in self._finger_qpos]
@@ -296,7 +297,11 @@ class CoSimulation:
         fingers, f_start = self._finger_act, self._fingers_from
         delta = (self._lift_to - start) / self.substeps
         f_delta = (self._fingers_to - f_start) / self.substeps
-        for k in range(1, self.substeps + 1):
+        # MuJoCo's sensors (the referee's ground truth, read by _record alone) are computed in
+        # the period's last substep only: they never act on the dynamics.
+        opt, flags, no_sensors = m.opt, self._disable_flags, self._disable_flags | _NO_SENSORS
+        last = self.substeps
+        for k in range(1, last + 1):
             ctrl[act] = start + k * delta
             ctrl[fingers] = f_start + k * f_delta
             if self._gel_every_substep:
@@ -306,6 +311,7 @@ class CoSimulation:
                 # stiffness and offset force make MuJoCo apply -A P(q0) - A P'(q0) (q - q0) at
                 # every substep (implicitly), with no gel law in Python in between.
                 apply_gel_forces(d)
+            opt.disableflags = flags if k == last else no_sensors
             mujoco.mj_step(m, d)
         self._lift_from, self._fingers_from = self._lift_to, self._fingers_to
         self._check_stable()
@@ -473,6 +479,8 @@ TRUTH_COLUMNS = (
     "left_finger_force_n",
     "right_finger_force_n",
 )
+
+_NO_SENSORS = int(mujoco.mjtDisableBit.mjDSBL_SENSOR)
 
 #: Readout statuses, recorded as their index (``{side}_status`` columns).
 STATUS_CODES = ("ok", "below_detection", "saturated", "settling")

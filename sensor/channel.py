@@ -70,7 +70,7 @@ from .resonator import (  # noqa: F401 - _steady, _step, SETTLE_FRACTION: import
 )
 from .variation import REFERENCE_TEMPERATURE_C
 
-#: Noise is drawn in blocks (one generator call per block, not per reading).
+#: Noise is drawn in blocks (one generator call per block, not per reading; even: I and Q pair up).
 _NOISE_BLOCK = 4096
 #: A calibrated unit's readout re-zeroes after this long unloaded (below detection), s: longer
 #: than the inference's settling after a release (0.17 to 0.37 s with Table I's damping, see
@@ -168,7 +168,7 @@ class SensorChannel:
         if dynamics == "carrier":
             self._carrier = self._new_carrier(self.mode)
             self._carrier.start_steady()
-        self._noise: list[float] = []
+        self._noise: list[complex] = []
         # The readout's own clock: time since the channel started or last switched, s.
         self._clock_s = 0.0
         self._dt_s = 0.005  # the last sample period, s (for the settled history before the scene)
@@ -286,7 +286,7 @@ class SensorChannel:
         out = envelope * self._u_scale(mode, temp)
         ref = self._u_ref[mode]
         sigma = self._u_sigma_v[mode] / math.hypot(ref.real, ref.imag)
-        iq = out + complex(self._normal() * sigma, self._normal() * sigma) if self.noise else out
+        iq = out + self._iq_noise() * sigma if self.noise else out
         v1_true = abs(out)
         phase = -math.atan2(out.imag, out.real) if v1_true > 0 else 0.0
         return _reading(mode, abs(iq), v1_true, phase, self.time_in_mode_s, tau, settled, kappa, gamma, iq)
@@ -352,10 +352,12 @@ class SensorChannel:
             return CarrierResonator(self._u_rho_a, self._u_c, self._u_drive[mode], self._carrier_spc)
         return CarrierResonator(self._rho_a_f, self._c_f, float(self._omega[mode]), self._carrier_spc)
 
-    def _normal(self) -> float:
-        """One standard normal draw (from a block drawn ahead)."""
+    def _iq_noise(self) -> complex:
+        """The lock-in's noise on one reading: independent standard normal draws on I and Q,
+        from a block drawn ahead (the generator's draws taken in pairs, I first)."""
         if not self._noise:
-            self._noise = self.rng.standard_normal(_NOISE_BLOCK).tolist()
+            draws = self.rng.standard_normal(_NOISE_BLOCK).tolist()
+            self._noise = [complex(i, q) for i, q in zip(draws[-1::-2], draws[-2::-2], strict=True)][::-1]
         return self._noise.pop()
 
     @property
@@ -444,7 +446,7 @@ class SensorChannel:
         envelope, settled, tau = self._resonate(steady, rate, kappa, gamma, dt_s)
         v1_true = abs(envelope)
         # The lock-in's in-phase and quadrature outputs each carry the readout's noise.
-        iq = envelope + complex(self._normal() * sigma, self._normal() * sigma) if self.noise else envelope
+        iq = envelope + self._iq_noise() * sigma if self.noise else envelope
         v1 = abs(iq)
         phase = -math.atan2(envelope.imag, envelope.real) if v1_true > 0 else 0.0
         return _reading(mode, v1, v1_true, phase, self.time_in_mode_s, tau, settled, kappa, gamma, iq)
