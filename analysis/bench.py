@@ -12,7 +12,9 @@ included, writing into a temporary directory) and measures:
 - ``bare_step_us``: ``mujoco.mj_step`` alone on the same model in the same states.  One extra
   run captures the full integration state (``mjSTATE_INTEGRATION``: qpos, qvel, warm start,
   controls, applied forces) and the model values the loop changes (the pad joints'
-  stiffness, the fingers' force range) just before every physics step; each state is then
+  stiffness, the fingers' force range, the disable flags: the loop computes MuJoCo's sensors
+  in a period's last substep only) just before every physics step, through the
+  simulation's own hook (``CoSimulation.watch_mj_step``, nothing patched); each state is then
   restored and one ``mj_step`` timed, ``repeats`` passes (alternating with the timed runs,
   so that both sides see the machine alike), each state's fastest time kept;
 - ``overhead_ratio`` = cosim_step_us / bare_step_us over the whole run (the issue's target:
@@ -20,8 +22,8 @@ included, writing into a temporary directory) and measures:
   during the held grasp, where the contacts make mj_step dearest);
 - ``stages_us``: the time of each stage of a control step (physics incl. gel forces, of
   which gel forces, pressure, sensor, readout, controller, actuators, record, other), from
-  ``repeats`` more runs with a timer around each stage method (CoSimulation.advance calls
-  one method per stage), the timers' own cost subtracted.
+  ``repeats`` more runs with a timer around each stage method (``CoSimulation.wrap_stages``:
+  CoSimulation.advance calls one method per stage), the timers' own cost subtracted.
 
 The runs are deterministic (seeded noise, single-threaded MuJoCo), so every run passes
 through the same states.  Performance claims come from here, never from a timed unit test.
@@ -42,23 +44,15 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
+from piezotip.cosim.loop import STAGE_METHODS
 from piezotip.scenarios.config import ScenarioConfig
 
 #: The issue's targets.
 TARGET_OVERHEAD_RATIO = 1.35
 TARGET_REALTIME_FACTOR = 20.0
 
-#: Stage names, in the order of a control step; each maps to the CoSimulation methods timed.
-STAGES = ("physics", "pressure", "sensor", "readout", "controller", "actuators", "record")
-_STAGE_METHODS = {
-    "physics": ("_physics",),
-    "pressure": ("_pressures",),
-    "sensor": ("_sense",),
-    "readout": ("_readout",),
-    "controller": ("_observe", "controller.step"),
-    "actuators": ("_actuate",),
-    "record": ("_record", "recorder.append_values", "recorder.append"),
-}
+#: Stage names, in the order of a control step (the gel forces, timed too, run inside physics).
+STAGES = tuple(stage for stage in STAGE_METHODS if stage != "gel_forces")
 
 
 @dataclass(frozen=True)
@@ -125,49 +119,35 @@ _STATE = mujoco.mjtState.mjSTATE_INTEGRATION
 
 
 class _StateLog:
-    """Captures the integration state (and the model values the loop sets) before every mj_step."""
+    """Captures the integration state and the model values the loop sets before every mj_step
+    (through the simulation's own instrument hook, :meth:`CoSimulation.watch_mj_step`)."""
 
     def __init__(self, sim) -> None:
         self.sim = sim
-        m = sim.model
-        self.size = mujoco.mj_stateSize(m, _STATE)
-        self.pad_joints = np.asarray(sim.bridge._jnt)
-        self.actuator = sim._finger_act
+        self.size = mujoco.mj_stateSize(sim.model, _STATE)
         self.states: list[np.ndarray] = []
-        self.stiffness: list[np.ndarray] = []
-        self.forcerange: list[np.ndarray] = []
-        self._step = mujoco.mj_step
+        self.settings: list[tuple] = []
+        sim.watch_mj_step(self._capture)
 
-        def capture(model, data):  # every physics step, whoever calls it: the state it starts from
-            if model is m:
-                state = np.empty(self.size)
-                mujoco.mj_getState(m, data, state, _STATE)
-                self.states.append(state)
-                self.stiffness.append(m.jnt_stiffness[self.pad_joints].copy())
-                self.forcerange.append(m.actuator_forcerange[self.actuator].copy())
-            self._step(model, data)
-
-        self._capture = capture
-
-    def __enter__(self) -> _StateLog:
-        """While inside, every ``mujoco.mj_step`` of the simulation is captured first."""
-        mujoco.mj_step = self._capture
-        return self
-
-    def __exit__(self, *exc) -> None:
-        mujoco.mj_step = self._step
+    def _capture(self, model, data) -> None:  # the state the step starts from
+        state = np.empty(self.size)
+        mujoco.mj_getState(model, data, state, _STATE)
+        self.states.append(state)
+        self.settings.append(self.sim.model_settings())
 
     def time_bare(self, repeats: int) -> np.ndarray:
-        """Time of one mj_step from each captured state, s, shape (repeats, states)."""
-        m = self.sim.model
+        """Time of one mj_step from each captured state, s, shape (repeats, states): the same
+        state, the same model values (the gel's tangent stiffness, the force limit, the disable
+        flags: MuJoCo's sensors where the loop computes them), nothing else."""
+        sim = self.sim
+        m = sim.model
         d = mujoco.MjData(m)
-        clock, step = time.perf_counter, self._step
+        clock, step = time.perf_counter, mujoco.mj_step
         times = np.empty((repeats, len(self.states)))
         for r in range(repeats):
-            for i, (state, stiffness, forcerange) in enumerate(zip(self.states, self.stiffness, self.forcerange, strict=True)):
+            for i, (state, settings) in enumerate(zip(self.states, self.settings, strict=True)):
                 mujoco.mj_setState(m, d, state, _STATE)
-                m.jnt_stiffness[self.pad_joints] = stiffness
-                m.actuator_forcerange[self.actuator] = forcerange
+                sim.apply_model_settings(settings)
                 t0 = clock()
                 step(m, d)
                 times[r, i] = clock() - t0
@@ -210,19 +190,15 @@ def _wrapper_costs(samples: int = 20000) -> tuple[float, float]:
 
 
 class _StageClock:
-    """Wraps the stage methods of one CoSimulation (on the instance) with timers."""
+    """Timers around each stage of one CoSimulation (:meth:`CoSimulation.wrap_stages`) and the
+    recorder's appends (part of the record stage)."""
 
     def __init__(self, sim, recorder) -> None:
         self.totals = dict.fromkeys((*STAGES, "gel_forces"), 0.0)
         self.calls = dict.fromkeys(self.totals, 0)
-        owners = {"": sim, "controller": sim.controller, "recorder": recorder}
-        for stage, methods in _STAGE_METHODS.items():
-            for path in methods:
-                owner_name, _, attr = path.rpartition(".")
-                owner = owners[owner_name]
-                if hasattr(owner, attr):
-                    setattr(owner, attr, self._timed(stage, getattr(owner, attr)))
-        sim.bridge.apply_gel_forces = self._timed("gel_forces", sim.bridge.apply_gel_forces)
+        sim.wrap_stages(self._timed)
+        for name in ("append_values", "append"):
+            setattr(recorder, name, self._timed("record", getattr(recorder, name)))
 
     def _timed(self, stage: str, fn: Callable) -> Callable:
         totals, calls, clock = self.totals, self.calls, time.perf_counter
@@ -287,8 +263,7 @@ def bench_case(case: BenchCase, repeats: int = 5, duration_s: float | None = Non
 
     capture = _new_sim(config)
     log = _StateLog(capture)
-    with log:
-        _run(capture)
+    _run(capture)
     # Timed runs and bare passes alternate, so that both see the machine in the same moods.
     walls, step_times, bare_passes = [], [], []
     for _ in range(repeats):

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -197,7 +198,7 @@ class CoSimulation:
         self._prepare_step()
 
     #: Live views of the model's and data's arrays (see _prepare_step): rebuilt, not copied.
-    _VIEWS = ("_qpos", "_actuator_force", "_qvel", "_sensordata", "_ctrl", "_forcerange", "_warning_number", "_xpos")
+    _VIEWS = ("_qpos", "_actuator_force", "_qvel", "_sensordata", "_ctrl", "_forcerange", "_warning_number", "_xpos", "_mj_step")
 
     def __getstate__(self) -> dict:
         return {k: v for k, v in self.__dict__.items() if k not in self._VIEWS}
@@ -220,7 +221,7 @@ class CoSimulation:
         self._qvel, self._sensordata = d.qvel, d.sensordata
         self._ctrl, self._forcerange = d.ctrl, m.actuator_forcerange
         self._warning_number = d.warning.number  # a live view of the warnings' counters
-        self._disable_flags = int(m.opt.disableflags)  # the model's own (kept in every substep)
+        self._mj_step = mujoco.mj_step  # watch_mj_step puts an instrument in front of it (not copied)
         self._xpos, self._object_body = d.xpos, m.body("object").id
         self._contact_list = [int(self._contact_adr[pad]) for pad in self.pads]
         self._lift_q, self._finger_q = int(self._lift_qpos), [int(a) for a in self._finger_qpos]
@@ -288,7 +289,7 @@ class CoSimulation:
         return dict(zip(self.columns, self.advance(), strict=True))
 
     def _physics(self) -> None:
-        m, d, apply_gel_forces = self.model, self.data, self.bridge.apply_gel_forces
+        m, d, apply_gel_forces, mj_step = self.model, self.data, self.bridge.apply_gel_forces, self._mj_step
         # The servos interpolate their set-points over the period, as real servos do between a
         # controller's set-points: a lift target that jumped once per period would make the
         # servo's force ripple by kp v T (10 N at 0.1 m/s) and hide the load it carries, and
@@ -299,7 +300,9 @@ class CoSimulation:
         f_delta = (self._fingers_to - f_start) / self.substeps
         # MuJoCo's sensors (the referee's ground truth, read by _record alone) are computed in
         # the period's last substep only: they never act on the dynamics.
-        opt, flags, no_sensors = m.opt, self._disable_flags, self._disable_flags | _NO_SENSORS
+        opt = m.opt
+        flags = opt.disableflags  # the model's own, between periods (kept in every substep)
+        no_sensors = flags | _NO_SENSORS
         last = self.substeps
         for k in range(1, last + 1):
             ctrl[act] = start + k * delta
@@ -312,7 +315,7 @@ class CoSimulation:
                 # every substep (implicitly), with no gel law in Python in between.
                 apply_gel_forces(d)
             opt.disableflags = flags if k == last else no_sensors
-            mujoco.mj_step(m, d)
+            mj_step(m, d)
         self._lift_from, self._fingers_from = self._lift_to, self._fingers_to
         self._check_stable()
         self.time_s += self.dt
@@ -416,6 +419,47 @@ class CoSimulation:
             row += profile
         return row
 
+    # -- instruments (run_sim.py bench): measured without patching ---------------------------
+
+    def wrap_stages(self, wrap: Callable[[str, Callable], Callable]) -> None:
+        """Put ``wrap(stage, method)`` (a timer, a tracer) in place of each method that makes a
+        stage of :meth:`advance`, on this instance (:data:`STAGE_METHODS` names them; the gel
+        forces are a stage of their own inside physics).  The recorder's appends are the
+        caller's to wrap: the recorder is the caller's."""
+        owners = {"": self, "controller": self.controller, "bridge": self.bridge}
+        for stage, paths in STAGE_METHODS.items():
+            for path in paths:
+                owner_name, _, attr = path.rpartition(".")
+                owner = owners[owner_name]
+                setattr(owner, attr, wrap(stage, getattr(owner, attr)))
+
+    def watch_mj_step(self, before: Callable[[mujoco.MjModel, mujoco.MjData], None]) -> None:
+        """Call ``before(model, data)`` before every ``mj_step`` of this simulation (the bench
+        captures the states it times bare ``mj_step`` from)."""
+        step = mujoco.mj_step
+
+        def watched(m: mujoco.MjModel, d: mujoco.MjData) -> None:
+            before(m, d)
+            step(m, d)
+
+        self._mj_step = watched
+
+    def model_settings(self) -> tuple[np.ndarray, np.ndarray, int]:
+        """What the loop writes into the model as it runs, copied: the pad joints' stiffness
+        (the gel's tangent), the fingers' force range and the disable flags.  With the
+        integration state, what a physics step of this simulation starts from."""
+        m = self.model
+        joints = self.bridge.joint_ids
+        return m.jnt_stiffness[joints].copy(), m.actuator_forcerange[self._finger_act].copy(), int(m.opt.disableflags)
+
+    def apply_model_settings(self, settings: tuple[np.ndarray, np.ndarray, int]) -> None:
+        """Write :meth:`model_settings`' values back into the model."""
+        m = self.model
+        stiffness, forcerange, flags = settings
+        m.jnt_stiffness[self.bridge.joint_ids] = stiffness
+        m.actuator_forcerange[self._finger_act] = forcerange
+        m.opt.disableflags = flags
+
     # -- a whole run ---------------------------------------------------------------------
 
     def run(self, recorder: Recorder | None = None, progress=None, max_steps: int | None = None, on_step=None) -> RunResult:
@@ -464,6 +508,20 @@ class CoSimulation:
         v = self.data.qvel[self._object_dof_i : self._object_dof_i + 6]
         return bool(np.linalg.norm(v[:3]) < REST_SPEED_M_S and np.linalg.norm(v[3:]) < REST_SPIN_RAD_S)
 
+
+#: The stages of :meth:`CoSimulation.advance` in its order, each with the methods that make it
+#: (:meth:`CoSimulation.wrap_stages`); "gel_forces" runs inside "physics", once per control
+#: period (every substep with ``physics.gel_update=substep``).
+STAGE_METHODS = {
+    "physics": ("_physics",),
+    "gel_forces": ("bridge.apply_gel_forces",),
+    "pressure": ("_pressures",),
+    "sensor": ("_sense",),
+    "readout": ("_readout",),
+    "controller": ("_observe", "controller.step"),
+    "actuators": ("_actuate",),
+    "record": ("_record",),
+}
 
 #: The recorded ground truth (the referee's; never in an Observation): the object's centre
 #: (m), its vertical velocity, speed and spin (m/s, rad/s), the table's vertical push on it and

@@ -605,6 +605,11 @@ class PadBridge:
         self._stiffness = memoryview(self.model.jnt_stiffness)
         self._views_of = None
 
+    @property
+    def joint_ids(self) -> np.ndarray:
+        """The ids of the pad strip joints whose stiffness :meth:`apply_gel_forces` writes."""
+        return self._jnt
+
     def _data_views(self, data: mujoco.MjData) -> tuple[memoryview, memoryview]:
         """memoryviews of ``data.qpos`` and ``data.qfrc_applied`` (kept while the same MjData comes back)."""
         if data is not self._views_of:
