@@ -11,18 +11,27 @@ the runs, the files), so start-up and Dask's cluster are in the numbers:
 - ``sweep_speedup_2_vs_1``: one sweep on a local cluster of 2 workers against 1 worker.
 - ``long_run_rt_ratio``: the loop's real-time factor of a grasp held 300 s against one held
   10 s, recorder included (a recorder whose cost grew with the run's length shows here).
+- with ``baseline=REV`` (``bench --throughput --baseline REV``): ``baseline_speedup``, the same
+  experiment as git revision REV of this repository runs it (the code as it was "today", when a
+  target says "faster than today") against the present code's default run, both with their
+  figure (an old revision may have no ``--no-plot``).  The revision runs from a copy of its
+  tree (``git archive``) with this environment's packages, laid out as its own pyproject
+  installs it (:func:`revision_tree`), in the same bench.
 
 The caches used are in a temporary folder (``PIEZOTIP_CACHE_DIR``), never the user's.
 """
 
 from __future__ import annotations
 
+import io
 import math
 import os
 import subprocess
 import sys
+import tarfile
 import tempfile
 import time
+import tomllib
 from pathlib import Path
 
 #: The issue's targets.
@@ -116,12 +125,74 @@ def long_run_times(work: Path, long_hold_s: float = 300.0, short_hold_s: float =
     }
 
 
-def throughput_report(progress=None) -> dict:
-    """All three, in one run (the ratios compare numbers taken minutes apart on one machine)."""
+#: The repository this code runs from (an editable install or a checkout).
+REPO = Path(__file__).resolve().parents[1]
+
+
+def revision_tree(rev: str, work: Path, repo: Path = REPO) -> tuple[Path, dict[str, str]]:
+    """Revision ``rev`` of the git repository ``repo``, ready to run: (the folder to run its
+    ``run_sim.py`` from, the environment variables to run it with).
+
+    The revision's files are extracted (``git archive``) into ``work``; where its pyproject
+    maps packages to folders (``[tool.setuptools.package-dir]``, e.g. ``piezotip.sensor`` =
+    ``sensor/``), a folder of symbolic links lays them out as an install would, and
+    ``run_sim.py`` runs from there, so that every import finds the revision's code and none
+    finds this checkout's.  Raises ValueError naming ``rev`` when git cannot produce it.
+    """
+    proc = subprocess.run(["git", "-C", str(repo), "archive", "--format=tar", rev], capture_output=True)
+    if proc.returncode != 0:
+        raise ValueError(f"--baseline {rev}: not a revision of the git repository at {repo} ({proc.stderr.decode().strip()})")
+    tree = work / f"rev-{rev.replace('/', '_')}"
+    tree.mkdir(parents=True)
+    with tarfile.open(fileobj=io.BytesIO(proc.stdout)) as tar:
+        tar.extractall(tree, filter="data")
+    mapping = {}
+    if (tree / "pyproject.toml").exists():
+        config = tomllib.loads((tree / "pyproject.toml").read_text())
+        mapping = config.get("tool", {}).get("setuptools", {}).get("package-dir", {})
+    run_from = tree
+    if mapping:
+        run_from = work / f"{tree.name}-installed"
+        for package, folder in sorted(mapping.items(), key=lambda item: item[0].count(".")):
+            target = run_from.joinpath(*package.split("."))
+            target.mkdir(parents=True, exist_ok=True)
+            for entry in (tree / folder).iterdir():
+                if not (target / entry.name).exists():
+                    (target / entry.name).symlink_to(entry)
+        (run_from / "run_sim.py").symlink_to(tree / "run_sim.py")
+    env = {**os.environ, "PYTHONPATH": str(run_from), "MPLBACKEND": "Agg", "PIEZOTIP_CACHE_DIR": str(work / "cache")}
+    return run_from, env
+
+
+def baseline_times(rev: str, work: Path, repo: Path = REPO) -> dict:
+    """``experiment grasp-range`` as revision ``rev`` runs it, and as this code runs it by default
+    (its figure too, as the revision's does), whole commands, s."""
+    run_from, env = revision_tree(rev, work / "baseline", repo)
+    start = time.perf_counter()
+    proc = subprocess.run(
+        [sys.executable, "run_sim.py", "experiment", "grasp-range", "--out", str(work / "baseline-out")],
+        cwd=run_from,
+        env=env,
+        capture_output=True,
+        text=True,
+    )
+    baseline = time.perf_counter() - start
+    if proc.returncode not in (0, 1):
+        raise RuntimeError(f"revision {rev}: experiment grasp-range failed ({proc.returncode}): {proc.stderr.strip()[-500:]}")
+    now = _timed_command(["experiment", "grasp-range", "--out", str(work / "baseline-now")], _env(work / "cache"))
+    return {"baseline_rev": rev, "baseline_experiment_s": baseline, "experiment_with_plot_s": now, "baseline_speedup": baseline / now}
+
+
+def throughput_report(progress=None, baseline: str | None = None) -> dict:
+    """All three (and the baseline's, when asked), in one run (the ratios compare numbers taken
+    minutes apart on one machine)."""
     report = {}
+    measures = [("experiment", experiment_times), ("sweep", sweep_times), ("long run", long_run_times)]
+    if baseline is not None:
+        measures.append((f"experiment at {baseline}", lambda work: baseline_times(baseline, work)))
     with tempfile.TemporaryDirectory(prefix="piezotip-throughput-") as tmp:
         work = Path(tmp)
-        for name, measure in (("experiment", experiment_times), ("sweep", sweep_times), ("long run", long_run_times)):
+        for name, measure in measures:
             if progress is not None:
                 progress(f"throughput: {name}")
             report.update(measure(work))
@@ -151,4 +222,12 @@ def format_throughput(report: dict) -> str:
         f"   ratio {report['long_run_rt_ratio']:.2f}  (target >= {TARGET_LONG_RUN_RT_RATIO:g})"
         f"  {mark(report['long_run_rt_ratio'] >= TARGET_LONG_RUN_RT_RATIO)}",
     ]
+    if "baseline_speedup" in report:
+        lines += [
+            f"  experiment grasp-range at {report['baseline_rev']:<12}      {report['baseline_experiment_s']:7.1f} s"
+            "  (as that revision ran it)",
+            f"  experiment grasp-range now, with its figure    {report['experiment_with_plot_s']:7.1f} s"
+            f"   {report['baseline_speedup']:.2f}x  (target >= {TARGET_EXPERIMENT_SPEEDUP:g}x)"
+            f"  {mark(report['baseline_speedup'] >= TARGET_EXPERIMENT_SPEEDUP)}",
+        ]
     return "\n".join(lines)

@@ -331,10 +331,16 @@ def _cmd_bench(args: argparse.Namespace) -> int:
         report["presets"] = fidelity["presets"]
         report["convergence"] = fidelity["convergence"]
         report["fidelity_checks"] = fidelity["checks"]
+    if args.baseline is not None:
+        args.throughput = True  # the baseline is one of the throughput figures
     if args.throughput:
         from piezotip.analysis.throughput import throughput_report
 
-        report["throughput"] = throughput_report(progress=progress)
+        try:
+            report["throughput"] = throughput_report(progress=progress, baseline=args.baseline)
+        except ValueError as err:  # a revision git does not know
+            print(f"error: {err}", file=sys.stderr)
+            return 2
     files = [str(p) for p in write_report(report, Path(args.out))] if args.out else []
     if args.out and not args.no_presets:
         files.append(str(plot_pareto(fidelity, Path(args.out) / "pareto.png")))
@@ -438,6 +444,11 @@ def build_parser() -> argparse.ArgumentParser:
         "--throughput",
         action="store_true",
         help="also time whole commands: experiment (Dask + caches vs serial, no caches), sweep on 2 vs 1 workers, 300 s vs 10 s runs",
+    )
+    p.add_argument(
+        "--baseline",
+        metavar="REV",
+        help="with --throughput: also time experiment grasp-range as git revision REV of this repository runs it, against now",
     )
     p.set_defaults(func=_cmd_bench)
     return parser

@@ -1,5 +1,9 @@
 """`bench --throughput`: its report's shape and verdicts (the timing itself is bench's, not a test's)."""
 
+import subprocess
+import sys
+from pathlib import Path
+
 import pytest
 
 from piezotip.analysis import throughput
@@ -41,3 +45,37 @@ def test_a_failing_command_is_an_error_naming_it(tmp_path):
 
 def test_the_sweep_grid_has_the_points_it_says():
     assert throughput.SWEEP_GRID and all("=" in g for g in throughput.SWEEP_GRID)
+
+
+def _git_checkout() -> bool:
+    proc = subprocess.run(["git", "-C", str(throughput.REPO), "rev-parse", "HEAD"], capture_output=True)
+    return proc.returncode == 0
+
+
+needs_git = pytest.mark.skipif(not _git_checkout(), reason="needs a git checkout of piezotip")
+
+
+@needs_git
+def test_a_revision_runs_its_own_code_not_this_checkouts(tmp_path):
+    run_from, env = throughput.revision_tree("HEAD", tmp_path)
+    code = "import piezotip.sensor.channel as c, piezotip.cli as cli; print(c.__file__); print(cli.__file__)"
+    proc = subprocess.run([sys.executable, "-c", code], cwd=run_from, env=env, capture_output=True, text=True, check=True)
+    files = proc.stdout.split()
+    assert len(files) == 2 and all(f.startswith(str(run_from)) for f in files)
+    # the symbolic links lead into the revision's extracted tree, never into this checkout
+    assert all(not Path(f).resolve().is_relative_to(throughput.REPO) for f in files)
+    listed = subprocess.run([sys.executable, "run_sim.py", "list"], cwd=run_from, env=env, capture_output=True, text=True)
+    assert listed.returncode == 0 and "grasp" in listed.stdout
+
+
+@needs_git
+def test_an_unknown_revision_is_an_error_naming_it(tmp_path):
+    with pytest.raises(ValueError, match="no-such-revision"):
+        throughput.revision_tree("no-such-revision", tmp_path)
+
+
+def test_the_baseline_line_gives_its_ratio_against_the_target():
+    report = _report(baseline_rev="abc1234", baseline_experiment_s=30.0, experiment_with_plot_s=10.0, baseline_speedup=3.0)
+    text = throughput.format_throughput(report)
+    assert "at abc1234" in text and "3.00x" in text
+    assert text.count("NO") == 1
