@@ -24,6 +24,7 @@ from piezotip.scenarios.config import ScenarioConfig
 from piezotip.sensor import ElementParams, Fingertip, GelModel, SensorElement
 from piezotip.sensor.calibration import SensorUnit, sensor_unit
 from piezotip.sensor.channel import Reading, SensorChannel
+from piezotip.sensor.unit_channel import UnitChannel
 
 from .control import Command, Controller, Observation, PadSignal, RobotLimits, ScriptedGrasp, make_observation, make_pad_signal
 from .pads import PAD_NAMES, PAD_SIDES, PadBridge
@@ -161,18 +162,20 @@ class CoSimulation:
         rng = np.random.default_rng(config.sensor.seed)
         self.pads = tuple(f"{p}_pad" for p in config.sensor.pads)
         self._pad_rows = [PAD_NAMES.index(p) for p in self.pads]
-        self.channels = {
-            pad: SensorChannel(
-                self.fingertip,
-                edges_m=edges,
-                dynamics=config.sensor.dynamics,
-                # The drive starts (steady, settled) in the controller's most sensitive mode.
-                mode=min(config.controller.modes),
-                noise=config.sensor.noise,
-                rng=np.random.default_rng(rng.integers(2**63)),
-                exact=config.sensor.exact_gel or config.sensor.gel_layer == "dynamic",  # tables need k_e > 0
-                carrier_samples_per_cycle=config.sensor.carrier_samples_per_cycle,
-                unit=self.unit,
+        channel_options = {
+            "edges_m": edges,
+            "dynamics": config.sensor.dynamics,
+            # The drive starts (steady, settled) in the controller's most sensitive mode.
+            "mode": min(config.controller.modes),
+            "noise": config.sensor.noise,
+            "exact": config.sensor.exact_gel or config.sensor.gel_layer == "dynamic",  # tables need k_e > 0
+            "carrier_samples_per_cycle": config.sensor.carrier_samples_per_cycle,
+        }
+        self.channels: dict[str, SensorChannel] = {
+            pad: (
+                SensorChannel(self.fingertip, rng=np.random.default_rng(rng.integers(2**63)), **channel_options)
+                if self.unit is None
+                else UnitChannel(self.fingertip, self.unit, rng=np.random.default_rng(rng.integers(2**63)), **channel_options)
             )
             for pad in self.pads
         }

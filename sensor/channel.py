@@ -2,16 +2,16 @@
 
 A :class:`SensorChannel` holds what a real readout holds between samples: the mode it is
 driving, the resonator's state (physics.md section 6), the noise generator, the readout's
-inference and, for a physical unit, its calibration and drift.  It composes the stages, each
-with its own home:
+inference (a physical unit apart from the model, with its calibration and drift, is
+:class:`sensor.unit_channel.UnitChannel`'s).  It composes the stages, each with its own home:
 
 - :mod:`sensor.equations`: the paper's equations (eq. 10's steady response per sample);
 - :mod:`sensor.resonator`: the resonator's dynamics (steady, envelope, carrier) and the
   :class:`Reading`;
 - :mod:`sensor.estimator`: the gel's tables and the one pressure inverse (:class:`ModeInverse`);
 - :mod:`sensor.inference`: the steady reading of a resonator that has not settled;
-- :mod:`sensor.calibration`: what the readout knows of a physical unit (drive, references,
-  re-zeroing by :func:`sensor.calibration.detuning`).
+- :mod:`sensor.calibration` and :mod:`sensor.unit_channel`: a physical unit, what the readout
+  knows of it (drive, references, re-zeroing by :func:`sensor.calibration.detuning`).
 
 Each :meth:`SensorChannel.update` takes the pad's pressure along the element (one value per
 cell, Pa) and the time since the last sample, and returns a :class:`Reading`.  Only what the
@@ -41,12 +41,10 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from .calibration import SensorUnit, detuning, reading_sigma_v
 from .equations import normalized_response
 from .estimator import (  # noqa: F401 - _TABLE_P, _estimate: importable from here as before
     _SETTLING,
     _TABLE_P,
-    CalibratedInverse,
     Estimate,
     FoundationTable,
     ModeInverse,
@@ -55,7 +53,7 @@ from .estimator import (  # noqa: F401 - _TABLE_P, _estimate: importable from he
     mode_tables,
 )
 from .fingertip import Fingertip
-from .inference import GAIN_FLOOR, MAX_GAIN, SteadyInference
+from .inference import MAX_GAIN, SteadyInference
 from .lookup import interp as _interp  # noqa: F401 - importable from here as before
 from .resonator import (  # noqa: F401 - _steady, _step, SETTLE_FRACTION: importable from here as before
     _SETTLE_TAUS,
@@ -68,17 +66,9 @@ from .resonator import (  # noqa: F401 - _steady, _step, SETTLE_FRACTION: import
     _steady,
     _step,
 )
-from .variation import REFERENCE_TEMPERATURE_C
 
 #: Noise is drawn in blocks (one generator call per block, not per reading; even: I and Q pair up).
 _NOISE_BLOCK = 4096
-#: A calibrated unit's readout re-zeroes after this long unloaded (below detection), s: longer
-#: than the inference's settling after a release (0.17 to 0.37 s with Table I's damping, see
-#: SteadyInference), so a re-zero takes the unloaded reading, not the tail of a load.
-REZERO_S = 0.5
-#: ...and corrects a drift only past this many sigmas of its unloaded reading's noise (a false
-#: correction at 4 sigma: 6e-5 per look, one in 8 hours of unloaded readout).
-REZERO_SIGMAS = 4.0
 
 
 def _modal_load(table_at, pressure_cells_pa, weights) -> tuple[float, float]:
@@ -110,12 +100,13 @@ class SensorChannel:
     rng : noise generator.
     exact : evaluate the gel model exactly each sample instead of the tables.
     carrier_samples_per_cycle : carrier samples per drive cycle ("carrier" dynamics).
-    unit : the physical unit and its calibration (:class:`sensor.calibration.SensorUnit`), or
-        None: the unit is ``fingertip`` itself.  With a unit, the simulation runs the unit
-        (its element, gel, coverage, temperature, driven at the readout's drive frequencies
-        and read against its references) and ``fingertip`` must be the unit's ``model``: the
-        readout and the controller see nothing else (see :meth:`_setup_unit`).
+
+    The channel simulates ``fingertip`` itself; a physical unit apart from the model the
+    readout knows is :class:`sensor.unit_channel.UnitChannel`'s.
     """
+
+    #: Whether the readout re-zeroes while unloaded (a calibrated physical unit's: UnitChannel).
+    _tracking = False
 
     def __init__(
         self,
@@ -127,18 +118,16 @@ class SensorChannel:
         rng: np.random.Generator | None = None,
         exact: bool = False,
         carrier_samples_per_cycle: int = 16,
-        unit: SensorUnit | None = None,
     ) -> None:
         if dynamics not in DYNAMICS:
             raise ValueError(f"unknown sensor dynamics {dynamics!r}; valid: {', '.join(DYNAMICS)}")
         self.tip = fingertip
         self.dynamics = dynamics
-        self._unit: SensorUnit | None = None  # a physical unit other than the model (_setup_unit)
         self.noise = noise
         self.rng = rng or np.random.default_rng(0)
         self.exact = exact
-        # default: one cell over the gel's contact (the unit's own, if there is a unit)
-        self.edges_m = np.asarray(edges_m if edges_m is not None else (unit.coverage if unit is not None else fingertip.coverage), float)
+        # default: one cell over the gel's contact
+        self.edges_m = np.asarray(edges_m if edges_m is not None else fingertip.coverage, float)
         el = fingertip.element
         self._rho_a = el.params.mass_per_length_kg_m
         self._c = el.params.damping_n_s_per_m2
@@ -179,177 +168,8 @@ class SensorChannel:
         self._estimated_at, self._last_estimate = math.nan, _SETTLING
         # The readout's history before the scene: settled, unloaded readings of this value.
         self._seed_a = 1 + 0j
-        self.rezeros = 0  # re-zeroes while unloaded (a varied or warming unit's tracking)
-        if unit is not None and not (unit.config.is_nominal and unit.config.level == "none"):
-            self._setup_unit(unit)
-
-    # -- a physical unit other than the model ------------------------------------------
-
-    def _setup_unit(self, unit: SensorUnit) -> None:
-        """Simulate ``unit`` (not the readout's model) from now on.
-
-        The unit's mode n, driven at w_d (the readout's drive) with the gel's load, obeys eq. 4
-        off resonance: its envelope a (normalized by G / (j w_d c), G the unit's gain) relaxes
-        to a_ss = w_d c / (w_d (gamma + c) - j (kappa + K_d)) at the rate
-        lambda = (c + gamma) / (2 rho A) - j (kappa + K_d) / (2 w_d rho A), where
-        K_d = rho A (w_r^2 - w_d^2) is the detuning, a stiffness like the gel's: the same
-        equations as the nominal path (eq. 10's normalized response, the envelope's rate) with kappa + K_d.  The lock-in's output
-        is V_s over the readout's reference R: reading = a G / (j w_d c R).  Temperature moves
-        w_r (sqrt(1 + beta dT)), G ((Y_p(T) / Y_p(25))^2) and the gel (its tables at T, to
-        0.1 K).  See :mod:`sensor.calibration` for the drive and references.
-        """
-        if unit.model is not self.tip:
-            raise ValueError("a channel with a physical unit must be given the unit's model as its fingertip")
-        phys = unit.physical
-        self._unit = unit
-        tip = phys.fingertip_at(phys.temperature_c)
-        el = tip.element
-        used = list(self._fast)
-        p25 = phys.fingertip_at(REFERENCE_TEMPERATURE_C).element
-        self._u_rho_a = float(el.params.mass_per_length_kg_m)
-        self._u_c = float(el.params.damping_n_s_per_m2)
-        self._u_omega25 = {m: float(p25.natural_angular_frequency(m)) for m in used}
-        self._u_gain25 = {m: float(p25.unloaded_voltage(m)) * self._u_omega25[m] * self._u_c for m in used}
-        self._u_sigma_v = {m: reading_sigma_v(tip, m) for m in used}
-        b = el.params.width_m
-        self._u_weights = {m: (b * el.cell_ratios(m, self.edges_m)).tolist() for m in used}
-        self._u_drive = {m: 2 * math.pi * unit.drive_hz[m] for m in used}
-        self._u_ref = {m: complex(unit.reference_v[m]) for m in used}
-        self._u_drifts = phys.drift_c_per_s != 0.0
-        self._u_time_s = 0.0
-        self._u_tables: dict[tuple[int, float], object] = {}
-        self._u_temperature_c = phys.temperature_c
-        # The readout: the model's inverses with calibration's error in their uncertainty.
-        cache = unit.readout_cache
-        for m in used:
-            key = ("inverse", m, self.exact)
-            if key not in cache:
-                rel = unit.uncertainty_tables(_TABLE_P)[m]
-                cache[key] = CalibratedInverse(self.tip, m, None if self.exact else self._tables[m], rel)
-            self._inverse[m] = cache[key]
-        # Unloaded and settled before the scene, at the start's drive.
-        steady0 = self._u_steady(self.mode, 0.0, 0.0, phys.temperature_c)
-        self.envelope = steady0
-        self._seed_a = steady0 * self._u_scale(self.mode, phys.temperature_c)
-        if self.dynamics == "carrier":
-            self._carrier = self._new_carrier(self.mode)
-            k_d = self._u_detuning(self.mode, phys.temperature_c)
-            a_p = self._carrier.force / (k_d + 1j * self._carrier.omega * self._u_c)
-            self._carrier.q, self._carrier.v = self._carrier._particular(a_p, self._carrier.phase_time_s)
-        self._unloaded_from = math.nan
-        self._unloaded_sum, self._unloaded_n = 0j, 0
-
-    def _u_detuning(self, mode: int, temperature_c: float) -> float:
-        """K_d = rho A (w_r(T)^2 - w_d^2), N/m^2: the unit's detuning from the drive, a stiffness."""
-        w_r = self._u_omega25[mode] * self._unit.physical.resonance_ratio(temperature_c)
-        w_d = self._u_drive[mode]
-        return self._u_rho_a * (w_r * w_r - w_d * w_d)
-
-    def _u_steady(self, mode: int, kappa: float, gamma: float, temperature_c: float) -> complex:
-        return normalized_response(kappa + self._u_detuning(mode, temperature_c), gamma, self._u_drive[mode], self._u_c)
-
-    def _u_scale(self, mode: int, temperature_c: float) -> complex:
-        """Envelope to reading: G(T) / (j w_d c R)."""
-        gain = self._u_gain25[mode] * self._unit.physical.gain_ratio(temperature_c)
-        return gain / (1j * self._u_drive[mode] * self._u_c) / self._u_ref[mode]
-
-    def _u_table(self, mode: int, temperature_c: float):
-        """The unit's (k_e, c_e) lookup for ``mode`` at ``temperature_c`` (tables to 0.1 K), or
-        None for the exact gel."""
-        t_q = round(temperature_c * 10.0) / 10.0
-        key = (mode, t_q)
-        if key not in self._u_tables:
-            tip = self._unit.physical.fingertip_at(t_q)
-            self._u_tables[key] = None if self.exact else foundation_table(tip, mode).at
-        return self._u_tables[key]
-
-    def _update_unit(self, pressure_cells_pa: Sequence[float], dt_s: float) -> Reading:
-        """:meth:`update_trusted` for a physical unit (see :meth:`_setup_unit`)."""
-        mode = self.mode
-        self._u_time_s += dt_s
-        temp = self._unit.physical.temperature_at(self._u_time_s) if self._u_drifts else self._u_temperature_c
-        self._u_temperature_c = temp
-        table_at = self._u_table(mode, temp)
-        weights = self._u_weights[mode]
-        self.evaluations += 1
-        if table_at is None:
-            tip = self._unit.physical.fingertip_at(round(temp * 10.0) / 10.0)
-            k_e, c_e = tip.foundation(np.asarray(pressure_cells_pa, float), mode)
-            kappa, gamma = float(k_e @ np.asarray(weights)), float(c_e @ np.asarray(weights))
-        else:
-            kappa, gamma = _modal_load(table_at, pressure_cells_pa, weights)
-        c, rho_a, w_d = self._u_c, self._u_rho_a, self._u_drive[mode]
-        k_eff = kappa + self._u_detuning(mode, temp)
-        steady = normalized_response(k_eff, gamma, w_d, c)
-        rate = _rate(rho_a, w_d, c, k_eff, gamma)
-        envelope, settled, tau = self._resonate(steady, rate, k_eff, gamma, dt_s)
-        out = envelope * self._u_scale(mode, temp)
-        ref = self._u_ref[mode]
-        sigma = self._u_sigma_v[mode] / math.hypot(ref.real, ref.imag)
-        iq = out + self._iq_noise() * sigma if self.noise else out
-        v1_true = abs(out)
-        phase = -math.atan2(out.imag, out.real) if v1_true > 0 else 0.0
-        return _reading(mode, abs(iq), v1_true, phase, self.time_in_mode_s, tau, settled, kappa, gamma, iq)
-
-    def _track(self, t: float, est: Estimate, a_ss: complex, gain: float = 1.0) -> None:
-        """Re-zero while unloaded (calibrated units): re-centre the drive, renormalize.
-
-        While the estimate has been "below_detection" for REZERO_S, the steady reading a_ss
-        (the inference's, or the mean reading with steady dynamics) is the unloaded response,
-        g / (1 - j delta) (:func:`sensor.calibration.detuning`): the drive moves by
-        delta / tau0 in this mode and by the same fraction in every mode (temperature moves
-        them alike), every reference by g.  Only a drift of more than REZERO_SIGMAS times the
-        steady reading's own noise (``gain`` times a reading's sigma; a reading's sigma over
-        the square root of the readings averaged with steady dynamics) is corrected: below that
-        a correction would add noise, not remove drift.  A load below the detection limit is zeroed with it.
-        """
-        if est.status != "below_detection":
-            self._unloaded_from = math.nan
-            return
-        if not t >= self._unloaded_from:  # a new unloaded stretch
-            self._unloaded_from, self._unloaded_sum, self._unloaded_n = t, 0j, 0
-        self._unloaded_sum += a_ss
-        self._unloaded_n += 1
-        if t - self._unloaded_from < REZERO_S:
-            return
-        if self.dynamics == "steady":
-            z, sigma_z = self._unloaded_sum / self._unloaded_n, self._sigma[self.mode] / math.sqrt(self._unloaded_n)
-        else:
-            z, sigma_z = a_ss, gain * self._sigma[self.mode]
-        self._unloaded_from, self._unloaded_sum, self._unloaded_n = t, 0j, 0
-        delta, g = detuning(z)
-        if not (math.isfinite(delta) and g > 0):
-            return
-        # Each part only where it is significant (delta ~ Im z and g - 1 ~ Re z - 1 near resonance,
-        # each known to sigma_z): a correction of noise would add it to every later reading.
-        if not abs(delta) > REZERO_SIGMAS * sigma_z:
-            delta = 0.0
-        # The gain drifts slowly (eq. 17's Y_p^2: 0.04 %/K) and its estimate is the noisier part
-        # of a short window's a_ss: renormalized only from a settled window (gain <= GAIN_FLOOR).
-        if not (abs(g - 1.0) > REZERO_SIGMAS * sigma_z and gain <= GAIN_FLOOR):
-            g = 1.0
-        if delta == 0.0 and g == 1.0:
-            return
-        w_d = self._u_drive[self.mode]
-        frac = delta / (self._tau0 * w_d)
-        for m in self._u_drive:
-            old = self._u_drive[m]
-            self._u_drive[m] = new = old * (1.0 + frac)
-            self._u_ref[m] *= g * old / new
-        # The envelope's normalization G / (j w_d c) moved with w_d: the same V_s, rescaled.
-        self.envelope *= 1.0 + frac
-        if self._carrier is not None:
-            old = self._carrier
-            self._carrier = self._new_carrier(self.mode)
-            self._carrier.q, self._carrier.v, self._carrier.phase_time_s = old.q, old.v, old.phase_time_s
-        if self._inference is not None:
-            # in the new normalization the envelope is where it was: z / g now, relaxing to 1
-            self._inference.restart(t, z / g)
-        self.rezeros += 1
 
     def _new_carrier(self, mode: int) -> CarrierResonator:
-        if self._unit is not None:  # the unit's resonator, driven at the readout's frequency
-            return CarrierResonator(self._u_rho_a, self._u_c, self._u_drive[mode], self._carrier_spc)
         return CarrierResonator(self._rho_a_f, self._c_f, float(self._omega[mode]), self._carrier_spc)
 
     def _iq_noise(self) -> complex:
@@ -430,8 +250,6 @@ class SensorChannel:
         wrong profile gives a wrong reading, not an error.  One table lookup per cell for the
         active mode (counted in :attr:`evaluations`), then the envelope in complex scalars.
         """
-        if self._unit is not None:
-            return self._update_unit(pressure_cells_pa, dt_s)
         mode = self.mode
         omega, sigma, table_at, weights = self._fast[mode]
         c = self._c_f
@@ -473,7 +291,7 @@ class SensorChannel:
         """
         inverse = self._inverse[reading.mode]
         if self.dynamics == "steady":
-            if self._unit is not None and self._unit.tracking:
+            if self._tracking:
                 est = inverse(reading.v1)
                 self._track(self._clock_s, est, reading.iq)
                 return est
@@ -491,7 +309,7 @@ class SensorChannel:
             return _SETTLING
         a_ss, gain, trusted = inference.step(t, reading.iq)
         est = inverse.inferred(abs(a_ss), gain) if trusted and gain <= MAX_GAIN else _SETTLING
-        if self._unit is not None and self._unit.tracking and est is not _SETTLING:
+        if self._tracking and est is not _SETTLING:
             self._track(t, est, a_ss, gain)
         self._estimated_at, self._last_estimate = t, est
         return est

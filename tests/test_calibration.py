@@ -17,6 +17,7 @@ from piezotip.analysis.range_report import estimate_errors, unit_range_report
 from piezotip.sensor import Fingertip
 from piezotip.sensor.calibration import SensorUnit, UnitConfig, detuning, steady_reading, sweep_resonance
 from piezotip.sensor.channel import SensorChannel
+from piezotip.sensor.unit_channel import UnitChannel
 from piezotip.sensor.variation import PZT_YOUNGS_TC_PER_K, PhysicalUnit, draw_unit
 
 TIP = Fingertip(coverage=(6.5e-3, 7.5e-3))
@@ -93,7 +94,7 @@ def test_nominal_unit_reproduces_todays_numbers():
     assert report["max_estimate_error"] < 1e-3  # the tables' interpolation only
     # the channel with the nominal unit is today's channel, reading for reading
     a = SensorChannel(TIP, rng=np.random.default_rng(4))
-    b = SensorChannel(TIP, rng=np.random.default_rng(4), unit=unit)
+    b = UnitChannel(TIP, unit, rng=np.random.default_rng(4))
     for k in range(300):
         p = [0.0 if k < 100 else 400.0]
         ra, rb = a.update(p, 0.005), b.update(p, 0.005)
@@ -107,7 +108,7 @@ def test_varied_units_ok_intervals_hold_the_true_pressure(level):
     total = inside = 0
     for seed in range(6):
         unit = SensorUnit(UnitConfig("typical", seed, level), TIP)
-        channel = SensorChannel(unit.model, dynamics="steady", unit=unit, rng=np.random.default_rng(seed))
+        channel = UnitChannel(unit.model, unit, dynamics="steady", rng=np.random.default_rng(seed))
         bands = unit.model.mode_bands()
         for p in np.geomspace(bands[0][1], bands[-1][2], 25):
             mode = next((m for m, lo, hi in bands if p <= hi), bands[-1][0])
@@ -128,7 +129,7 @@ def test_rezero_removes_a_temperature_offset_while_unloaded():
     for tracking in (True, False):
         unit = SensorUnit(config, TIP)
         unit.tracking = tracking
-        channel = SensorChannel(unit.model, dynamics="envelope", unit=unit, rng=np.random.default_rng(2))
+        channel = UnitChannel(unit.model, unit, dynamics="envelope", rng=np.random.default_rng(2))
         statuses, v1 = [], []
         for k in range(4000):  # 20 s: the unit warms by 1 K, nothing touches it
             reading = channel.update([0.0], 0.005)
@@ -204,3 +205,11 @@ def test_bad_unit_config_is_named():
     ):
         with pytest.raises(ValueError, match=text):
             UnitConfig(**kwargs)
+
+
+def test_a_unit_channel_must_be_given_the_units_model():
+    unit = SensorUnit(UnitConfig("typical", 3, "self"), TIP)
+    with pytest.raises(ValueError, match="unit's model"):
+        UnitChannel(TIP, unit)
+    channel = UnitChannel(unit.model, unit)
+    assert channel.edges_m.tolist() == pytest.approx(list(unit.coverage))  # the unit's own gel coverage
