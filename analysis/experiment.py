@@ -13,6 +13,7 @@ left the model's valid range, and whether the gripper could physically do it at 
 from __future__ import annotations
 
 import csv
+import functools
 import json
 import math
 from dataclasses import dataclass
@@ -23,8 +24,6 @@ import numpy as np
 from .plotting import new_figure, save_figure
 from .runner import json_safe
 from .sweep import OUTCOME_COLOUR
-
-G_M_S2 = 9.81
 
 
 @dataclass(frozen=True)
@@ -72,10 +71,26 @@ COLUMNS = (
 )
 
 
-def feasible(obj, finger_force_limit_n: float = 100.0) -> tuple[bool, str]:
+@functools.cache
+def gripper() -> tuple[float, float]:
+    """(the fingers' force limit, N per finger; gravity, m/s^2) as the gripper's model has them
+    (one model for every object: the gripper does not change with what it grasps)."""
+    from piezotip import scenarios
+    from piezotip.cosim.scene import build_scene, finger_force_limit_n, gravity_m_s2
+
+    model = build_scene(scenarios.get("grasp"))
+    return finger_force_limit_n(model), gravity_m_s2(model)
+
+
+def feasible(obj, finger_force_limit_n: float | None = None, gravity_m_s2: float | None = None) -> tuple[bool, str]:
     """Whether any controller could carry ``obj``: holding its weight needs m g / (2 mu) per
-    finger, which must fit under the fingers' force limit and the object's crush limit."""
-    need = obj.mass_kg * G_M_S2 / (2.0 * obj.friction)
+    finger, which must fit under the fingers' force limit and the object's crush limit (the
+    limit and g default to the gripper model's: :func:`gripper`)."""
+    if finger_force_limit_n is None or gravity_m_s2 is None:
+        limit_n, g = gripper()
+        finger_force_limit_n = limit_n if finger_force_limit_n is None else finger_force_limit_n
+        gravity_m_s2 = g if gravity_m_s2 is None else gravity_m_s2
+    need = obj.mass_kg * gravity_m_s2 / (2.0 * obj.friction)
     limit = min(finger_force_limit_n, obj.crush_force_n if obj.crush_force_n is not None else math.inf)
     if need <= limit:
         return True, ""

@@ -164,13 +164,16 @@ def held_mode(scene: str, grip_n: float) -> int:
 
 def scripted_overrides(scene: str) -> list[str]:
     """The scripted controller at a fixed grip: twice what the scene's object's weight needs at
-    its friction (m g / mu per finger, at most the fingers' 100 N), so it is held still, driving
+    its friction (m g / mu per finger, at most the fingers' force limit, the gripper model's), so it is held still, driving
     the mode that resolves the pressure of that grip best (the scripted controller drives its
     first mode, mode 1, which saturates at 3 kPa: the 10 kg block's grip is 245 kPa)."""
     from piezotip import scenarios
 
+    from .experiment import gripper
+
     obj = scenarios.get(scene).object
-    grip = min(100.0, obj.mass_kg * 9.81 / obj.friction)
+    limit_n, g = gripper()
+    grip = min(limit_n, obj.mass_kg * g / obj.friction)
     return ["controller.kind=scripted", f"controller.grip_force_n={grip!r}", f"controller.modes=[{held_mode(scene, grip)}]"]
 
 

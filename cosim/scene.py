@@ -105,6 +105,16 @@ def build_scene(config: ScenarioConfig, gel: GelParams | None = None) -> mujoco.
     return model
 
 
+def finger_force_limit_n(model: mujoco.MjModel) -> float:
+    """The fingers' force limit, N per finger, as the compiled model has it."""
+    return float(model.actuator("fingers_actuator").forcerange[1])
+
+
+def gravity_m_s2(model: mujoco.MjModel) -> float:
+    """The magnitude of the model's gravity, m/s^2 (down is -z)."""
+    return float(-model.opt.gravity[2])
+
+
 def robot_limits(model: mujoco.MjModel, home: dict[str, float], geometry: PadGeometry, gel: GelParams | None = None) -> RobotLimits:
     """The gripper's limits and servo gains as the compiled model has them (never typed again)."""
     lift, fingers = model.actuator("lift_actuator"), model.actuator("fingers_actuator")
@@ -115,7 +125,7 @@ def robot_limits(model: mujoco.MjModel, home: dict[str, float], geometry: PadGeo
         lift_kv_n_s_m=kv,
         lift_force_limit_n=float(lift.forcerange[1]),
         lift_range_m=(float(model.joint("lift_joint").range[0]), float(model.joint("lift_joint").range[1])),
-        finger_force_limit_n=float(fingers.forcerange[1]),
+        finger_force_limit_n=finger_force_limit_n(model),
         # The tendon's speed is the opening's; each finger moves at half of it against its
         # joint's damping, and the servo's own kv acts on the tendon.
         finger_damping_n_s_m=float(0.5 * model.dof_damping[joint.dofadr[0]] - fingers.biasprm[2]),
@@ -123,7 +133,8 @@ def robot_limits(model: mujoco.MjModel, home: dict[str, float], geometry: PadGeo
         pad_area_m2=geometry.pad_area_m2,
         pad_travel_m=geometry.stop_m,
         pad_areal_mass_kg_m2=(gel or GelParams()).density_kg_m3 * geometry.gel_thickness_m,
-        min_load_n=0.5 * RATED_MASS_KG[0] * float(-model.opt.gravity[2]),
+        min_load_n=0.5 * RATED_MASS_KG[0] * gravity_m_s2(model),
+        gravity_m_s2=gravity_m_s2(model),
         home_lift_m=home["lift_m"],
         home_opening_m=home["opening_m"],
     )

@@ -36,7 +36,6 @@ from piezotip.cosim.loop import STATUS_CODES, CoSimulation, SimulationDiverged, 
 from piezotip.scenarios.config import RATED_MASS_KG, ObjectConfig, ScenarioConfig  # noqa: E402
 from piezotip.sensor.channel import Estimate, Reading  # noqa: E402
 
-G_M_S2 = 9.81
 #: The object is lost when its centre is farther than this from the fingers' axis, m: half the
 #: open fingers' 90 mm span (cosim.scene.HOME_OPENING_M), beyond their reach.
 LOST_RADIUS_M = 0.045
@@ -295,13 +294,14 @@ class GraspEnv(gym.Env):
         self.modes = tuple(cfg.sensor.modes)
         self.dt = cfg.physics.control_period_s
         self.total_steps = math.ceil(cfg.duration_s / self.dt - 1e-9)
-        from piezotip.cosim.scene import build_scene
+        from piezotip.cosim.scene import build_scene, finger_force_limit_n, gravity_m_s2
 
         model = build_scene(cfg)
         lift, fingers = model.actuator("lift_actuator"), model.actuator("fingers_actuator")
         self.lift_range_m = (float(lift.ctrlrange[0]), float(lift.ctrlrange[1]))
         self.opening_range_m = (float(fingers.ctrlrange[0]), float(fingers.ctrlrange[1]))
-        self.finger_force_limit_n = float(fingers.forcerange[1])
+        self.finger_force_limit_n = finger_force_limit_n(model)
+        self.gravity_m_s2 = gravity_m_s2(model)
         n, m = len(self.pads), len(self.modes)
         f64, inf = np.float64, np.inf
         lift_rate = (self.lift_range_m[1] - self.lift_range_m[0]) / self.dt
@@ -524,7 +524,7 @@ class GraspEnv(gym.Env):
         }
         obj = self.config.object
         w = self.weights
-        self._need_n = w.grip_margin * obj.mass_kg * G_M_S2 / (2.0 * obj.friction)
+        self._need_n = w.grip_margin * obj.mass_kg * self.gravity_m_s2 / (2.0 * obj.friction)
         self._grip_scale_n = obj.crush_force_n if obj.crush_force_n is not None else self.finger_force_limit_n
         self._z0 = None
         self._carry_ref = None

@@ -7,6 +7,7 @@ import pytest
 
 from piezotip import cli as run_sim
 from piezotip import scenarios
+from piezotip.analysis import experiment
 from piezotip.analysis.experiment import COLUMNS, CONTROLLERS, OBJECTS
 
 
@@ -62,3 +63,20 @@ def test_table_files_have_units_and_the_plot(table):
 def test_unknown_experiment_names_the_valid_one(capsys):
     assert run_sim.main(["experiment", "grasp-everything"]) == 2
     assert "valid experiments: grasp-range" in capsys.readouterr().err
+
+
+def test_feasibility_reads_the_grippers_limits_from_its_model():
+    from piezotip.cosim.loop import CoSimulation
+    from piezotip.scenarios.config import ObjectConfig
+
+    robot = CoSimulation(scenarios.get("grasp")).robot
+    limit_n, g = experiment.gripper()
+    assert (limit_n, g) == (robot.finger_force_limit_n, robot.gravity_m_s2)
+    # an object whose hold needs just under, and just over, the fingers' limit: m g / (2 mu)
+    mu = 0.5
+    just = 2 * mu * limit_n / g
+    assert experiment.feasible(ObjectConfig(mass_kg=0.999 * just, friction=mu))[0]
+    ok, why = experiment.feasible(ObjectConfig(mass_kg=1.001 * just, friction=mu))
+    assert not ok and f"{limit_n:.3g} N" in why
+    # on the Moon the same object is light enough
+    assert experiment.feasible(ObjectConfig(mass_kg=1.001 * just, friction=mu), gravity_m_s2=1.62)[0]

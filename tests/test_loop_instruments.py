@@ -84,3 +84,12 @@ def test_the_models_own_disable_flags_are_kept(config):
     assert all(flags & own for flags in seen)
     assert [bool(flags & sensors) for flags in seen] == [True] * (config.physics.substeps - 1) + [False]
     assert int(sim.model.opt.disableflags) == before | own
+
+
+def test_the_robots_gravity_is_the_models(config):
+    from piezotip.cosim.scene import robot_limits
+
+    sim = CoSimulation(config)
+    assert sim.robot.gravity_m_s2 == pytest.approx(-sim.model.opt.gravity[2])
+    sim.model.opt.gravity[2] = -1.62
+    assert robot_limits(sim.model, sim.home, sim.bridge.geometry).gravity_m_s2 == pytest.approx(1.62)

@@ -107,6 +107,7 @@ class RobotLimits:
     pad_travel_m : how far a pad's gel compresses before its housing stops it, m: with an
         object between them the fingers cannot close by more than twice this.
     home_lift_m, home_opening_m : the home targets, m.
+    gravity_m_s2 : the magnitude of gravity, m/s^2.
     """
 
     lift_kp_n_m: float
@@ -122,6 +123,7 @@ class RobotLimits:
     min_load_n: float
     home_lift_m: float
     home_opening_m: float
+    gravity_m_s2: float
 
     def lift_load_n(self, target_m: float, pos_m: float, vel_m_s: float, accel_m_s2: float = 0.0) -> float:
         """The load the lift carries, N: its servo's force kp (target - q) - kv q' less the

@@ -53,7 +53,6 @@ from .interface import Command, Event, Observation, RobotLimits, Why, make_comma
 from .phases import Phase
 from .selector import ModeSelector, TouchDetector
 
-G_M_S2 = 9.81
 #: Resolution that counts as "measured": physics.md section 5's P_max criterion, dP <= 10 % P.
 RESOLVED_FRACTION = 0.1
 
@@ -148,7 +147,7 @@ class MultimodeGrasp:
         self.finger_accel_m_s2 = 0.5 * sel.p_min_pa[lowest] / robot.pad_areal_mass_kg_m2
         self._finger_speed = 0.0
         #: Share of a load change the lift's own acceleration explains (load = m (g + a)).
-        self.load_noise_fraction = c.lift_accel_m_s2 / G_M_S2
+        self.load_noise_fraction = c.lift_accel_m_s2 / robot.gravity_m_s2
         #: The load transfer gives up after twice the time the grip needs to ramp to its cap
         #: and the goal to rise by the lift height at lift speed.
         self.transfer_timeout_s = 2.0 * (self.grip_cap_n / self.grip_rate_n_s + c.lift_height_m / c.lift_speed_m_s)
