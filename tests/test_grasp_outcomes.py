@@ -151,9 +151,45 @@ def test_fingers_open_at_a_grippers_speed_and_opening_is_not_felt_as_pressure(tm
     t, opening = data["time_s"][release], data["opening_m"][release]
     speed = np.diff(opening) / np.diff(t)
     assert speed.max() < 1.3 * cfg.opening_speed_m_s
-    # With no contact, what the pads still press on the element is their own gel's inertia as the
-    # fingers stop: rho h0 a, a ~ v sqrt(kp / m) with the fingers servo (kp 1e4 N/m) and half
-    # the 46 g fingers; twice that is the bound (it was 8 kPa opening at 100 N).
-    free = (data["phase"] >= Phase.RELEASE) & (data["left_finger_force_n"] == 0)
-    bound = 2 * 1000 * 0.005 * cfg.opening_speed_m_s * math.sqrt(1e4 / 0.023)
-    assert data["left_true_pressure_pa"][free].max() < bound
+    # With no contact, what the pads still press on the element is their own gel's inertia,
+    # rho h0 a: the fingers speed up and brake (into home too, after "done") at the acceleration
+    # that keeps it under the lowest mode's detection limit, so the opening is never felt (a
+    # set-point step into home jolted the pads with 134 Pa).
+    sim = CoSimulation(scenarios.get("grasp-light"))
+    p_min = 2.0 * sim.controller.finger_accel_m_s2 * sim.robot.pad_areal_mass_kg_m2  # its definition
+    for side in ("left", "right"):
+        pressure = data[f"{side}_true_pressure_pa"]
+        free = (data["phase"] >= Phase.RELEASE) & (data[f"{side}_finger_force_n"] == 0)
+        # once the gel has relaxed from the squeeze (its pressure under the limit), it stays there
+        relaxed = free & (np.cumsum(free & (pressure < p_min)) > 0)
+        assert relaxed.sum() > 100 and pressure[relaxed].max() < p_min
+    done = data["phase"] == Phase.DONE
+    assert done.any() and abs(data["grip_force_n"][done]).max() <= grip_floor_or_opening(sim) + 1e-9
+
+
+def grip_floor_or_opening(sim) -> float:
+    """The most the fingers' drive may push once the object is let go: the opening force."""
+    return sim.controller.opening_force_n
+
+
+@pytest.mark.parametrize(
+    ("distance", "top", "accel", "dt"), [(0.0016, 0.05, 0.5, 0.005), (0.02, 0.05, 0.5, 0.005), (0.1, 0.02, 2.0, 0.001)]
+)
+def test_a_trapezoidal_move_stops_where_it_should_in_the_time_it_should(distance, top, accel, dt):
+    from piezotip.cosim.control.multimode import trapezoid_speed
+
+    x = v = 0.0
+    speeds = []
+    for _ in range(100000):
+        v_new = trapezoid_speed(distance - x, v, top, accel, dt)
+        assert abs(v_new - v) <= accel * dt * (1 + 1e-12) + 1e-15  # never a speed step
+        v = v_new
+        x = min(distance, x + v * dt)
+        speeds.append(v)
+        if x >= distance and v == 0.0:
+            break
+    assert x == pytest.approx(distance) and max(speeds) <= top
+    # closed form: d / v_top + v_top / a with a cruise, 2 sqrt(d / a) without; within a few steps
+    cruise = distance >= top * top / accel
+    expected = distance / top + top / accel if cruise else 2.0 * math.sqrt(distance / accel)
+    assert len(speeds) * dt == pytest.approx(expected, abs=4 * dt + 0.02 * expected)

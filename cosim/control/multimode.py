@@ -27,7 +27,8 @@ Phases (:class:`Phase`), one method each::
 - hold: hold for ``hold_s``, watching for slip and loss.
 - place: lower (fast, then at ``touchdown_speed_m_s`` over the last stopping distance), the
   sag offset kept, until the lift feels the table take the weight; then stop there.
-- release: grip back to the floor, open at ``opening_speed_m_s``.
+- release: grip back to the floor, open at ``opening_speed_m_s`` (speeding up and braking at the
+  fingers' acceleration, also into home after ``done``).
 
 Slip and loss while carried: a fingertip's trusted pressure estimate falling by more than
 ``slip_pressure_drop`` (and 3 sigma), or the load the lift feels falling by more than the lift's
@@ -52,6 +53,21 @@ from piezotip.sensor.cache import disk_cached
 from .interface import Command, Event, Observation, RobotLimits, Why, make_command
 from .phases import Phase
 from .selector import ModeSelector, TouchDetector
+
+
+def trapezoid_speed(distance_m: float, speed_m_s: float, top_speed_m_s: float, accel_m_s2: float, dt_s: float) -> float:
+    """The next speed of a trapezoidal move toward a stop ``distance_m`` ahead, m/s: from
+    ``speed_m_s`` up at ``accel_m_s2`` to ``top_speed_m_s``, braking at ``accel_m_s2`` so as to
+    stop there; 0 once there.  Speeds are magnitudes (m/s), dt_s the step (s), the position
+    advanced by the new speed times dt_s.  The braking speed is discrete time's: stepping down
+    by a dt from v covers v^2 / (2 a) + v dt / 2, so v = sqrt((a dt / 2)^2 + 2 a d) - a dt / 2
+    (the continuous v = sqrt(2 a d) would arrive with speed to spare and stop in one step)."""
+    if distance_m <= 0.0:
+        return 0.0
+    half_step = 0.5 * accel_m_s2 * dt_s
+    wanted = min(top_speed_m_s, math.sqrt(half_step * half_step + 2.0 * accel_m_s2 * distance_m) - half_step)
+    return min(wanted, speed_m_s + accel_m_s2 * dt_s) if speed_m_s < wanted else max(wanted, speed_m_s - accel_m_s2 * dt_s)
+
 
 #: Resolution that counts as "measured": physics.md section 5's P_max criterion, dP <= 10 % P.
 RESOLVED_FRACTION = 0.1
@@ -146,6 +162,7 @@ class MultimodeGrasp:
         #: mode's detection limit, unseen (a faster start reads as a touch).
         self.finger_accel_m_s2 = 0.5 * sel.p_min_pa[lowest] / robot.pad_areal_mass_kg_m2
         self._finger_speed = 0.0
+        self._opening_speed = 0.0  # of the opening target on release, m/s
         #: Share of a load change the lift's own acceleration explains (load = m (g + a)).
         self.load_noise_fraction = c.lift_accel_m_s2 / robot.gravity_m_s2
         #: The load transfer gives up after twice the time the grip needs to ramp to its cap
@@ -463,16 +480,26 @@ class MultimodeGrasp:
         if self.opening_target < obs.opening_m:
             # Squeezing (target inside the object): first let the grip go to the floor with the
             # target where the fingers are (the object rests on the table), then open.
-            self.opening_target = obs.opening_m
+            self.opening_target, self._opening_speed = obs.opening_m, 0.0
             self.grip_n = self.grip_floor_n
             return
         self.grip_n = self.opening_force_n
-        self.opening_target = min(self.robot.home_opening_m, max(self.opening_target, obs.opening_m) + self.cfg.opening_speed_m_s * dt_s)
+        if self.opening_target < obs.opening_m:  # the fingers are ahead of the target: from there, at rest
+            self.opening_target, self._opening_speed = obs.opening_m, 0.0
+        self._open_toward_home(dt_s)
         if obs.opening_m >= self.robot.home_opening_m - 0.002:
             self._enter(Phase.DONE, t, self.gave_up or "")
 
     def _done(self, obs: Observation, t: float, dt_s: float) -> None:
-        self.opening_target = self.robot.home_opening_m
+        self._open_toward_home(dt_s)
+
+    def _open_toward_home(self, dt_s: float) -> None:
+        """Move the opening target toward home at ``opening_speed_m_s``, speeding up and braking
+        at the fingers' acceleration: a set-point step at either end (the fingers slammed to a
+        stop at home) jolts the pads' gel against the pascal-sensitive elements (rho h0 a)."""
+        remaining = self.robot.home_opening_m - self.opening_target
+        self._opening_speed = trapezoid_speed(remaining, self._opening_speed, self.cfg.opening_speed_m_s, self.finger_accel_m_s2, dt_s)
+        self.opening_target = min(self.robot.home_opening_m, self.opening_target + self._opening_speed * dt_s)
 
     # -- shared by the carried phases -------------------------------------------------
 
