@@ -34,6 +34,7 @@ import mujoco
 import numpy as np
 
 from piezotip.sensor.gel import GelModel, GelParams, gent_pressure_pa, modulus_ratio
+from piezotip.sensor.lookup import UniformPairTable
 
 MODELS_DIR = Path(__file__).resolve().parent.parent / "models"
 """Where the MJCF files live (``gripper.xml``, ``table.xml``, ``scene_*.xml``)."""
@@ -418,47 +419,6 @@ class _GelTable:
         return cls(grid, pressure, np.gradient(pressure, grid))
 
 
-class _TableLookup:
-    """P(q) and dP/dq from a :class:`_GelTable` at one scalar q, in plain Python (the bridge's hot path).
-
-    The same arithmetic as ``np.interp(q, grid, column)`` for each column: the interval j with
-    grid[j] <= q < grid[j + 1], the slope (f[j+1] - f[j]) / (grid[j+1] - grid[j]) (tabulated
-    once here) and f = slope (q - grid[j]) + f[j]; clamped to the end values outside the grid;
-    NaN for NaN.  One interval search serves both columns, and the grid is uniform, so j comes
-    from one multiplication (then corrected by the grid's own values).  On numpy builds that do
-    not fuse the multiply-add, the results are bitwise np.interp's (tests/test_models.py checks).
-    """
-
-    __slots__ = ("_grid", "_inv_step", "_p", "_p_slope", "_t", "_t_slope", "_x0", "_xn")
-
-    def __init__(self, table: _GelTable) -> None:
-        grid, p, t = table.grid_m, table.pressure_pa, table.tangent_pa_m
-        dx = grid[1:] - grid[:-1]
-        self._grid = [*grid.tolist(), math.inf]  # a sentinel past the end: grid[j + 1] always exists
-        self._p, self._t = p.tolist(), t.tolist()
-        self._p_slope = ((p[1:] - p[:-1]) / dx).tolist()
-        self._t_slope = ((t[1:] - t[:-1]) / dx).tolist()
-        self._x0, self._xn = float(grid[0]), float(grid[-1])
-        self._inv_step = (len(grid) - 1) / (self._xn - self._x0)
-
-    def at(self, q: float) -> tuple[float, float]:
-        """(P, dP/dq) at indentation ``q`` (m): exactly ``np.interp`` of the table's two columns."""
-        if q > self._x0:
-            if q < self._xn:
-                grid = self._grid
-                j = int((q - self._x0) * self._inv_step)  # at most one past the last interval
-                while q < grid[j]:
-                    j -= 1
-                while q >= grid[j + 1]:
-                    j += 1
-                dq = q - grid[j]
-                return self._p_slope[j] * dq + self._p[j], self._t_slope[j] * dq + self._t[j]
-            return self._p[-1], self._t[-1]
-        if q <= self._x0:
-            return self._p[0], self._t[0]
-        return math.nan, math.nan
-
-
 class PadBridge:
     """Applies the gel law to the pad joints and reads the pads, every step.
 
@@ -526,7 +486,7 @@ class PadBridge:
         # The per-substep path works on Python scalars: one tuple per strip (qpos address, dof,
         # joint, area, spring reference), the table as lists, and memoryviews of the arrays it
         # reads and writes (item access on them costs a fraction of a numpy scalar's).
-        self._lookup = _TableLookup(self._table)
+        self._lookup = UniformPairTable(self._table.grid_m, self._table.pressure_pa, self._table.tangent_pa_m)
         self._strips = tuple(
             zip(self._qadr.tolist(), self._dof.tolist(), self._jnt.tolist(), self._area.tolist(), self._qspring.tolist(), strict=True)
         )
@@ -577,22 +537,10 @@ class PadBridge:
         if data is not self._views_of:
             self._data_views(data)
         qpos, qfrc = self._views
-        stiffness, table = self._stiffness, self._lookup
-        # table.at(q), inlined for the common case (q inside the table; this runs 6 x per substep)
-        grid, p, p_slope, t, t_slope = table._grid, table._p, table._p_slope, table._t, table._t_slope
-        x0, xn, inv_step = table._x0, table._xn, table._inv_step
+        stiffness, at = self._stiffness, self._lookup.at
         for qadr, dof, jnt, area, qspring in self._strips:
             q = qpos[qadr]
-            if x0 < q < xn:
-                j = int((q - x0) * inv_step)  # at most one past the last interval: the loops fix it
-                while q < grid[j]:
-                    j -= 1
-                while q >= grid[j + 1]:
-                    j += 1
-                dq = q - grid[j]
-                pressure, tangent = p_slope[j] * dq + p[j], t_slope[j] * dq + t[j]
-            else:
-                pressure, tangent = table.at(q)
+            pressure, tangent = at(q)
             k = area * tangent
             stiffness[jnt] = k
             qfrc[dof] = k * (q - qspring) - area * pressure

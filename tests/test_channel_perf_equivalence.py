@@ -24,7 +24,7 @@ from numpy.testing import assert_allclose
 
 from piezotip import scenarios
 from piezotip.cosim.loop import CoSimulation
-from piezotip.cosim.pads import PadBridge, PadGeometry, _GelTable, _TableLookup, build_model
+from piezotip.cosim.pads import PadBridge, PadGeometry, _GelTable, build_model
 from piezotip.cosim.recorder import Recorder
 from piezotip.sensor import Fingertip, SensorElement
 from piezotip.sensor.channel import (
@@ -42,6 +42,7 @@ from piezotip.sensor.channel import (
     _step,
 )
 from piezotip.sensor.gel import GelModel
+from piezotip.sensor.lookup import UniformPairTable
 from piezotip.sensor.readout import envelope_rate, envelope_step, steady_envelope
 
 RTOL = 1e-12
@@ -200,7 +201,7 @@ def test_select_mode_still_checks_the_mode(tip):
 
 def test_table_lookup_equals_np_interp_of_both_columns():
     table = _GelTable.build(GelModel(), PadGeometry())
-    lookup = _TableLookup(table)
+    lookup = UniformPairTable(table.grid_m, table.pressure_pa, table.tangent_pa_m)
     rng = np.random.default_rng(4)
     g = table.grid_m
     qs = np.concatenate([rng.uniform(g[0] - 1e-4, g[-1] + 1e-4, 20000), g, np.nextafter(g, 1), np.nextafter(g, -1), [-1.0, 1.0]])
@@ -208,6 +209,13 @@ def test_table_lookup_equals_np_interp_of_both_columns():
     assert_allclose(ours[:, 0], np.interp(qs, g, table.pressure_pa), rtol=1e-15, atol=0)
     assert_allclose(ours[:, 1], np.interp(qs, g, table.tangent_pa_m), rtol=1e-15, atol=0)
     assert all(math.isnan(v) for v in lookup.at(math.nan))
+
+
+def test_a_uniform_table_names_a_bad_grid():
+    with pytest.raises(ValueError, match="strictly increasing"):
+        UniformPairTable([0.0, 0.0, 1.0], [1.0, 2.0, 3.0], [1.0, 2.0, 3.0])
+    with pytest.raises(ValueError, match="shape"):
+        UniformPairTable([0.0, 1.0], [1.0], [1.0, 2.0])
 
 
 @pytest.mark.parametrize("segments", [1, 3])
