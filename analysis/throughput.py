@@ -44,13 +44,16 @@ TARGET_LONG_RUN_RT_RATIO = 0.9
 #: points), so a worker's start-up (imports, about 1 s) is part of it but not the whole.
 SWEEP_GRID = ("object.mass_kg=0.02,0.1,0.4,1.0", "object.friction=0.5,0.8,1.1", "object.size_m=0.03,0.05")
 
-def _timed_command(args: list[str], env: dict[str, str]) -> float:
-    """Wall time of ``python run_sim.py ARGS`` in a fresh process, s (it must succeed or exit 1)."""
+def _timed_command(args: list[str], env: dict[str, str], script: str | None = None, cwd: Path | None = None) -> float:
+    """Wall time of ``python run_sim.py ARGS`` in a fresh process, s (it must succeed or exit 1):
+    this code's command line, or ``script`` run from ``cwd`` (a revision's, :func:`baseline_times`)."""
+    entry = ["-m", "piezotip.cli"] if script is None else [script]
     start = time.perf_counter()
-    proc = subprocess.run([sys.executable, "-m", "piezotip.cli", *args], env=env, capture_output=True, text=True)
+    proc = subprocess.run([sys.executable, *entry, *args], env=env, cwd=cwd, capture_output=True, text=True)
     wall = time.perf_counter() - start
     if proc.returncode not in (0, 1):
-        raise RuntimeError(f"run_sim.py {' '.join(args)} failed ({proc.returncode}): {proc.stderr.strip()[-500:]}")
+        where = f" (in {cwd})" if cwd is not None else ""
+        raise RuntimeError(f"run_sim.py {' '.join(args)}{where} failed ({proc.returncode}): {proc.stderr.strip()[-500:]}")
     return wall
 
 
@@ -168,17 +171,7 @@ def baseline_times(rev: str, work: Path, repo: Path = REPO) -> dict:
     """``experiment grasp-range`` as revision ``rev`` runs it, and as this code runs it by default
     (its figure too, as the revision's does), whole commands, s."""
     run_from, env = revision_tree(rev, work / "baseline", repo)
-    start = time.perf_counter()
-    proc = subprocess.run(
-        [sys.executable, "run_sim.py", "experiment", "grasp-range", "--out", str(work / "baseline-out")],
-        cwd=run_from,
-        env=env,
-        capture_output=True,
-        text=True,
-    )
-    baseline = time.perf_counter() - start
-    if proc.returncode not in (0, 1):
-        raise RuntimeError(f"revision {rev}: experiment grasp-range failed ({proc.returncode}): {proc.stderr.strip()[-500:]}")
+    baseline = _timed_command(["experiment", "grasp-range", "--out", str(work / "baseline-out")], env, script="run_sim.py", cwd=run_from)
     now = _timed_command(["experiment", "grasp-range", "--out", str(work / "baseline-now")], _env(work / "cache"))
     return {"baseline_rev": rev, "baseline_experiment_s": baseline, "experiment_with_plot_s": now, "baseline_speedup": baseline / now}
 

@@ -171,13 +171,9 @@ class CoSimulation:
             "exact": config.sensor.exact_gel or config.sensor.gel_layer == "dynamic",  # tables need k_e > 0
             "carrier_samples_per_cycle": config.sensor.carrier_samples_per_cycle,
         }
+        kind, unit = (SensorChannel, ()) if self.unit is None else (UnitChannel, (self.unit,))
         self.channels: dict[str, SensorChannel] = {
-            pad: (
-                SensorChannel(self.fingertip, rng=np.random.default_rng(rng.integers(2**63)), **channel_options)
-                if self.unit is None
-                else UnitChannel(self.fingertip, self.unit, rng=np.random.default_rng(rng.integers(2**63)), **channel_options)
-            )
-            for pad in self.pads
+            pad: kind(self.fingertip, *unit, rng=np.random.default_rng(rng.integers(2**63)), **channel_options) for pad in self.pads
         }
         self.controller = make_controller(config, self.robot, self.fingertip)
         m = self.model
