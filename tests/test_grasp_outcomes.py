@@ -193,3 +193,27 @@ def test_a_trapezoidal_move_stops_where_it_should_in_the_time_it_should(distance
     cruise = distance >= top * top / accel
     expected = distance / top + top / accel if cruise else 2.0 * math.sqrt(distance / accel)
     assert len(speeds) * dt == pytest.approx(expected, abs=4 * dt + 0.02 * expected)
+
+
+@pytest.mark.slow
+def test_a_placed_soft_object_is_let_go_at_once(tmp_path):
+    # The pads' gel, unloading from the squeeze, pushes the fingers open slowly (its stiffness
+    # falls with its pressure): a release that restarted its opening profile from rest whenever
+    # the fingers crept ahead of it held the raspberry on the table for 1.7 s.  Now the profile
+    # keeps its speed and overtakes the creep: the fingers are 2 mm open within the time the
+    # profile itself needs for 2 mm from rest, plus a control period or two.
+    _, data = grasp(tmp_path, "grasp-raspberry")
+    sim = CoSimulation(scenarios.get("grasp-raspberry"))
+    accel, dt = sim.controller.finger_accel_m_s2, sim.dt
+    top = scenarios.get("grasp-raspberry").controller.opening_speed_m_s
+    gap = 0.002
+    from_rest = gap / top + top / accel if gap >= top * top / accel else 2.0 * math.sqrt(gap / accel)
+    release = np.flatnonzero(data["phase"] == Phase.RELEASE)
+    opening, t = data["opening_m"], data["time_s"]
+    opened = release[opening[release] > opening[release[0]] + gap]
+    assert opened.size and t[opened[0]] - t[release[0]] <= from_rest + 2 * dt
+    # ...and lets it go where it was put: no push, no drag
+    after = slice(release[0], None)
+    for axis in ("x", "y"):
+        drift = data[f"object_{axis}_m"][after]
+        assert np.ptp(drift) < 1e-4

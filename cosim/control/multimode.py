@@ -478,14 +478,16 @@ class MultimodeGrasp:
 
     def _release(self, obs: Observation, t: float, dt_s: float) -> None:
         if self.opening_target < obs.opening_m:
-            # Squeezing (target inside the object): first let the grip go to the floor with the
-            # target where the fingers are (the object rests on the table), then open.
-            self.opening_target, self._opening_speed = obs.opening_m, 0.0
+            # The fingers are ahead of their target: squeezing (the target inside the object) on
+            # the first period, then the pads' gel unloading pushes them out.  The target jumps
+            # to them with the grip at the floor (the servo never squeezes the object back) and
+            # its profile keeps its speed: it overtakes the gel's creep within a few periods.
+            # (Restarting the profile from rest whenever the fingers crept ahead held the
+            # object on the table until the creep stopped: up to 2.7 s on a soft object.)
+            self.opening_target = obs.opening_m
             self.grip_n = self.grip_floor_n
-            return
-        self.grip_n = self.opening_force_n
-        if self.opening_target < obs.opening_m:  # the fingers are ahead of the target: from there, at rest
-            self.opening_target, self._opening_speed = obs.opening_m, 0.0
+        else:
+            self.grip_n = self.opening_force_n
         self._open_toward_home(dt_s)
         if obs.opening_m >= self.robot.home_opening_m - 0.002:
             self._enter(Phase.DONE, t, self.gave_up or "")
