@@ -20,11 +20,18 @@ Safety, in order of importance:
 Where: ``$PIEZOTIP_CACHE_DIR``, else ``$XDG_CACHE_HOME/piezotip``, else ``~/.cache/piezotip``.
 ``PIEZOTIP_CACHE=off`` turns caching off, on disk and in memory (:func:`enabled`): every run
 then computes its own set-up, which is what ``bench --throughput`` compares against.
+
+Bounded: the folder holds at most ``$PIEZOTIP_CACHE_MAX_MB`` megabytes (default
+:data:`DEFAULT_MAX_MB`).  Every new configuration (a sweep over sensor units, each edit of the
+sensor's code) adds entries that nothing else will read, so after a write that takes the folder
+over its bound the least recently used entries go (a read marks an entry used) until it is
+under :data:`PRUNE_TO` of it.  An entry removed under a reader is computed again, like a torn one.
 """
 
 from __future__ import annotations
 
 import hashlib
+import math
 import os
 import tempfile
 import zipfile
@@ -34,6 +41,11 @@ from pathlib import Path
 import numpy as np
 
 _FINGERPRINTS: dict[tuple[str, ...], str] = {}
+
+#: The cache folder's default bound, MB (a fingertip configuration's entries take about 0.1 MB).
+DEFAULT_MAX_MB = 200.0
+#: Pruning goes down to this fraction of the bound, so that it runs once in many writes.
+PRUNE_TO = 0.8
 
 
 def enabled() -> bool:
@@ -50,6 +62,53 @@ def cache_dir() -> Path | None:
         return Path(os.environ["PIEZOTIP_CACHE_DIR"])
     base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
     return Path(base) / "piezotip"
+
+
+def max_bytes() -> int:
+    """The cache folder's bound, bytes: ``$PIEZOTIP_CACHE_MAX_MB`` megabytes, else DEFAULT_MAX_MB.
+    Raises ValueError naming the variable's value when it is not a non-negative number."""
+    text = os.environ.get("PIEZOTIP_CACHE_MAX_MB", "").strip()
+    if not text:
+        return int(DEFAULT_MAX_MB * 1e6)
+    try:
+        mb = float(text)
+    except ValueError:
+        mb = math.nan
+    if not (mb >= 0.0 and math.isfinite(mb)):
+        raise ValueError(f"PIEZOTIP_CACHE_MAX_MB must be a non-negative number of megabytes, got {text!r}")
+    return int(mb * 1e6)
+
+
+def prune(folder: Path, limit_bytes: int) -> list[Path]:
+    """Remove the least recently used entries of ``folder`` (by modification time, which a read
+    refreshes) while its entries take more than ``limit_bytes``, down to PRUNE_TO of it; returns
+    the entries removed.  Another process's removal of the same entry is not an error."""
+    entries = []
+    total = 0
+    with os.scandir(folder) as it:
+        for item in it:
+            if not item.name.endswith(".npz") or item.name.startswith(".tmp-"):
+                continue
+            try:
+                st = item.stat()
+            except OSError:
+                continue
+            entries.append((st.st_mtime_ns, st.st_size, item.path))
+            total += st.st_size
+    removed = []
+    if total <= limit_bytes:
+        return removed
+    target = PRUNE_TO * limit_bytes
+    for _, size, path in sorted(entries):
+        if total <= target:
+            break
+        try:
+            os.unlink(path)
+        except OSError:
+            pass
+        total -= size
+        removed.append(Path(path))
+    return removed
 
 
 def source_fingerprint(extra_modules: Iterable[str] = ()) -> str:
@@ -83,13 +142,16 @@ def disk_cached(
     folder = cache_dir()
     if folder is None:
         return compute()
+    limit = max_bytes()
     path = folder / f"{entry_key(namespace, key, extra_modules)}.npz"
     if path.exists():
         try:
             with np.load(path, allow_pickle=False) as npz:
-                return {name: npz[name] for name in npz.files}
+                value = {name: npz[name] for name in npz.files}
+            _touch(path)
+            return value
         except (OSError, ValueError, EOFError, zipfile.BadZipFile):
-            pass  # torn or foreign: compute and replace below
+            pass  # torn, foreign or pruned under us: compute and replace below
     value = compute()
     tmp = None
     try:
@@ -98,7 +160,16 @@ def disk_cached(
         with os.fdopen(fd, "wb") as fh:
             np.savez(fh, **value)
         os.replace(tmp, path)
+        prune(folder, limit)
     except OSError:  # a read-only or full disk: the value is still right, only not kept
         if tmp is not None and os.path.exists(tmp):
             os.unlink(tmp)
     return value
+
+
+def _touch(path: Path) -> None:
+    """Mark an entry used (its modification time, which pruning goes by)."""
+    try:
+        os.utime(path)
+    except OSError:  # a read-only cache is still a cache
+        pass

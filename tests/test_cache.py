@@ -128,3 +128,57 @@ def test_cached_ranges_equal_computed_ones_in_a_fresh_process(cache_dir, monkeyp
     selector._RANGES.clear()
     fresh = selector.allowed_ranges(Fingertip(coverage=(0.0062, 0.0075)), (1, 2, 3))
     assert first == second == repr(fresh[1:]) + "\n"
+
+
+def _entries(folder):
+    return sorted(p.name for p in folder.glob("t-*.npz"))
+
+
+def test_the_folder_stays_under_its_bound_dropping_the_least_recently_used(cache_dir, monkeypatch):
+    import os
+
+    payload = {"v": np.zeros(1000)}  # about 8 kB an entry
+    size = None
+    for k in range(6):
+        disk_cached("t", k, lambda: payload)
+        path = cache_dir / f"{entry_key('t', k)}.npz"
+        size = path.stat().st_size
+        os.utime(path, ns=(k * 10**9, k * 10**9))  # written in order, a second apart
+    assert len(_entries(cache_dir)) == 6  # no bound reached yet (200 MB)
+    disk_cached("t", 0, lambda: pytest.fail("entry 0 is stored"))  # a read: entry 0 is now the newest
+    # A bound of four entries: the next write prunes the least recently used down to 80 % of it.
+    monkeypatch.setenv("PIEZOTIP_CACHE_MAX_MB", str(4.5 * size / 1e6))
+    disk_cached("t", 6, lambda: payload)
+    kept = _entries(cache_dir)
+    total = sum((cache_dir / name).stat().st_size for name in kept)
+    assert total <= 0.8 * 4.5 * size
+    expected = {entry_key("t", k) + ".npz" for k in (0, 5, 6)}  # the read one and the newest
+    assert set(kept) == expected
+    disk_cached("t", 1, lambda: payload)  # a pruned entry is simply computed again
+    assert entry_key("t", 1) + ".npz" in _entries(cache_dir)
+
+
+def test_prune_counts_only_entries_and_tolerates_a_concurrent_removal(tmp_path, monkeypatch):
+    import os
+
+    for k, (name, nbytes) in enumerate((("a.npz", 300), ("b.npz", 300), ("c.npz", 300), (".tmp-x.npz", 10_000), ("notes.txt", 10_000))):
+        (tmp_path / name).write_bytes(b"x" * nbytes)
+        os.utime(tmp_path / name, ns=(k * 10**9, k * 10**9))
+    assert cache_module.prune(tmp_path, 900) == []  # 900 bytes of entries: within the bound
+    unlink = os.unlink
+
+    def raced(path):  # another process removes the entry first
+        unlink(path)
+        raise FileNotFoundError(path)
+
+    monkeypatch.setattr(cache_module.os, "unlink", raced)
+    removed = cache_module.prune(tmp_path, 700)  # down to 80 % of 700: the two oldest go
+    assert [p.name for p in removed] == ["a.npz", "b.npz"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == [".tmp-x.npz", "c.npz", "notes.txt"]
+
+
+@pytest.mark.parametrize("text", ["-1", "lots", "nan", "inf"])
+def test_a_bad_bound_is_an_error_naming_it(cache_dir, monkeypatch, text):
+    monkeypatch.setenv("PIEZOTIP_CACHE_MAX_MB", text)
+    with pytest.raises(ValueError, match=f"PIEZOTIP_CACHE_MAX_MB.*{text!r}"):
+        disk_cached("t", "k", lambda: {"v": np.ones(1)})
