@@ -42,7 +42,7 @@ import numpy as np
 
 _FINGERPRINTS: dict[tuple[str, ...], str] = {}
 
-#: The cache folder's default bound, MB (a fingertip configuration's entries take about 0.1 MB).
+#: The cache folder's default bound, MB (a fingertip configuration's entries take about 0.07 MB).
 DEFAULT_MAX_MB = 200.0
 #: Pruning goes down to this fraction of the bound, so that it runs once in many writes.
 PRUNE_TO = 0.8
