@@ -172,6 +172,12 @@ def grip_floor_or_opening(sim) -> float:
     return sim.controller.opening_force_n
 
 
+def rest_to_rest_s(distance: float, top: float, accel: float) -> float:
+    """The closed-form time of a trapezoidal move from rest to rest, s: d / v_top + v_top / a with
+    a cruise, 2 sqrt(d / a) without."""
+    return distance / top + top / accel if distance >= top * top / accel else 2.0 * math.sqrt(distance / accel)
+
+
 @pytest.mark.parametrize(
     ("distance", "top", "accel", "dt"), [(0.0016, 0.05, 0.5, 0.005), (0.02, 0.05, 0.5, 0.005), (0.1, 0.02, 2.0, 0.001)]
 )
@@ -189,9 +195,7 @@ def test_a_trapezoidal_move_stops_where_it_should_in_the_time_it_should(distance
         if x >= distance and v == 0.0:
             break
     assert x == pytest.approx(distance) and max(speeds) <= top
-    # closed form: d / v_top + v_top / a with a cruise, 2 sqrt(d / a) without; within a few steps
-    cruise = distance >= top * top / accel
-    expected = distance / top + top / accel if cruise else 2.0 * math.sqrt(distance / accel)
+    expected = rest_to_rest_s(distance, top, accel)  # within a few steps
     assert len(speeds) * dt == pytest.approx(expected, abs=4 * dt + 0.02 * expected)
 
 
@@ -207,7 +211,7 @@ def test_a_placed_soft_object_is_let_go_at_once(tmp_path):
     accel, dt = sim.controller.finger_accel_m_s2, sim.dt
     top = scenarios.get("grasp-raspberry").controller.opening_speed_m_s
     gap = 0.002
-    from_rest = gap / top + top / accel if gap >= top * top / accel else 2.0 * math.sqrt(gap / accel)
+    from_rest = rest_to_rest_s(gap, top, accel)  # more than the profile needs to pass gap
     release = np.flatnonzero(data["phase"] == Phase.RELEASE)
     opening, t = data["opening_m"], data["time_s"]
     opened = release[opening[release] > opening[release[0]] + gap]
