@@ -102,7 +102,7 @@ def run_scenario(
         from .video import DEFAULT_FPS, DEFAULT_SIZE, VideoWriter
 
         fps, size = DEFAULT_FPS if video_fps is None else video_fps, DEFAULT_SIZE if video_size is None else video_size
-        movie = VideoWriter(sim, out / "run.mp4", recorder.data, config.duration_s, fps, size, not quiet)
+        movie = VideoWriter(sim, out / "run.mp4", recorder.rows_from, config.duration_s, fps, size, not quiet)
         on_step = movie if strip is None else (lambda s: (strip(s), movie(s)))
     from tqdm import tqdm
 

@@ -10,7 +10,9 @@ is; nothing here is imported or created unless a video is asked for.
 Frames are taken in simulated time: frame ``n`` shows the first control step at or after
 ``n / fps`` seconds (the control period, 5 ms, is the jitter), so a run of T simulated seconds
 gives ``floor(T fps) + 1`` frames and plays in real time.  The strip's axes are drawn once; a
-frame redraws only its lines onto the saved background (matplotlib's blitting), and the
+frame redraws only its lines onto the saved background (matplotlib's blitting), reads only the
+rows recorded since the last frame, and draws of each line what its pixel columns show
+(:func:`m4_decimate`), so a frame's cost does not grow with the run; and the
 renderer skips shadows and reflections (a third of the cost in software OpenGL, invisible in a
 side view).  Headless machines render through EGL (``MUJOCO_GL=egl``, which the command line
 sets for a command that renders unless told otherwise); without a usable OpenGL the writer
@@ -179,30 +181,107 @@ class LiveStrip:
             artist.set_animated(True)  # left out of the background, drawn per frame
         self.canvas.draw()
         self.background = self.canvas.copy_from_bbox(fig.bbox)
+        self._reset()
 
     def draw(self, data: dict[str, np.ndarray]) -> np.ndarray:
-        """The strip for the recorded ``data`` so far, as an (height, width, 3) uint8 image."""
-        t = data["time_s"]
-        if t.size and t[-1] > self.fig.axes[0].get_xlim()[1]:
+        """The strip for the recorded ``data`` (the whole run so far), as an (height, width, 3) uint8 image."""
+        self._reset()
+        self.extend(data)
+        return self.render()
+
+    def extend(self, rows: dict[str, np.ndarray]) -> None:
+        """Add the rows recorded since the last call (column name -> array) to the lines.
+
+        Each line keeps the rows of the pixel columns already passed as their M4 summary
+        (:func:`m4_decimate`), so a frame draws a bounded number of points however long the
+        run: the cost per frame does not grow with the run's length.
+        """
+        t = np.asarray(rows["time_s"], dtype=float)
+        if not t.size:
+            return
+        self._last = {column: float(values[-1]) for column, values in rows.items()}
+        ax = self.fig.axes[0]
+        if t[-1] > ax.get_xlim()[1]:
             # The recording's tail after the controller finishes can outlast the scenario's
-            # duration (cosim.loop.REST_MAX_S): a longer axis, drawn again once.
-            self.fig.axes[0].set_xlim(0.0, 1.25 * float(t[-1]))
+            # duration (cosim.loop.REST_MAX_S): a longer axis, drawn again once (its pixel
+            # columns narrower than the traces' buckets, which stay as they were).
+            ax.set_xlim(0.0, 1.25 * float(t[-1]))
             self.canvas.draw()
             self.background = self.canvas.copy_from_bbox(self.fig.bbox)
-        for column, line in self.lines:
-            y = data[column]
+        for (column, line), trace in zip(self.lines, self._traces, strict=True):
+            y = np.asarray(rows[column], dtype=float)
             if column.endswith("_pa"):
                 y = np.where(y > 0.0, y, np.nan)  # nothing to draw on a log axis (and NaN: no estimate)
-            line.set_data(t, y)
-        phase = int(data["phase"][-1]) if t.size else 0
+            trace.extend(t, y)
+            line.set_data(*trace.xy())
+
+    def render(self) -> np.ndarray:
+        """The strip as it stands, as an (height, width, 3) uint8 image."""
+        last = self._last
+        t = last.get("time_s", 0.0)
+        phase = int(last["phase"]) if last else 0
         label = self.phases[phase] if 0 <= phase < len(self.phases) else str(phase)
-        modes = "  ".join(f"{side} mode {int(data[f'{side}_mode'][-1])}" for side in self.sides) if t.size else ""
-        self.title.set_text(f"t = {t[-1] if t.size else 0.0:6.2f} s   {label}   {modes}")
+        modes = "  ".join(f"{side} mode {int(last[f'{side}_mode'])}" for side in self.sides) if last else ""
+        self.title.set_text(f"t = {t:6.2f} s   {label}   {modes}")
         self.canvas.restore_region(self.background)
         for artist in self.artists:
             self.fig.draw_artist(artist)
         image = np.asarray(self.canvas.buffer_rgba())[:, :, :3]
         return _fit(image, self.height, self.width)
+
+    def _reset(self) -> None:
+        """Empty lines, bucketed by the time axis's pixel columns as it is drawn now."""
+        ax = self.fig.axes[0]
+        bucket_s = ax.get_xlim()[1] / max(ax.get_window_extent().width, 1.0)
+        self._traces = [_Trace(bucket_s) for _ in self.lines]
+        self._last: dict[str, float] = {}
+        for _, line in self.lines:
+            line.set_data([], [])
+
+
+def m4_decimate(t: np.ndarray, y: np.ndarray, bucket: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The points of a line that its drawing at one pixel column per bucket needs: in each
+    bucket the first, last, lowest and highest points, and its first NaN (a gap), in time order.
+
+    The M4 aggregation (Jugel et al. 2014, "M4: a visualization-oriented time series data
+    aggregation", PVLDB 7(10)): a line through these points is drawn with the same pixels as
+    one through them all, its extent in every column, where it enters and leaves.  ``t``
+    increasing, ``bucket`` the non-decreasing integer bucket of each point; NaNs in ``y`` stay
+    gaps (a bucket of NaNs alone keeps one).  Returns (t, y) of the kept points.
+    """
+    n = t.size
+    if n == 0:
+        return t, y
+    starts = np.flatnonzero(np.r_[True, bucket[1:] != bucket[:-1]])
+    ends = np.r_[starts[1:], n] - 1
+    finite = np.isfinite(y)
+    low = np.lexsort((np.where(finite, y, np.inf), bucket))[starts]  # each bucket's lowest first
+    high = np.lexsort((np.where(finite, -y, np.inf), bucket))[starts]
+    gaps = np.flatnonzero(~finite)
+    first_gap = gaps[np.r_[True, bucket[gaps][1:] != bucket[gaps][:-1]]] if gaps.size else gaps
+    keep = np.unique(np.concatenate([starts, ends, low, high, first_gap]))
+    return t[keep], y[keep]
+
+
+class _Trace:
+    """One line of the strip as it grows: the closed buckets (``bucket_s`` wide, s) kept as their
+    M4 points, the open one (the latest) as its raw points."""
+
+    def __init__(self, bucket_s: float) -> None:
+        self.bucket_s = bucket_s
+        self._done_t = self._done_y = self._open_t = self._open_y = np.empty(0)
+
+    def extend(self, t: np.ndarray, y: np.ndarray) -> None:
+        t, y = np.concatenate([self._open_t, t]), np.concatenate([self._open_y, y])
+        bucket = np.floor(t / self.bucket_s).astype(np.int64)
+        cut = int(np.searchsorted(bucket, bucket[-1]))  # the open bucket starts here
+        if cut:
+            kept_t, kept_y = m4_decimate(t[:cut], y[:cut], bucket[:cut])
+            self._done_t, self._done_y = np.concatenate([self._done_t, kept_t]), np.concatenate([self._done_y, kept_y])
+        self._open_t, self._open_y = t[cut:], y[cut:]
+
+    def xy(self) -> tuple[np.ndarray, np.ndarray]:
+        return np.concatenate([self._done_t, self._open_t]), np.concatenate([self._done_y, self._open_y])
 
 
 def _fit(image: np.ndarray, height: int, width: int) -> np.ndarray:
@@ -223,8 +302,9 @@ class VideoWriter:
     ----------
     sim : the CoSimulation (its model, pads, channels and control period).
     path : the MP4 to write.
-    data : a callable returning the recording so far (column name -> array), e.g. a Recorder's
-        ``data``; it is called once per frame.
+    rows : a callable ``rows(start)`` returning the rows recorded from row ``start`` on (column
+        name -> array), e.g. a Recorder's ``rows_from``; it is called once per frame, for the
+        rows since the last frame (so a frame costs the same early or late in a long run).
     duration_s : the time axis's end, s (the scenario's duration).
     fps : frames per simulated second (at most the control rate).
     size : (width, height) of a frame, pixels, even; the camera takes the left half of a
@@ -234,7 +314,7 @@ class VideoWriter:
     The renderer and the encoder start here, so a missing OpenGL stops before the run.
     """
 
-    def __init__(self, sim, path: str | Path, data, duration_s: float, fps: float = DEFAULT_FPS, size=DEFAULT_SIZE, progress: bool = True):
+    def __init__(self, sim, path: str | Path, rows, duration_s: float, fps: float = DEFAULT_FPS, size=DEFAULT_SIZE, progress: bool = True):
         import imageio_ffmpeg
         import mujoco
         from tqdm import tqdm
@@ -242,7 +322,8 @@ class VideoWriter:
         self.fps = check_fps(fps, sim.dt)
         self.width, self.height = check_size(size)
         self.path = Path(path)
-        self._data = data
+        self._rows = rows
+        self._read = 0  # rows handed to the strip so far
         beside = self.width >= self.height
         # The camera's share, even so that the strip's is too.
         if beside:
@@ -292,7 +373,10 @@ class VideoWriter:
             return
         self.renderer.update_scene(sim.data, camera=CAMERA, scene_option=self.option)
         self._frame[self._cam_slice] = self.renderer.render()
-        self._frame[self._strip_slice] = self.strip.draw(self._data())
+        new = self._rows(self._read)
+        self._read += len(new.get("time_s", ()))
+        self.strip.extend(new)
+        self._frame[self._strip_slice] = self.strip.render()
         self._writer.send(self._frame.tobytes())
         self.frames += 1
         self._next_s = self.frames / self.fps

@@ -50,6 +50,7 @@ class Recorder:
         self._column_source = None  # the sequence append_values was first given, to recognise it
         self._chunk: list[list[float]] = []
         self._flushed: list[np.ndarray] = []
+        self._flushed_rows = 0  # rows in self._flushed
         self._closed = False
         # A new recording replaces an old one of the same name (never mixes with it).
         for old in (self.csv_path, self.npz_path):
@@ -63,7 +64,7 @@ class Recorder:
         return list(self._columns or [])
 
     def __len__(self) -> int:
-        return sum(len(a) for a in self._flushed) + len(self._chunk)
+        return self._flushed_rows + len(self._chunk)
 
     def append(self, row: dict[str, float]) -> None:
         """Add one row; the first row fixes the columns (later rows must have the same keys)."""
@@ -111,6 +112,7 @@ class Recorder:
         self._chunk = []
         index = len(self._flushed)
         self._flushed.append(chunk)
+        self._flushed_rows += len(chunk)
         if index == 0:
             self.chunk_dir.mkdir(parents=True, exist_ok=True)
             _write_atomic(self.chunk_dir / _META, json.dumps({"columns": self._columns, "metadata": self.metadata}).encode())
@@ -133,6 +135,23 @@ class Recorder:
         if self._chunk:
             parts.append(np.asarray(self._chunk, dtype=float))
         table = np.concatenate(parts) if parts else np.empty((0, len(self._columns)))
+        return {c: table[:, i] for i, c in enumerate(self._columns)}
+
+    def rows_from(self, start: int) -> dict[str, np.ndarray]:
+        """The rows recorded from row ``start`` (0-based) on, as columns: what a live consumer (a
+        video's strip) reads each time, at a cost of those rows alone (plus at most one pending
+        chunk), so that reading a run as it grows costs in proportion to its length."""
+        if self._columns is None:
+            return {}
+        start = max(int(start), 0)
+        parts = [np.asarray(self._chunk[max(start - self._flushed_rows, 0) :], dtype=float).reshape(-1, len(self._columns))]
+        end = self._flushed_rows
+        for chunk in reversed(self._flushed):
+            if end <= start:
+                break
+            parts.append(chunk[max(start - (end - len(chunk)), 0) :])
+            end -= len(chunk)
+        table = np.concatenate(parts[::-1])
         return {c: table[:, i] for i, c in enumerate(self._columns)}
 
     def close(self) -> list[Path]:

@@ -82,3 +82,18 @@ def test_rows_must_keep_their_columns(tmp_path):
     rec.append({"a": 1.0})
     with pytest.raises(ValueError, match="columns"):
         rec.append({"b": 1.0})
+
+
+def test_rows_from_reads_any_tail_across_chunks_as_data_does(tmp_path):
+    """A live reader (a video's strip) reads only the rows since its last read: for every start,
+    across flushed chunks and the pending one, they equal the whole recording's tail."""
+    rec = Recorder(tmp_path / "run", flush_every=4)
+    assert rec.rows_from(0) == {}
+    for i in range(11):  # chunks of 4, 4 and 3 pending
+        rec.append_values([float(i), float(i * i)], ["time_s", "x"])
+        whole = rec.data()
+        for start in range(i + 3):
+            tail = rec.rows_from(start)
+            for column in ("time_s", "x"):
+                np.testing.assert_array_equal(tail[column], whole[column][start:])
+    rec.close()

@@ -159,3 +159,84 @@ def test_live_strip_draws_a_pressure_where_the_log_axis_puts_it():
     longer["time_s"][-1] = 3.0
     strip.draw(longer)
     assert ax.get_xlim()[1] >= 3.0
+
+
+def _long_strip_data(n: int, seed: int = 1) -> dict[str, np.ndarray]:
+    """A pad's record over n readings (5 ms): a wandering pressure with a one-reading spike and
+    gaps (no estimate, no contact), a mode switching often, the phases in turn."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(1, n + 1) * 0.005
+    p = 10.0 ** (2.0 + np.cumsum(rng.normal(0.0, 0.02, n)))
+    p[n // 2] = 1e5
+    p[int(0.6 * n) : int(0.63 * n)] = 0.0
+    est = p * (1.0 + 0.1 * rng.normal(size=n))
+    est[int(0.2 * n) : int(0.25 * n)] = np.nan
+    mode = np.round(np.cumsum(rng.normal(0.0, 0.05, n))) % 4 + 1
+    return {"time_s": t, "phase": np.floor(t / (t[-1] / 8)) % 8, "left_true_pressure_pa": p, "left_estimate_pa": est, "left_mode": mode}
+
+
+def test_m4_keeps_each_buckets_extremes_ends_and_gaps():
+    from piezotip.analysis.video import m4_decimate
+
+    rng = np.random.default_rng(3)
+    t = np.sort(rng.uniform(0.0, 10.0, 5000))
+    y = rng.normal(size=t.size)
+    y[rng.integers(0, t.size, 200)] = np.nan
+    y[1000:1300] = np.nan  # a gap over whole buckets
+    bucket = np.floor(t / 0.05).astype(np.int64)
+    kept_t, kept_y = m4_decimate(t, y, bucket)
+    assert np.all(np.diff(kept_t) > 0)
+    kept_bucket = np.floor(kept_t / 0.05).astype(np.int64)
+    def same(a, b):
+        return a == b or (np.isnan(a) and np.isnan(b))
+
+    for b in np.unique(bucket):
+        raw, kept = y[bucket == b], kept_y[kept_bucket == b]
+        assert 1 <= kept.size <= 5
+        assert same(kept[0], raw[0]) and same(kept[-1], raw[-1])
+        if np.isfinite(raw).any():
+            assert np.nanmin(kept) == np.nanmin(raw) and np.nanmax(kept) == np.nanmax(raw)
+        assert np.isnan(kept).any() == np.isnan(raw).any()  # a gap stays a gap
+
+
+def test_live_strip_draws_a_long_run_as_all_its_points_do_with_bounded_points():
+    """Fed a frame's rows at a time, the strip keeps a bounded number of points per line (its
+    cost per frame does not grow with the run) and draws what all the points draw: the spike, the
+    gaps, the mode's switches."""
+    width, height = 480, 540
+
+    def strip():
+        return LiveStrip(width, height, ("left",), (1, 2, 3, 4), duration_s=60.0, pressure_range_pa=(0.1, 1e6))
+
+    def fed(data, rng):
+        s = strip()
+        n, i = data["time_s"].size, 0
+        while i < n:
+            k = int(rng.integers(1, 40))
+            s.extend({c: v[i : i + k] for c, v in data.items()})
+            i += k
+        return s
+
+    data = _long_strip_data(12000)
+    full = strip()
+    for column, line in full.lines:  # every point, as a plot of the whole record draws them
+        y = data[column]
+        line.set_data(data["time_s"], np.where(y > 0, y, np.nan) if column.endswith("_pa") else y)
+    full._last = {c: float(v[-1]) for c, v in data.items()}
+    rng = np.random.default_rng(0)
+    live = fed(data, rng)
+    differ = np.abs(full.render().astype(int) - live.render().astype(int)).max(axis=2) > 64
+    assert differ.mean() < 0.015  # antialiasing at the lines' edges, nothing more
+    t_drawn, p_drawn = (np.asarray(a) for a in live.lines[0][1].get_data())
+    assert np.nanmax(p_drawn) == 1e5  # the one-reading spike
+    in_gap = (t_drawn > data["time_s"][7230]) & (t_drawn < data["time_s"][7530])
+    assert in_gap.any() and np.isnan(p_drawn[in_gap]).all()  # no contact: a gap, not a line
+    pixels = full.fig.axes[0].get_window_extent().width
+    points = [len(line.get_xdata()) for _, line in live.lines]
+    assert max(points) <= 4 * pixels + 100  # M4's four per pixel column, plus the open one
+    # Four times as long a run on a four times longer axis: about as many points.
+    longer = _long_strip_data(48000, seed=2)
+    s = LiveStrip(width, height, ("left",), (1, 2, 3, 4), duration_s=240.0, pressure_range_pa=(0.1, 1e6))
+    for i in range(0, 48000, 7):
+        s.extend({c: v[i : i + 7] for c, v in longer.items()})
+    assert max(len(line.get_xdata()) for _, line in s.lines) <= 4 * pixels + 300
