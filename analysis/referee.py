@@ -204,7 +204,7 @@ def judge(
     elif "blind" in kinds:
         outcome, reason = "blind", told("blind")
     elif not lifted:
-        why = told("never_lifted", "no_object", "over_limit", "lost")
+        why = told("never_lifted", "no_object", "unfelt_contact", "over_limit", "lost")
         outcome = "never_lifted"
         reason = f"rose {1e3 * max_rise:.1f} mm of the {1e3 * lift_height_m:g} mm asked" + (f"; {why}" if why else "")
     elif not finished:

@@ -221,3 +221,21 @@ def test_a_placed_soft_object_is_let_go_at_once(tmp_path):
     for axis in ("x", "y"):
         drift = data[f"object_{axis}_m"][after]
         assert np.ptp(drift) < 1e-4
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("preset", [None, "fast"])
+def test_an_object_touched_off_the_pads_is_given_up_not_pushed_until_the_clock_runs_out(tmp_path, preset):
+    """A 13 mm ball's equator meets the fingers' lower guards, under the pads: no fingertip can
+    feel it.  The controller used to close on it until the clock ran out (or loop touch, "false
+    touch", close on, a hundred times); now it says so within a second of the fingers stopping
+    (the closing takes 4 s from 90 mm) and opens."""
+    args = ["object.shape='sphere'", "object.size_m=0.013"]
+    summary, data = run_scenario("grasp", args, tmp_path, plot=False, quiet=True, preset=preset)
+    assert summary["outcome"] == "never_lifted" and "unfelt_contact" in summary["reason"], summary["reason"]
+    gave_up = next(e for e in summary["events"] if e["kind"] == "unfelt_contact")
+    closing_s = (0.090 - 0.013) / scenarios.get("grasp").controller.closing_speed_m_s
+    assert gave_up["time_s"] < closing_s + 1.0
+    assert data["opening_m"][-1] > 0.08  # opened again, and the run ended before its duration
+    assert data["time_s"][-1] < scenarios.get("grasp").duration_s - 1.0
+    assert data["left_finger_force_n"].max() > 0.0 and data["right_finger_force_n"].max() > 0.0  # it was touched

@@ -14,7 +14,9 @@ Phases (:class:`Phase`), one method each::
 - close: close at ``closing_speed_m_s`` with the force the fingers need to move (a guard, not
   a grip) until a CUSUM on the most sensitive mode detects touch on both fingertips.
 - squeeze: settle at the grip floor: the gentlest grip whose pad pressure the lowest mode
-  resolves to 10 % (:func:`grip_floor_n`).
+  resolves to 10 % (:func:`grip_floor_n`).  A fingertip reading nothing there was alarmed by
+  something else (a false touch): close on; but fingers that cannot close, twice felt by no
+  fingertip, touch the object off the pads (``unfelt_contact``: give up).
 - lift, in three stages.  *Transfer*: the lift goal rises only as far as the grip can carry
   at the assumed friction, and the grip follows the load the lift feels (grip = safety x
   load / (2 mu)), so the weight moves from the table onto the pads.  When the load stops
@@ -34,9 +36,10 @@ Slip and loss while carried: a fingertip's trusted pressure estimate falling by 
 ``slip_pressure_drop`` (and 3 sigma), or the load the lift feels falling by more than the lift's
 own acceleration can explain, is a slip: the grip rises by the safety factor, within what the
 fingertip can measure and ``max_grip_n`` allows.  Both fingertips reading no load for
-``lost_s`` is a loss.  Give-ups (``no_object``, ``never_lifted``, ``blind``, ``lost``) and faults
-(``self_test``, ``out_of_range``) are events with their time and reason; after a give-up the
-controller puts down what it still holds and opens, instead of running out the clock.
+``lost_s`` is a loss.  Give-ups (``no_object``, ``unfelt_contact``, ``never_lifted``, ``blind``,
+``lost``) and faults (``self_test``, ``out_of_range``) are events with their time and reason;
+after a give-up the controller puts down what it still holds and opens, instead of running out
+the clock.
 """
 
 from __future__ import annotations
@@ -203,6 +206,8 @@ class MultimodeGrasp:
         self._width_m = math.nan
         self._steady_steps = 0
         self._saturated_logged: set[str] = set()
+        self._unfelt_opening_m: float | None = None  # the opening at the last false touch felt by no fingertip
+        self._last_opening_m = math.inf  # the fingers' opening at the last closing step, m
         if self_test_message is not None:
             self._fault(0.0, "", "self_test", self_test_message)
 
@@ -291,8 +296,21 @@ class MultimodeGrasp:
             self.opening_target = 0.0  # squeeze at the force limit
             self.grip_n = self.grip_floor_n
             self._enter(Phase.SQUEEZE, t, f"touch on {', '.join(self.pads)} (CUSUM); grip floor {self.grip_floor_n:.3g} N")
-        elif self.opening_target <= 0.0 and obs.opening_m < 0.002:
-            self._give_up(t, "no_object", "closed without feeling a touch", Phase.RELEASE)
+        elif self.opening_target <= 0.0:
+            if obs.opening_m < 0.002:
+                self._give_up(t, "no_object", "closed without feeling a touch", Phase.RELEASE)
+            elif self._last_opening_m - obs.opening_m < 0.5 * self.cfg.closing_speed_m_s * dt_s:
+                # Told to close all the way, the fingers stand still (under half a period's free
+                # travel) wide of it, and no fingertip felt a touch: they touch the object off
+                # the pads, and pushing on would only run out the clock.
+                self._give_up(
+                    t,
+                    "unfelt_contact",
+                    f"the fingers stopped at {obs.opening_m * 1e3:.1f} mm without a touch on the fingertips: "
+                    "they touch the object off the sensing pads",
+                    Phase.RELEASE,
+                )
+        self._last_opening_m = obs.opening_m
 
     def _squeeze(self, obs: Observation, t: float, dt_s: float) -> None:
         if t - self._t_phase < self.cfg.squeeze_settle_s:
@@ -301,6 +319,21 @@ class MultimodeGrasp:
         # alarmed by something else (its own pad's inertia as the fingers jerk): close on.
         empty = [pad for pad, sel in self.selectors.items() if sel.trusted and sel.status == "below_detection"]
         if empty:
+            # Closing on is for fingers that are free.  If every fingertip read nothing here and
+            # at the last false touch, and the fingers have not closed since by what one control
+            # period of free closing covers, something they do not feel blocks them (an object
+            # touching the guards below or above the pads): closing on would loop forever.
+            unfelt = len(empty) == len(self.pads)
+            previous, self._unfelt_opening_m = self._unfelt_opening_m, obs.opening_m if unfelt else None
+            if unfelt and previous is not None and previous - obs.opening_m < self.cfg.closing_speed_m_s * dt_s:
+                self._give_up(
+                    t,
+                    "unfelt_contact",
+                    f"the fingers stopped at {obs.opening_m * 1e3:.1f} mm twice with no pressure on any fingertip: "
+                    "they touch the object off the sensing pads",
+                    Phase.RELEASE,
+                )
+                return
             for pad in self.pads:
                 self.touch[pad].rearm()
             self.opening_target, self._finger_speed = obs.opening_m, 0.0
