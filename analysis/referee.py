@@ -125,7 +125,9 @@ def judge(
     data : the record's columns: ``time_s``, ``lift_m`` and the ground truth
         (``object_height_m``, ``object_x_m``, ``object_y_m``, ``object_vz_m_s``,
         ``object_speed_m_s``, ``table_force_n``, ``left_finger_force_n``,
-        ``right_finger_force_n``).
+        ``right_finger_force_n``; and, for an object with a crush limit, each finger's peak over
+        the period's physics steps, ``left_finger_peak_force_n``, ``right_finger_peak_force_n``,
+        on which the crush and ``peak_grip_force_n`` are judged).
     lift_height_m, hold_s : what the controller was asked to do, m and s.
     crush_force_n : the object's crush limit per finger, N (None: robust).
     events : the controller's events (dicts with ``kind``, ``message``, ``time_s``).
@@ -170,7 +172,9 @@ def judge(
     placed = bool(max_rise > c.placed_tolerance_m and resting_home and landing <= c.landing_speed_m_s)
     dropped = bool(fell) or landing > c.landing_speed_m_s or (max_rise > c.placed_tolerance_m and released and not resting_home)
 
-    grip = np.maximum(left, right)
+    # The fingers' peak over every physics step where it was recorded (an object with a crush
+    # limit: cosim.loop.PEAK_COLUMNS), else their force at each control period.
+    grip = np.maximum(data.get("left_finger_peak_force_n", left), data.get("right_finger_peak_force_n", right))
     peak_grip = float(grip.max())
     crushed = crush_force_n is not None and peak_grip > crush_force_n
 

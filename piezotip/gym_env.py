@@ -522,6 +522,10 @@ class GraspEnv(gym.Env):
                 "right_finger_force_n",
             )
         }
+        # The crush is judged on the fingers' peak over the period's physics steps where the
+        # loop records it (an object with a crush limit), as the referee does.
+        peaks = [index[c] for c in ("left_finger_peak_force_n", "right_finger_peak_force_n") if c in index]
+        self._peak_cols = peaks or [self._col["left_finger_force_n"], self._col["right_finger_force_n"]]
         obj = self.config.object
         w = self.weights
         self._need_n = w.grip_margin * obj.mass_kg * self.gravity_m_s2 / (2.0 * obj.friction)
@@ -579,7 +583,7 @@ class GraspEnv(gym.Env):
         self._on_table_before = on_table
         crush = cfg.object.crush_force_n
         ended = ""
-        if crush is not None and grip > crush:
+        if crush is not None and max(row[k] for k in self._peak_cols) > crush:
             ended, parts["reward_crush"] = "crushed", -w.crush
         elif self._free_steps >= 2 or landed_hard:
             ended, parts["reward_drop"] = "dropped", -w.drop

@@ -239,3 +239,75 @@ def test_an_object_touched_off_the_pads_is_given_up_not_pushed_until_the_clock_r
     assert data["opening_m"][-1] > 0.08  # opened again, and the run ended before its duration
     assert data["time_s"][-1] < scenarios.get("grasp").duration_s - 1.0
     assert data["left_finger_force_n"].max() > 0.0 and data["right_finger_force_n"].max() > 0.0  # it was touched
+
+
+def _finger_forces_every_step(sim) -> list[float]:
+    """Each physics step's largest finger force on the object (N), computed independently of
+    MuJoCo's sensors from the contacts themselves (mj_contactForce in world x), through the
+    loop's own instrument hook (the state each step starts from)."""
+    m = sim.model
+    obj = m.body("object").id
+    force = np.zeros(6)
+    seen: list[float] = []
+
+    def before(model, data):
+        per_side = {"left": 0.0, "right": 0.0}
+        for i in range(data.ncon):
+            c = data.contact[i]
+            bodies = (model.geom_bodyid[c.geom1], model.geom_bodyid[c.geom2])
+            if obj not in bodies:
+                continue
+            side = model.body(bodies[1] if bodies[0] == obj else bodies[0]).name.partition("_")[0]
+            if side in per_side:
+                mujoco.mj_contactForce(model, data, i, force)
+                per_side[side] += abs((c.frame.reshape(3, 3).T @ force[:3])[0])
+        seen.append(max(per_side.values()))
+
+    sim.watch_mj_step(before)
+    return seen
+
+
+@pytest.mark.slow
+def test_a_crush_between_two_samples_is_still_a_crush():
+    """The fingers' force peaks between control periods (the default grasp's squeeze: 8 % over
+    the samples).  For an object with a crush limit the loop records each period's peak over its
+    physics steps, equal to the contacts' own forces, and the referee judges the crush on it: a
+    limit between the sampled peak and the true one is crushed (on the samples it was not)."""
+    sim = CoSimulation(scenarios.get("grasp", ["object.crush_force_n=1000"]))
+    every = _finger_forces_every_step(sim)
+    rows = []
+    while not sim.controller.finished:
+        rows.append(sim.advance())
+    every.append(max(np.array(rows)[-1, [sim.columns.index(f"{s}_finger_force_n") for s in ("left", "right")]]))  # after the last step
+    col = {c: np.array(rows)[:, i] for i, c in enumerate(sim.columns)}
+    sampled = np.maximum(col["left_finger_force_n"], col["right_finger_force_n"])
+    peak = np.maximum(col["left_finger_peak_force_n"], col["right_finger_peak_force_n"])
+    true_peaks = np.array(every[1:]).reshape(-1, sim.substeps).max(axis=1)  # each period's steps
+    np.testing.assert_allclose(peak, true_peaks, rtol=1e-9, atol=1e-12)
+    assert np.all(peak >= sampled) and peak.max() > 1.03 * sampled.max()
+    limit = 0.5 * (peak.max() + sampled.max())
+    summary = {"lift_height_m": sim.config.controller.lift_height_m, "hold_s": sim.config.controller.hold_s}
+    verdict = judge(col, summary["lift_height_m"], summary["hold_s"], limit, [], True)
+    assert verdict.outcome == "crushed" and verdict.peak_grip_force_n == pytest.approx(peak.max())
+    without_peaks = {k: v for k, v in col.items() if "peak" not in k}
+    assert judge(without_peaks, summary["lift_height_m"], summary["hold_s"], limit, [], True).outcome != "crushed"
+
+
+def test_peaks_cost_nothing_for_a_robust_object_and_never_change_the_motion():
+    """Only an object with a crush limit pays for MuJoCo's sensors in every physics step; the
+    sensors never act on the dynamics, so the motion is the same to the last bit."""
+
+    def first_second(overrides):
+        sim = CoSimulation(scenarios.get("grasp", [*overrides, "duration_s=1.0"]))
+        flags: list[int] = []
+        sim.watch_mj_step(lambda m, d: flags.append(int(m.opt.disableflags)))
+        sim.run(None, max_steps=200)
+        return sim, flags, sim.data.qpos.copy()
+
+    robust, robust_flags, robust_q = first_second([])
+    fragile, fragile_flags, fragile_q = first_second(["object.crush_force_n=1000"])
+    sensors_off = int(mujoco.mjtDisableBit.mjDSBL_SENSOR)
+    assert "left_finger_peak_force_n" not in robust.columns and "left_finger_peak_force_n" in fragile.columns
+    assert sum(f & sensors_off != 0 for f in robust_flags) == 200 * (robust.substeps - 1)
+    assert not any(f & sensors_off for f in fragile_flags)
+    np.testing.assert_array_equal(robust_q, fragile_q)
