@@ -301,13 +301,13 @@ class MultimodeGrasp:
                 self._give_up(t, "no_object", "closed without feeling a touch", Phase.RELEASE)
             elif self._last_opening_m - obs.opening_m < 0.5 * self.cfg.closing_speed_m_s * dt_s:
                 # Told to close all the way, the fingers stand still (under half a period's free
-                # travel) wide of it, and no fingertip felt a touch: they touch the object off
-                # the pads, and pushing on would only run out the clock.
+                # travel) wide of it, and the fingertips did not both feel a touch: a finger
+                # touches the object off its pad, and pushing on would only run out the clock.
                 self._give_up(
                     t,
                     "unfelt_contact",
-                    f"the fingers stopped at {obs.opening_m * 1e3:.1f} mm without a touch on the fingertips: "
-                    "they touch the object off the sensing pads",
+                    f"the fingers stopped at {obs.opening_m * 1e3:.1f} mm without a touch felt on both fingertips: "
+                    "a finger touches the object off its sensing pad",
                     Phase.RELEASE,
                 )
         self._last_opening_m = obs.opening_m
