@@ -446,13 +446,19 @@ def _coerce(key: str, hint, value):
                 continue
         raise ValueError(f"{key}: cannot use {value!r} (expected {hint})")
     if origin is tuple:
+        given = value
         if isinstance(value, (int, float, str)) and not isinstance(value, bool):
             value = [value]
         if not isinstance(value, (list, tuple)):
             raise ValueError(f"{key}: expected a list, got {value!r}")
         item_types = args[:1] if (len(args) == 2 and args[1] is Ellipsis) else args
         if len(item_types) == 1:
-            return tuple(_coerce(key, item_types[0], v) for v in value)
+            try:
+                return tuple(_coerce(key, item_types[0], v) for v in value)
+            except ValueError:
+                # A list of the wrong items, or a list written as text where a mapping's value
+                # is taken as given ({"controller.modes": "[2, 3]"}): say what a list needs.
+                raise ValueError(f"{key}: expected a list of {item_types[0].__name__} values (e.g. {key}=[1, 2]), got {given!r}") from None
         if len(value) != len(item_types):
             raise ValueError(f"{key}: expected {len(item_types)} values, got {value!r}")
         return tuple(_coerce(key, t, v) for t, v in zip(item_types, value, strict=True))

@@ -62,6 +62,12 @@ def test_bad_values_name_the_key_and_value(assignment, message):
         scenarios.get("grasp", [assignment])
 
 
+def test_a_list_given_as_text_in_a_mapping_says_a_list_is_needed():
+    with pytest.raises(ValueError, match=r"controller\.modes: .*a list of int values.*'\[2, 3\]'"):
+        scenarios.get("grasp", {"controller.modes": "[2, 3]"})
+    assert scenarios.get("grasp", {"controller.modes": [2, 3]}).controller.modes == (2, 3)
+
+
 def test_valid_keys_cover_nested_fields():
     keys = valid_keys(scenarios.get("grasp"))
     assert {"object.mass_kg", "physics.timestep_s", "sensor.dynamics", "controller.modes"} <= set(keys)
