@@ -129,13 +129,7 @@ class Recorder:
 
     def data(self) -> dict[str, np.ndarray]:
         """Everything recorded so far, as columns."""
-        if self._columns is None:
-            return {}
-        parts = [*self._flushed]
-        if self._chunk:
-            parts.append(np.asarray(self._chunk, dtype=float))
-        table = np.concatenate(parts) if parts else np.empty((0, len(self._columns)))
-        return {c: table[:, i] for i, c in enumerate(self._columns)}
+        return self.rows_from(0)
 
     def rows_from(self, start: int) -> dict[str, np.ndarray]:
         """The rows recorded from row ``start`` (0-based) on, as columns: what a live consumer (a
