@@ -1,5 +1,6 @@
 """Whole grasps judged by the referee: every registered scenario, and the failures a watcher saw."""
 
+import dataclasses
 import math
 
 import mujoco
@@ -51,6 +52,52 @@ def test_objects_slipperier_than_assumed_are_still_carried(tmp_path, overrides):
     summary, _ = grasp(tmp_path, "grasp", *overrides)
     assert summary["outcome"] == "success", summary["reason"]
     assert any(e["kind"] == "on_table" for e in summary["events"])  # the friction check found it
+
+
+@pytest.mark.slow
+@pytest.mark.xfail(
+    strict=True,
+    reason="known defect (README, Limits): the friction check starts while the load's low-pass still rises "
+    "after lift-off; waiting for it lowers every grip and then a 1 kg cylinder at friction 0.4 is "
+    "declared carried early, slides 17 mm and lands at 0.1 m/s: the two must be fixed together",
+)
+@pytest.mark.parametrize("name", ["tissue-box-1g", "paper-ball-2g", "cube-3g", "box-100g", "can-500g"])
+def test_a_friction_check_says_on_the_table_only_of_an_object_the_table_touched(tmp_path, name):
+    """The check compares the low-passed load (50 ms) before and after a grip raise; it starts
+    once the lift has followed its goal for the plateau window (60 ms), when the filter has
+    caught only 70 % of the load taken on at lift-off.  It then reads the filter's own rise as
+    the load following the grip: "still on the table" of objects that have left it, each verdict
+    raising the grip by the safety factor (the 2 g paper ball is held at 0.092 N against its
+    0.1 N limit and crushed at touchdown).  Ground truth: every "on_table" verdict needs the
+    table touching the object at some time during its check.  Strict xfail: it fails on today's
+    controller for all five objects, and passes (so fails here) once the check waits for the
+    filter (T = tau ln(8 / (grip_safety - 1)), tried)."""
+    from piezotip.cosim.recorder import Recorder, read_recording
+
+    config = scenarios.get("grasp", scenarios.object_overrides(name))
+    sim = CoSimulation(config)
+    c = sim.controller
+    table = sim._table_i + 2
+    state = {"touched": False, "seen": 0}
+    verdicts = []
+
+    def watch(sim) -> None:
+        for event in c.events[state["seen"] :]:
+            if event.kind == "on_table":
+                verdicts.append((round(event.time_s, 3), state["touched"]))
+                state["touched"] = False
+        state["seen"] = len(c.events)
+        if c._check is None:
+            state["touched"] = False
+        elif abs(sim.data.sensordata[table]) > 0.0:
+            state["touched"] = True
+
+    result = sim.run(Recorder(tmp_path / "run"), on_step=watch)
+    assert all(touched for _, touched in verdicts), f"on_table said of an object off the table: {verdicts}"
+    data, _ = read_recording(result.files[0])
+    ctrl = config.controller
+    verdict = judge(data, ctrl.lift_height_m, ctrl.hold_s, config.object.crush_force_n, [dataclasses.asdict(e) for e in c.events], True)
+    assert verdict.outcome == "success", verdict.reason
 
 
 @pytest.mark.slow
