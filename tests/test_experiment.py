@@ -1,5 +1,5 @@
-"""The grasp-range experiment: multimode succeeds on every feasible object but the paper ball, each single
-mode fails somewhere."""
+"""The grasp-range experiment: multimode succeeds on every feasible object, each single mode fails
+somewhere."""
 
 import csv
 import json
@@ -20,7 +20,7 @@ def table(tmp_path_factory):
 
 
 @pytest.mark.slow
-def test_multimode_succeeds_on_every_feasible_object_but_one_and_each_single_mode_fails_somewhere(table):
+def test_multimode_succeeds_on_every_feasible_object_and_each_single_mode_fails_somewhere(table):
     code, out = table
     rows = json.loads((out / "grasp_range.json").read_text())["rows"]
     assert len(rows) == len(OBJECTS) * len(CONTROLLERS)
@@ -29,15 +29,14 @@ def test_multimode_succeeds_on_every_feasible_object_but_one_and_each_single_mod
     assert min(o.crush_force_n for o in objects if o.crush_force_n) <= 0.1
     assert min(o.friction for o in objects) <= 0.3 and max(o.friction for o in objects) >= 1.2
     multimode = [r for r in rows if r["controller"] == "multimode"]
-    # The one known failure, kept exact so that a fix (or another failure) shows: judged on the
-    # fingers' peak over every physics step, the 0.1 N paper ball is crushed at touchdown (the
-    # table wedges it into the pads at the 0.092 N the friction check left the grip at; on the
-    # control periods' samples it looked a success).  The command then exits 1.
     failed = [(r["object"], r["outcome"]) for r in multimode if r["success"] != r["feasible"]]
-    assert failed == [("paper-ball-2g", "crushed")], failed
+    assert not failed, failed
+    assert code == 0
+    # The 0.1 N paper ball, judged on the fingers' peak over every physics step (the table wedges
+    # it into the pads at touchdown): it was crushed at 0.1005 N while the friction check read its
+    # load filter's own rise as "still on the table" and raised the grip twice for nothing.
     paper = next(r for r in multimode if r["object"] == "paper-ball-2g")
-    assert 0.1 < paper["peak_grip_force_n"] < 0.11
-    assert code == 1
+    assert paper["peak_grip_force_n"] < 0.1
     assert any(not r["feasible"] for r in multimode)  # an object no gripper this strong can hold
     assert all(r["outcome"] != "success" and r["reason"] for r in rows if not r["feasible"])
     for name, _ in CONTROLLERS[1:]:

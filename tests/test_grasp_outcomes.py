@@ -54,24 +54,33 @@ def test_objects_slipperier_than_assumed_are_still_carried(tmp_path, overrides):
     assert any(e["kind"] == "on_table" for e in summary["events"])  # the friction check found it
 
 
-@pytest.mark.slow
-@pytest.mark.xfail(
+_LOAD_LAG = pytest.mark.xfail(
     strict=True,
-    reason="known defect (README, Limits): the friction check starts while the load's low-pass still rises "
-    "after lift-off; waiting for it lowers every grip and then a 1 kg cylinder at friction 0.4 is "
-    "declared carried early, slides 17 mm and lands at 0.1 m/s: the two must be fixed together",
+    reason="known defect (README, Limits): the lift's load estimate differentiates the lift's velocity over "
+    "the 5 ms control period, which lags the gripper's inertia (1.06 kg) while the servo settles; on a 1-2 g "
+    "object that lag (8 mN of a 20 mN weight just after lift-off) still reads as the load following the grip",
 )
-@pytest.mark.parametrize("name", ["tissue-box-1g", "paper-ball-2g", "cube-3g", "box-100g", "can-500g"])
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(
+    "name",
+    [
+        pytest.param("tissue-box-1g", marks=_LOAD_LAG),
+        pytest.param("paper-ball-2g", marks=_LOAD_LAG),
+        "cube-3g",
+        "box-100g",
+        "can-500g",
+    ],
+)
 def test_a_friction_check_says_on_the_table_only_of_an_object_the_table_touched(tmp_path, name):
-    """The check compares the low-passed load (50 ms) before and after a grip raise; it starts
-    once the lift has followed its goal for the plateau window (60 ms), when the filter has
-    caught only 70 % of the load taken on at lift-off.  It then reads the filter's own rise as
-    the load following the grip: "still on the table" of objects that have left it, each verdict
-    raising the grip by the safety factor (the 2 g paper ball is held at 0.092 N against its
-    0.1 N limit and crushed at touchdown).  Ground truth: every "on_table" verdict needs the
-    table touching the object at some time during its check.  Strict xfail: it fails on today's
-    controller for all five objects, and passes (so fails here) once the check waits for the
-    filter (T = tau ln(8 / (grip_safety - 1)), tried)."""
+    """The check compares the load before and after a grip raise, each averaged over the plateau
+    window (60 ms) in which the lift followed its goal.  It used a 50 ms low-pass instead, which
+    after that window had caught only 70 % of the load taken on at lift-off: the check read the
+    filter's own rise as the load following the grip and said "still on the table" of every light
+    object that had left it, each verdict raising the grip by the safety factor (the 2 g paper
+    ball was held at 0.092 N against its 0.1 N limit and crushed at touchdown).  Ground truth:
+    every "on_table" verdict needs the table touching the object at some time during its check."""
     from piezotip.cosim.recorder import Recorder, read_recording
 
     config = scenarios.get("grasp", scenarios.object_overrides(name))

@@ -190,9 +190,10 @@ class MultimodeGrasp:
         self._raw_load_n = 0.0
         self._baseline_n = 0.0
         self._held_load_n = 0.0
-        # (goal, lift position) over the last plateau window, to tell a lift that follows its
-        # goal (the object airborne, or the pads sliding) from one held back by the object.
-        self._track: list[tuple[float, float]] = []
+        # (goal, lift position, raw load) over the last plateau window, to tell a lift that
+        # follows its goal (the object airborne, or the pads sliding) from one held back by the
+        # object, and to average the load over the same window.
+        self._track: list[tuple[float, float, float]] = []
         #: The plateau window: two of the lift servo's time constants kv / kp, so a lift that
         #: lags its goal is not taken for one that cannot follow it.
         self.plateau_steps = max(3, math.ceil(2.0 * robot.lift_kv_n_s_m / robot.lift_kp_n_m / dt_s))
@@ -203,6 +204,7 @@ class MultimodeGrasp:
         self._table_steps = 0
         self._last_slip_s = -math.inf
         self._low_steps = 0
+        self._low_sum_n = 0.0  # the low readings' sum, N (_hold)
         self._width_m = math.nan
         self._steady_steps = 0
         self._saturated_logged: set[str] = set()
@@ -381,21 +383,20 @@ class MultimodeGrasp:
         # While the pads hold the object on the table the lift cannot follow its goal (the
         # load grows by kp per metre of goal instead); a lift that follows it carries the
         # object in the air, or its pads slide up the object at the friction limit.
-        self._track.append((self._goal, obs.lift_pos_m))
+        self._track.append((self._goal, obs.lift_pos_m, self._raw_load_n))
         if len(self._track) > self.plateau_steps:
             self._track.pop(0)
         follows = len(self._track) == self.plateau_steps and self._follows()
         if self._check is None:
             if follows and applied > 0.0:
-                # Compared low-passed: sliding pads stick and slip, and one reading of a
-                # small load is mostly that noise.
-                self._check = (t, applied, self._load_n)
+                self._check = (t, applied, self._window_load_n())
                 self._check_pace = self._pace()
             return
         t0, g0, l0 = self._check
         grip_gain = applied / g0 - 1.0
         risen = grip_gain >= 0.5 * (c.grip_safety - 1.0) or self.grip_n >= self.grip_cap_n
-        if risen and self._load_n > l0 * (1.0 + 0.5 * grip_gain):
+        window_load = self._window_load_n()
+        if risen and window_load > l0 * (1.0 + 0.5 * grip_gain):
             # The load grew with the grip: the object still rests on the table, held or
             # sliding.  The grip keeps the raise (a ratchet), so every check that finds the
             # object on the table leaves the grip higher by the safety factor: a friction below
@@ -411,15 +412,26 @@ class MultimodeGrasp:
                 limit = "what the fingertip measures" if blind else "the gripper's limit"
                 message = f"the pads slide at {l0:.3g} N of load with the grip at {limit}, {self.grip_cap_n:.3g} N"
                 self._give_up(t, "blind" if blind else "never_lifted", message, Phase.PLACE)
-        elif risen and t - t0 >= self._check_window_s(g0) and follows and self._load_n >= self.robot.min_load_n:
+        elif risen and t - t0 >= self._check_window_s(g0) and follows and window_load >= self.robot.min_load_n:
             self._check = None
             self.stage = Stage.RAISE
             self._start_carry(obs)
             self._event(t, "carried", f"load {load:.3g} N does not follow the grip ({g0:.3g} -> {applied:.3g} N): the object is carried")
 
+    def _window_load_n(self) -> float:
+        """The raw load averaged over the plateau window, N.
+
+        The friction check compares loads over the window in which the lift followed its goal,
+        so a load taken on before that window (at lift-off) is wholly in the first average; a
+        low-pass would still be rising toward it and read its own rise as the load following
+        the grip (the 50 ms filter has caught only 70 % of a step after the 60 ms window).
+        Averaged over the window, because sliding pads stick and slip and one reading of a
+        small load is mostly that noise."""
+        return sum(entry[2] for entry in self._track) / len(self._track)
+
     def _pace(self) -> float:
         """How far the lift moved over the plateau window, as a share of how far its goal did."""
-        (g0, q0), (g1, q1) = self._track[0], self._track[-1]
+        (g0, q0, _), (g1, q1, _) = self._track[0], self._track[-1]
         return (q1 - q0) / (g1 - g0) if g1 - g0 > 1e-7 else 0.0
 
     def _follows(self) -> bool:
@@ -469,11 +481,16 @@ class MultimodeGrasp:
             # readings in a row below the held load by more than the lift's acceleration explains.
             low = self._raw_load_n < (1.0 - 2.0 * self.load_noise_fraction) * self._held_load_n
             self._low_steps = self._low_steps + 1 if low else 0
+            self._low_sum_n = self._low_sum_n + self._raw_load_n if low else 0.0
             if self._low_steps >= 2 and t - self._last_slip_s >= settle:
                 # Sliding, the pads carry their friction limit 2 mu G: the held weight over it is
-                # the grip the weight needs, over the grip there is.
-                deficit = self._held_load_n / max(self._raw_load_n, 1e-9 * self._held_load_n)
-                self._slip(t, f"the lift's load fell to {self._raw_load_n:.3g} N from {self._held_load_n:.3g} N", deficit)
+                # the grip the weight needs, over the grip there is.  The limit is the mean of the
+                # low readings: single readings of a slide just begun scatter widely (stick-slip,
+                # the lift recoiling: 0.23 then 0.80 N where the limit was 0.67 N), and the last
+                # one alone left a box whose friction fell to 0.3 sliding at 4 % over its weight.
+                sliding_n = self._low_sum_n / self._low_steps
+                deficit = self._held_load_n / max(sliding_n, 1e-9 * self._held_load_n)
+                self._slip(t, f"the lift's load fell to {sliding_n:.3g} N from {self._held_load_n:.3g} N", deficit)
         self.lift_target = self._servo_target(self._held_load_n, 0.0)
         if t - self._t_phase >= self.cfg.hold_s:
             self._enter(Phase.PLACE, t)
