@@ -261,7 +261,8 @@ class ControllerConfig:
     lost_s : how long both fingertips must read no load before the object counts as lost, s
         (ten control periods).
     hysteresis : fractional band around each switch pressure, against chattering between modes.
-    persist : consecutive saturated / below-detection readings before the mode changes.
+    persist : consecutive readings that call for the same mode switch (saturated, below detection, past
+        a switch pressure) before it is made.
     cusum_drift_sigma, cusum_alarm_sigma : the touch CUSUM's allowance k (half the 1-sigma shift
         it is tuned to) and threshold h, in sigmas of a reading (Page 1954): with k = 0.5, h = 8
         an unloaded fingertip false-alarms once in about 19,000 readings (Siegmund's

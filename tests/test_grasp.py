@@ -75,6 +75,31 @@ def test_hysteresis_prevents_chatter_at_a_threshold(tip, pair):
     assert switches <= 1
 
 
+@pytest.mark.parametrize("pair", [(1, 2), (2, 3), (3, 4)])
+def test_no_chatter_when_the_pressure_swings_across_the_band_every_reading(tip, pair):
+    """Pads sticking and slipping on an object still on the table swing the true pressure
+    between 0.2 and 1.7 times a switch pressure from one reading to the next (the 60 g egg
+    while its grip ramps): outside the hysteresis band on both sides at every reading.  A
+    switch costs a ring-up, so the selector switches only for pressures that stay put: at most
+    once here (it chattered 1 -> 2 -> 1 at every reading before)."""
+    s = tip.switch_pressures()[pair[0] - 1]
+    start = np.full(200, s * (1.5 if pair[0] > 1 else 0.5))
+    swing = s * np.where(np.arange(400) % 2 == 0, 1.7, 0.2)
+    records, _ = drive(tip, np.concatenate([start, swing]), modes=(1, 2, 3, 4))
+    modes = [r[2] for r in records[200:]]
+    assert sum(a != b for a, b in itertools.pairwise(modes)) <= 1
+
+
+def test_a_pressure_that_stays_past_the_switch_switches_after_persist_readings(tip):
+    """The persistence delays a switch by persist - 1 readings, no more (steady dynamics)."""
+    s = tip.switch_pressures()[0]
+    records, sel = drive(tip, np.concatenate([np.full(50, 0.5 * s), np.full(20, 2.0 * s)]))
+    first_high = 50
+    switch = next(i for i, r in enumerate(records) if r[2] != r[1])
+    assert switch == first_high + sel.persist - 1, (switch, sel.persist)
+    assert records[switch][2] == 2
+
+
 def test_estimate_is_continuous_across_a_switch(tip):
     """On a slow ramp through the first switch pressure (resonator dynamics, Table I's Q),
     the new mode's first trusted estimate agrees with the old mode's last one."""

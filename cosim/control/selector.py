@@ -3,11 +3,18 @@
 :class:`ModeSelector` (one per fingertip) drives the element in the mode best suited to the
 current pressure estimate.  The switch pressures are the fingertip's own (the pressures at
 which the per-mode resolution curves cross, ``Fingertip.switch_pressures`` for the allowed
-modes), never typed-in constants.  It switches up at ``s (1 + h)`` and down at ``s (1 - h)``
-(hysteresis ``h``), also up when the current mode reports saturation and down when it
-reports below-detection (each for ``persist`` consecutive readings), and never while a
-ring-up is settling: a reading taken before the new mode has settled is not trusted, the last
-trusted estimate is held meanwhile.
+modes), never typed-in constants.  It switches up past ``s (1 + h)`` and down below
+``s (1 - h)`` (hysteresis ``h``), also up when the current mode reports saturation and down
+when it reports below-detection, each only after ``persist`` consecutive readings say so, and
+never while a ring-up is settling: a reading taken before the new mode has settled is not
+trusted, the last trusted estimate is held meanwhile.
+
+Why every switch waits for ``persist`` readings, the pressure switches too: a switch costs
+the new mode's ring-up (readings "settling", the controller blind for tens of ms with Table
+I's damping), so it only pays for a pressure that stays on the other side.  Pads that stick
+and slip on an object still on the table make the true pressure swing between, say, 0.2 and
+1.7 times a switch pressure from one 5 ms reading to the next (the 60 g egg while its grip
+ramps): a hysteresis band of +-h on single readings then switches at every reading.
 
 :class:`TouchDetector` is a one-sided CUSUM (Page 1954) on the drop of the most sensitive
 mode's reading below its unloaded baseline, in sigmas of the reading, with a Shewhart limit on
@@ -75,7 +82,8 @@ class ModeSelector:
     fingertip : the fingertip model whose switch pressures and limits the selector uses.
     modes : the allowed modes (a subset of the fingertip's), ascending.
     hysteresis : fractional band around each switch pressure.
-    persist : consecutive saturated / below-detection readings before acting on them.
+    persist : consecutive readings that call for the same switch (saturated, below detection,
+        above the switch up, below the switch down) before it is made.
     """
 
     def __init__(self, fingertip: Fingertip, modes: tuple[int, ...], hysteresis: float = 0.25, persist: int = 3) -> None:
@@ -86,8 +94,9 @@ class ModeSelector:
         self.hysteresis = hysteresis
         self.persist = persist
         self.mode = self.modes[0]
-        self._saturated = 0
-        self._below = 0
+        self._saturated = 0  # consecutive saturated readings
+        self._above_switch = 0  # consecutive readings past the switch up (saturated, or "ok" above it)
+        self._under_switch = 0  # and past the switch down (below detection, or "ok" below it)
         self.blind = False  # saturated in the highest allowed mode
         self.estimate_pa = 0.0  # last trusted estimate
         self.uncertainty_pa = math.nan
@@ -114,31 +123,35 @@ class ModeSelector:
         self.trusted = True
         self.blind = False
         status = estimate.status
-        self._saturated = self._saturated + 1 if status == "saturated" else 0
-        self._below = self._below + 1 if status == "below_detection" else 0
         if status in ("ok", "below_detection") and math.isfinite(estimate.pressure_pa):
             self.estimate_pa, self.uncertainty_pa, self.status = estimate.pressure_pa, estimate.uncertainty_pa, status
         up, down = self._up(), self._down()
-        if self._saturated >= self.persist:
-            if up is None:
-                self.blind = True
-                return self.mode, Why(
-                    "mode {}: saturated and no higher mode allowed (blind above {:.3g} Pa)", self.mode, self.p_max_pa[self.mode]
-                )
-            return self._switch(up, f"mode {self.mode} saturated (P > {self.p_max_pa[self.mode]:.3g} Pa)")
-        if self._below >= self.persist and down is not None:
-            return self._switch(down, f"mode {self.mode} below detection (P < {self.p_min_pa[self.mode]:.3g} Pa)")
-        if status == "ok":
-            p = self.estimate_pa
-            if up is not None and p > self.switch_pa[(self.mode, up)] * (1 + self.hysteresis):
-                return self._switch(up, f"P {p:.3g} Pa above switch {self.switch_pa[(self.mode, up)]:.3g} Pa x {1 + self.hysteresis:g}")
-            if down is not None and p < self.switch_pa[(down, self.mode)] * (1 - self.hysteresis):
-                return self._switch(down, f"P {p:.3g} Pa below switch {self.switch_pa[(down, self.mode)]:.3g} Pa x {1 - self.hysteresis:g}")
+        p = self.estimate_pa
+        # A saturated reading is past the switch up (P_max lies above it), a below-detection
+        # one past the switch down: one streak each, whatever mix of readings makes it.
+        self._saturated = self._saturated + 1 if status == "saturated" else 0
+        h = self.hysteresis
+        above = up is not None and (status == "saturated" or (status == "ok" and p > self.switch_pa[(self.mode, up)] * (1 + h)))
+        under = down is not None and (status == "below_detection" or (status == "ok" and p < self.switch_pa[(down, self.mode)] * (1 - h)))
+        self._above_switch = self._above_switch + 1 if above else 0
+        self._under_switch = self._under_switch + 1 if under else 0
+        if up is None and self._saturated >= self.persist:
+            self.blind = True
+            why = Why("mode {}: saturated and no higher mode allowed (blind above {:.3g} Pa)", self.mode, self.p_max_pa[self.mode])
+            return self.mode, why
+        if self._above_switch >= self.persist:
+            if status == "saturated":
+                return self._switch(up, f"mode {self.mode} saturated (P > {self.p_max_pa[self.mode]:.3g} Pa)")
+            return self._switch(up, f"P {p:.3g} Pa above switch {self.switch_pa[(self.mode, up)]:.3g} Pa x {1 + self.hysteresis:g}")
+        if self._under_switch >= self.persist:
+            if status == "below_detection":
+                return self._switch(down, f"mode {self.mode} below detection (P < {self.p_min_pa[self.mode]:.3g} Pa)")
+            return self._switch(down, f"P {p:.3g} Pa below switch {self.switch_pa[(down, self.mode)]:.3g} Pa x {1 - self.hysteresis:g}")
         return self.mode, Why("mode {}: {}, P {:.3g} Pa", self.mode, status, self.estimate_pa)
 
     def _switch(self, mode: int, why: str) -> tuple[int, str]:
         old, self.mode = self.mode, mode
-        self._saturated = self._below = 0
+        self._saturated = self._above_switch = self._under_switch = 0
         self.trusted = False
         return mode, f"switch {old} -> {mode}: {why}"
 
