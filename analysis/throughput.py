@@ -9,8 +9,9 @@ the runs, the files), so start-up and Dask's cluster are in the numbers:
   ``PIEZOTIP_CACHE=off``: each run computes its own mode bands and tables, as before the
   caches existed).  Also the cold-cache default run (a fresh cache folder).
 - ``sweep_speedup_2_vs_1``: one sweep on a local cluster of 2 workers against 1 worker.
-- ``long_run_rt_ratio``: the loop's real-time factor of a grasp held 300 s against one held
-  10 s, recorder included (a recorder whose cost grew with the run's length shows here).
+- ``hold_rt_ratio``: the loop's real-time factor over the hold phase of a grasp held 300 s
+  against one held 10 s, recorder included (a recorder whose cost grew with the run's length
+  shows here); ``long_run_rt_ratio`` the same over the whole runs (see :func:`long_run_times`).
 - with ``baseline=REV`` (``bench --throughput --baseline REV``): ``baseline_speedup``, the same
   experiment as git revision REV of this repository runs it (the code as it was "today", when a
   target says "faster than today") against the present code's default run, both with their
@@ -104,26 +105,54 @@ def sweep_times(work: Path) -> dict:
 
 def long_run_times(work: Path, long_hold_s: float = 300.0, short_hold_s: float = 10.0) -> dict:
     """The loop's real-time factor (recorder included) of a grasp held ``long_hold_s`` against
-    one held ``short_hold_s``."""
+    one held ``short_hold_s``: over the hold phase alone (``hold_rt_ratio``, the target's), and
+    over the whole runs (``long_run_rt_ratio``).
+
+    The whole runs differ in what they simulate, not only in length: the long one is 98 % hold
+    (contacts on every step, MuJoCo's dearest), the short one 60 % approach, closing and release
+    (cheap free stepping), so their ratio falls below 1 with a recording of perfectly linear
+    cost.  The hold against the hold compares like with like: a recorder whose cost grew with
+    the run's length shows there.  The short run is timed before and after the long one, and
+    the faster kept (the machine's speed drifts; noise only ever adds time)."""
     from piezotip import scenarios
+    from piezotip.cosim.control import Phase
     from piezotip.cosim.loop import CoSimulation
     from piezotip.cosim.recorder import Recorder
 
-    def factor(hold_s: float) -> tuple[float, float]:
+    def factors(hold_s: float, name: str) -> tuple[float, float, float]:
         # The grasp's other phases take about 7 s; the duration leaves room for them.
         config = scenarios.get("grasp", [f"controller.hold_s={hold_s}", f"duration_s={hold_s + 20.0}"])
         sim = CoSimulation(config)
-        result = sim.run(Recorder(work / f"hold-{hold_s:g}" / "run"))
-        return result.sim_time_s / result.wall_time_s, result.sim_time_s
+        hold = {"last": None, "wall_s": 0.0, "steps": 0}
 
-    short_rt, short_sim = factor(short_hold_s)
-    long_rt, long_sim = factor(long_hold_s)
+        def time_hold(sim: CoSimulation) -> None:
+            # The wall time since the last step's end is this step's, recorder included.
+            now = time.perf_counter()
+            if hold["last"] is not None and sim.controller.phase is Phase.HOLD:
+                hold["wall_s"] += now - hold["last"]
+                hold["steps"] += 1
+            hold["last"] = now
+
+        result = sim.run(Recorder(work / name / "run"), on_step=time_hold)
+        hold_rt = hold["steps"] * sim.dt / hold["wall_s"] if hold["wall_s"] > 0 else math.nan
+        return result.sim_time_s / result.wall_time_s, result.sim_time_s, hold_rt
+
+    first = factors(short_hold_s, f"hold-{short_hold_s:g}")
+    long_rt, long_sim, long_hold_rt = factors(long_hold_s, f"hold-{long_hold_s:g}")
+    again = factors(short_hold_s, f"hold-{short_hold_s:g}-again")
+    short_rt, short_sim, _ = max(first, again, key=lambda f: f[0])
+    short_hold_rt = max(first[2], again[2])
     return {
         "short_run_sim_s": short_sim,
         "short_run_rt_factor": short_rt,
         "long_run_sim_s": long_sim,
         "long_run_rt_factor": long_rt,
         "long_run_rt_ratio": long_rt / short_rt,
+        "short_hold_s": short_hold_s,
+        "long_hold_s": long_hold_s,
+        "short_hold_rt_factor": short_hold_rt,
+        "long_hold_rt_factor": long_hold_rt,
+        "hold_rt_ratio": long_hold_rt / short_hold_rt,
         "target_long_run_rt_ratio": TARGET_LONG_RUN_RT_RATIO,
     }
 
@@ -212,9 +241,15 @@ def format_throughput(report: dict) -> str:
         f"  {mark(report['sweep_speedup_2_vs_1'] >= TARGET_SWEEP_SPEEDUP)}",
         f"  real-time factor, {report['short_run_sim_s']:.0f} s run                     {report['short_run_rt_factor']:7.1f}x",
         f"  real-time factor, {report['long_run_sim_s']:.0f} s run                    {report['long_run_rt_factor']:7.1f}x"
-        f"   ratio {report['long_run_rt_ratio']:.2f}  (target >= {TARGET_LONG_RUN_RT_RATIO:g})"
-        f"  {mark(report['long_run_rt_ratio'] >= TARGET_LONG_RUN_RT_RATIO)}",
+        f"   ratio {report['long_run_rt_ratio']:.2f}  (mostly hold against mostly free motion)",
     ]
+    if "hold_rt_ratio" in report:
+        lines += [
+            f"  real-time factor of the hold, {report['short_hold_s']:g} s held         {report['short_hold_rt_factor']:7.1f}x",
+            f"  real-time factor of the hold, {report['long_hold_s']:g} s held        {report['long_hold_rt_factor']:7.1f}x"
+            f"   ratio {report['hold_rt_ratio']:.2f}  (target >= {TARGET_LONG_RUN_RT_RATIO:g})"
+            f"  {mark(report['hold_rt_ratio'] >= TARGET_LONG_RUN_RT_RATIO)}",
+        ]
     if "baseline_speedup" in report:
         lines += [
             f"  experiment grasp-range at {report['baseline_rev']:<12}      {report['baseline_experiment_s']:7.1f} s"
