@@ -258,7 +258,8 @@ class ControllerConfig:
         load: 0.5, the table then carries most of the weight and the object rests on it.
     slip_pressure_drop : a fingertip's pressure falling by this share of its value while
         carrying (and by 3 sigma) is a slip: 0.2, far above the estimate's 10 % resolution.
-    lost_s : how long both fingertips must read no load before the object counts as lost, s
+    lost_s : how long both fingertips must read no load, or the fingers stay shut past the
+        object's width with no fingertip reading a load, before the object counts as lost, s
         (ten control periods).
     hysteresis : fractional band around each switch pressure, against chattering between modes.
     persist : consecutive readings that call for the same mode switch (saturated, below detection, past

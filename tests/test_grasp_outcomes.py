@@ -174,6 +174,44 @@ def test_a_lost_object_is_noticed_and_reported(tmp_path):
     assert verdict.outcome == "dropped"
 
 
+def _shut_and_settling(sim, readings: int) -> list[str]:
+    """From the hold: ``readings`` control steps in which both fingertips read "settling" and
+    the fingers report an opening 1 mm past the object's width less the pads' travel (what a
+    high grip's yielding mechanism shows, just after a mode switch); the controller's events
+    of those steps."""
+    from piezotip.cosim.control.interface import PadSignal
+    from piezotip.sensor.estimator import Estimate
+
+    settling = Estimate(math.nan, math.nan, "settling")
+    ctrl = sim.controller
+    past_width = ctrl._width_m - 2.0 * ctrl.robot.pad_travel_m - 1e-3
+    before = len(ctrl.events)
+    for _ in range(readings):
+        obs = sim.sense()
+        pads = {pad: PadSignal(sig.reading, settling) for pad, sig in obs.pads.items()}
+        sim.act(ctrl.step(dataclasses.replace(obs, opening_m=past_width, pads=pads), sim.dt))
+    return [e.kind for e in ctrl.events[before:]]
+
+
+@pytest.mark.slow
+def test_fingers_past_the_width_while_both_fingertips_settle_is_not_yet_a_loss():
+    """Proprioception says "lost" only when it persists for lost_s, as the fingertips' own
+    loss does: "settling" is unknown, not empty (it called a held object lost at once)."""
+    cfg = scenarios.get("grasp")
+    lost_steps = round(cfg.controller.lost_s / cfg.physics.control_period_s)
+    sim = CoSimulation(cfg)
+    while sim.controller.phase is not Phase.HOLD:
+        sim.step()
+    for _ in range(20):
+        sim.step()
+    assert "lost" not in _shut_and_settling(sim, lost_steps - 1)
+    for _ in range(5):  # the fingertips read the load again: the count starts over
+        sim.step()
+    assert sim.controller.phase is Phase.HOLD
+    kinds = _shut_and_settling(sim, lost_steps)
+    assert kinds.count("lost") == 1 and sim.controller.phase is Phase.RELEASE, kinds
+
+
 def test_the_first_squeeze_is_the_gentlest_the_fingertip_resolves():
     """The grip floor is where the lowest mode resolves 10 % of the pressure (physics.md section 5)."""
     cfg = scenarios.get("grasp-raspberry")

@@ -36,7 +36,8 @@ Slip and loss while carried: a fingertip's trusted pressure estimate falling by 
 ``slip_pressure_drop`` (and 3 sigma), or the load the lift feels falling by more than the lift's
 own acceleration can explain, is a slip: the grip rises by the safety factor, within what the
 fingertip can measure and ``max_grip_n`` allows.  Both fingertips reading no load for
-``lost_s`` is a loss.  Give-ups (``no_object``, ``unfelt_contact``, ``never_lifted``, ``blind``,
+``lost_s``, or the fingers shut past the object's width for ``lost_s`` with no fingertip
+reading a load, is a loss.  Give-ups (``no_object``, ``unfelt_contact``, ``never_lifted``, ``blind``,
 ``lost``) and faults (``self_test``, ``out_of_range``) are events with their time and reason;
 after a give-up the controller puts down what it still holds and opens, instead of running out
 the clock.
@@ -201,6 +202,7 @@ class MultimodeGrasp:
         self._check_pace = 0.0
         self._reference_pa: dict[str, float] = {}
         self._empty_s = 0.0
+        self._shut_s = 0.0  # how long the fingers have been shut past the object, no fingertip reading it
         self._table_steps = 0
         self._last_slip_s = -math.inf
         self._low_steps = 0
@@ -604,16 +606,24 @@ class MultimodeGrasp:
         # Proprioception, unless the fingertips contradict it: with the object between them the
         # fingers close at most to its width less the two pads' travel (under a grip near the
         # fingers' limit the mechanism itself yields millimetres more, and then the fingertips
-        # read pressure: no fingertip may report a measured load).
+        # read pressure: no fingertip may report a measured load).  For lost_s, as the
+        # fingertips' own loss: a fingertip "settling" (just after a mode switch, or a load
+        # step) is not one reading empty, and both can settle at once while a high grip has the
+        # fingers a millimetre past that width (seen at 25 N and 62 N); an object gone stays gone.
         carried = self.phase is not Phase.LIFT or self.stage is Stage.RAISE
         shut_m = self._width_m - 2.0 * self.robot.pad_travel_m - obs.opening_m
         if carried and shut_m > 0 and not any(sel.trusted and sel.status == "ok" for sel in self.selectors.values()):
-            shut = 1e3 * shut_m
-            self._give_up(t, "lost", f"the fingers closed {shut:.1f} mm past the object's width during {phase.label}", Phase.RELEASE)
-            return True
+            self._shut_s += self.dt_s
+            if self._shut_s >= self.cfg.lost_s - 0.5 * self.dt_s:  # lost_s / dt readings (a sum of dt falls short of it)
+                shut = 1e3 * shut_m
+                message = f"the fingers closed {shut:.1f} mm past the object's width during {phase.label}"
+                self._give_up(t, "lost", message, Phase.RELEASE)
+                return True
+        else:
+            self._shut_s = 0.0
         if carried and all(sel.empty for sel in self.selectors.values()):
             self._empty_s += self.dt_s
-            if self._empty_s >= self.cfg.lost_s:
+            if self._empty_s >= self.cfg.lost_s - 0.5 * self.dt_s:
                 self._give_up(t, "lost", f"both fingertips read no load for {self.cfg.lost_s:g} s during {self.phase.label}", Phase.RELEASE)
                 return True
         else:
