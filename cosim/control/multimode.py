@@ -614,7 +614,7 @@ class MultimodeGrasp:
         shut_m = self._width_m - 2.0 * self.robot.pad_travel_m - obs.opening_m
         if carried and shut_m > 0 and not any(sel.trusted and sel.status == "ok" for sel in self.selectors.values()):
             self._shut_s += self.dt_s
-            if self._shut_s >= self.cfg.lost_s - 0.5 * self.dt_s:  # lost_s / dt readings (a sum of dt falls short of it)
+            if self._lasted_lost_s(self._shut_s):
                 shut = 1e3 * shut_m
                 message = f"the fingers closed {shut:.1f} mm past the object's width during {phase.label}"
                 self._give_up(t, "lost", message, Phase.RELEASE)
@@ -623,7 +623,7 @@ class MultimodeGrasp:
             self._shut_s = 0.0
         if carried and all(sel.empty for sel in self.selectors.values()):
             self._empty_s += self.dt_s
-            if self._empty_s >= self.cfg.lost_s - 0.5 * self.dt_s:
+            if self._lasted_lost_s(self._empty_s):
                 self._give_up(t, "lost", f"both fingertips read no load for {self.cfg.lost_s:g} s during {self.phase.label}", Phase.RELEASE)
                 return True
         else:
@@ -643,6 +643,11 @@ class MultimodeGrasp:
                 self._reference_pa = {}
                 break
         return self.phase is not phase
+
+    def _lasted_lost_s(self, elapsed_s: float) -> bool:
+        """Whether a condition summed over control periods, ``elapsed_s``, has lasted ``lost_s``:
+        its lost_s / dt readings (ten 5 ms periods sum to 0.04999 s, short of 0.05 s)."""
+        return elapsed_s >= self.cfg.lost_s - 0.5 * self.dt_s
 
     def _slip(self, t: float, why: str, deficit: float = 1.0) -> None:
         """Answer a slip: grip harder by the safety factor times the grip's ``deficit`` (the

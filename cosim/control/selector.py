@@ -131,8 +131,10 @@ class ModeSelector:
         # one past the switch down: one streak each, whatever mix of readings makes it.
         self._saturated = self._saturated + 1 if status == "saturated" else 0
         h = self.hysteresis
-        above = up is not None and (status == "saturated" or (status == "ok" and p > self.switch_pa[(self.mode, up)] * (1 + h)))
-        under = down is not None and (status == "below_detection" or (status == "ok" and p < self.switch_pa[(down, self.mode)] * (1 - h)))
+        up_pa = self.switch_pa[(self.mode, up)] if up is not None else math.inf
+        down_pa = self.switch_pa[(down, self.mode)] if down is not None else 0.0
+        above = up is not None and (status == "saturated" or (status == "ok" and p > up_pa * (1 + h)))
+        under = down is not None and (status == "below_detection" or (status == "ok" and p < down_pa * (1 - h)))
         self._above_switch = self._above_switch + 1 if above else 0
         self._under_switch = self._under_switch + 1 if under else 0
         if up is None and self._saturated >= self.persist:
@@ -142,11 +144,11 @@ class ModeSelector:
         if self._above_switch >= self.persist:
             if status == "saturated":
                 return self._switch(up, f"mode {self.mode} saturated (P > {self.p_max_pa[self.mode]:.3g} Pa)")
-            return self._switch(up, f"P {p:.3g} Pa above switch {self.switch_pa[(self.mode, up)]:.3g} Pa x {1 + self.hysteresis:g}")
+            return self._switch(up, f"P {p:.3g} Pa above switch {up_pa:.3g} Pa x {1 + h:g}")
         if self._under_switch >= self.persist:
             if status == "below_detection":
                 return self._switch(down, f"mode {self.mode} below detection (P < {self.p_min_pa[self.mode]:.3g} Pa)")
-            return self._switch(down, f"P {p:.3g} Pa below switch {self.switch_pa[(down, self.mode)]:.3g} Pa x {1 - self.hysteresis:g}")
+            return self._switch(down, f"P {p:.3g} Pa below switch {down_pa:.3g} Pa x {1 - h:g}")
         return self.mode, Why("mode {}: {}, P {:.3g} Pa", self.mode, status, self.estimate_pa)
 
     def _switch(self, mode: int, why: str) -> tuple[int, str]:
