@@ -1,7 +1,11 @@
-"""Headless matplotlib: one place that selects the Agg backend and saves figures.
+"""Headless matplotlib: one place that makes and saves figures.
 
-matplotlib is imported on the first figure, not with this module: a run without plots
-(``--no-plot``, a sweep's workers) never pays its 0.3 s import.
+Figures are :class:`matplotlib.figure.Figure` objects made directly, not through pyplot: no
+backend to select (``savefig`` renders a PNG with Agg whatever backend the user's matplotlib
+is set to), no global figure registry that a long-lived process (a script making many runs,
+a Gymnasium environment) fills unless every figure is closed.  matplotlib is imported on the
+first figure, not with this module: a run without plots (``--no-plot``, a sweep's workers)
+never pays its import (0.3 s).
 """
 
 from __future__ import annotations
@@ -9,24 +13,17 @@ from __future__ import annotations
 from pathlib import Path
 
 
-def _pyplot():
-    import matplotlib
-
-    matplotlib.use("Agg")  # headless: no display on CI or lab servers
-    import matplotlib.pyplot as plt
-
-    return plt
-
-
 def new_figure(rows: int = 1, cols: int = 1, figsize: tuple[float, float] = (8, 5), sharex: bool = False):
     """A figure and a 2-D list of axes (always indexable as axes[row][col])."""
-    fig, axes = _pyplot().subplots(rows, cols, figsize=figsize, squeeze=False, sharex=sharex)
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=figsize)
+    axes = fig.subplots(rows, cols, squeeze=False, sharex=sharex)
     return fig, axes
 
 
 def save_figure(fig, path: Path, dpi: int = 120) -> Path:
-    """Save ``fig`` as PNG at ``path`` and release it."""
+    """Save ``fig`` as PNG at ``path`` (Agg, headless)."""
     fig.tight_layout()
     fig.savefig(path, dpi=dpi)
-    _pyplot().close(fig)
     return Path(path)

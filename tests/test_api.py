@@ -1,6 +1,7 @@
 """The Python API: the same numbers as the command line; one installed top-level name."""
 
 import json
+import os
 import subprocess
 import sys
 
@@ -81,6 +82,21 @@ def test_import_piezotip_is_cheap():
     code = "import sys, piezotip; print(sorted(m for m in ('mujoco', 'scipy', 'matplotlib', 'numpy') if m in sys.modules))"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
     assert json.loads(out.replace("'", '"')) == []
+
+
+def test_a_figure_is_saved_without_pyplot(tmp_path):
+    """The plots are Figure objects saved with Agg: pyplot (its import, its global figure
+    registry) is never loaded, even with an interactive backend asked for."""
+    code = (
+        "import sys; from piezotip.analysis.plotting import new_figure, save_figure\n"
+        "fig, axes = new_figure(1, 2, figsize=(4, 2)); axes[0][1].semilogy([1, 2], [1, 10])\n"
+        f"save_figure(fig, {str(tmp_path / 'f.png')!r}, dpi=50)\n"
+        "print('matplotlib.pyplot' in sys.modules)"
+    )
+    env = {**os.environ, "MPLBACKEND": "TkAgg"}
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, env=env).stdout
+    assert out.split() == ["False"]
+    assert (tmp_path / "f.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
 @pytest.mark.parametrize("name", ["sensor", "analysis", "cosim", "scenarios", "models", "run_sim"])
