@@ -335,6 +335,24 @@ def test_an_object_touched_off_the_pads_is_given_up_not_pushed_until_the_clock_r
     assert data["left_finger_force_n"].max() > 0.0 and data["right_finger_force_n"].max() > 0.0  # it was touched
 
 
+
+@pytest.mark.slow
+@pytest.mark.xfail(
+    strict=True,
+    reason="known defect (README, Limits): with the pad resolved into strips (accurate preset) the 30 mm "
+    "paper ball presses the element's middle strips, outside the gel's coverage (its tip millimetre); "
+    "the fingertip feels nothing until the pad's deformation spreads there, 25 ms later, while the "
+    "fingers close on at their moving force (0.3 N): the grip peaks at 0.18 N on a 0.1 N object, "
+    "then the carried object reads as lost and is dropped. The one-strip presets spread the pad's "
+    "mean over the whole element and feel the touch at once",
+)
+def test_a_fragile_object_touched_outside_the_gel_coverage_is_not_crushed(tmp_path):
+    summary, data = run_scenario("grasp", scenarios.object_overrides("paper-ball-2g"), tmp_path, plot=False, quiet=True, preset="accurate")
+    # what the fingertip can feel is where the contact lands: here not under the coverage
+    touch = np.flatnonzero(data["left_finger_force_n"] > 0.0)[0]
+    assert data["left_cell4_pressure_pa"][touch] == 0.0 and data["left_cell2_pressure_pa"][touch] > 0.0
+    assert not summary["crushed"], summary["reason"]
+
 def _finger_forces_every_step(sim) -> list[float]:
     """Each physics step's largest finger force on the object (N), computed independently of
     MuJoCo's sensors from the contacts themselves (mj_contactForce in world x), through the
