@@ -335,7 +335,6 @@ def test_an_object_touched_off_the_pads_is_given_up_not_pushed_until_the_clock_r
     assert data["left_finger_force_n"].max() > 0.0 and data["right_finger_force_n"].max() > 0.0  # it was touched
 
 
-
 @pytest.mark.slow
 @pytest.mark.xfail(
     strict=True,
@@ -352,6 +351,7 @@ def test_a_fragile_object_touched_outside_the_gel_coverage_is_not_crushed(tmp_pa
     touch = np.flatnonzero(data["left_finger_force_n"] > 0.0)[0]
     assert data["left_cell4_pressure_pa"][touch] == 0.0 and data["left_cell2_pressure_pa"][touch] > 0.0
     assert not summary["crushed"], summary["reason"]
+
 
 def _finger_forces_every_step(sim) -> list[float]:
     """Each physics step's largest finger force on the object (N), computed independently of
