@@ -341,7 +341,7 @@ def test_an_object_touched_off_the_pads_is_given_up_not_pushed_until_the_clock_r
     reason="known defect (README, Limits): with the pad resolved into strips (accurate preset) the 30 mm "
     "paper ball presses the element's middle strips, outside the gel's coverage (its tip millimetre); "
     "the fingertip feels nothing until the pad's deformation spreads there, 25 ms later, while the "
-    "fingers close on at their moving force (0.3 N): the grip peaks at 0.18 N on a 0.1 N object, "
+    "fingers close on (their drive capped at 0.9 N): the grip peaks at 0.18 N on a 0.1 N object, "
     "then the carried object reads as lost and is dropped. The one-strip presets spread the pad's "
     "mean over the whole element and feel the touch at once",
 )
