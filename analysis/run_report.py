@@ -169,7 +169,10 @@ def plot_run(config: ScenarioConfig, fingertip: Fingertip, data: dict[str, np.nd
     fig, axes = new_figure(5, 1, figsize=(10, 13), sharex=True)
     ax_p, ax_v, ax_m, ax_f, ax_h = (row[0] for row in axes)
     for side, color in zip(config.sensor.pads, ("tab:blue", "tab:orange"), strict=False):
-        ax_p.semilogy(t, np.maximum(data[f"{side}_true_pressure_pa"], 1e-3), color=color, label=f"{side}: true")
+        ax_p.semilogy(t, np.maximum(data[f"{side}_true_pressure_pa"], 1e-3), color=color, label=f"{side}: true (pad over the element)")
+        if f"{side}_coverage_pressure_pa" in data:  # what the gel brings to the element's coverage
+            covered = np.maximum(data[f"{side}_coverage_pressure_pa"], 1e-3)
+            ax_p.semilogy(t, covered, "--", lw=1, color=color, label=f"{side}: on the gel coverage")
         est = data[f"{side}_estimate_pa"]
         ax_p.semilogy(t, np.where(est > 0, est, np.nan), ".", ms=2, color=color, alpha=0.6, label=f"{side}: estimated")
         ax_m.step(t, data[f"{side}_mode"], where="post", color=color, label=side)

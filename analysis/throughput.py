@@ -45,6 +45,7 @@ TARGET_LONG_RUN_RT_RATIO = 0.9
 #: points), so a worker's start-up (imports, about 1 s) is part of it but not the whole.
 SWEEP_GRID = ("object.mass_kg=0.02,0.1,0.4,1.0", "object.friction=0.5,0.8,1.1", "object.size_m=0.03,0.05")
 
+
 def _timed_command(args: list[str], env: dict[str, str], script: str | None = None, cwd: Path | None = None) -> float:
     """Wall time of ``python run_sim.py ARGS`` in a fresh process, s (it must succeed or exit 1):
     this code's command line, or ``script`` run from ``cwd`` (a revision's, :func:`baseline_times`)."""

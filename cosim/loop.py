@@ -24,10 +24,11 @@ from piezotip.scenarios.config import ScenarioConfig
 from piezotip.sensor import ElementParams, Fingertip, GelModel, SensorElement
 from piezotip.sensor.calibration import SensorUnit, sensor_unit
 from piezotip.sensor.channel import Reading, SensorChannel
+from piezotip.sensor.spread import spread_weights
 from piezotip.sensor.unit_channel import UnitChannel
 
 from .control import Command, Controller, Observation, PadSignal, RobotLimits, ScriptedGrasp, make_observation, make_pad_signal
-from .pads import PAD_NAMES, PAD_SIDES, PadBridge
+from .pads import PAD_NAMES, PAD_SIDES, PadBridge, PadGeometry
 from .recorder import Recorder
 from .scene import build_scene, check_reach, finite_state, reset_home, robot_limits
 
@@ -110,6 +111,25 @@ def coverage_cells(strip_edges_m: np.ndarray, coverage: tuple[float, float]) -> 
     return edges, index
 
 
+def coverage_weights(
+    geometry: PadGeometry, element_length_m: float, cell_edges_m: np.ndarray, depth_m: float
+) -> list[list[tuple[int, float]]]:
+    """What each coverage cell feels of the pad's strips: per cell, (strip, weight) pairs whose
+    weighted sum of strip pressures is the cell's mean pressure (sensor.spread, eq. S4).
+
+    The element lies centred under the pad, its x running from the clamped root (palm side,
+    z = +L/2) to the free tip (distal, z = -L/2): x = L/2 - z.  Strips are indexed as the pad
+    lists them (distal first, guards included); ``cell_edges_m`` are the element's x (m);
+    ``depth_m`` the gel's thickness (0: each cell feels the strip above it only).  Pairs of
+    zero weight are left out.
+    """
+    z_edges = geometry.strip_edges_m  # distal first: x decreasing
+    x_edges = (0.5 * element_length_m - z_edges)[::-1]
+    weights = spread_weights(x_edges, cell_edges_m, depth_m)
+    last = len(z_edges) - 2  # x-ordered column j is strip last - j
+    return [[(last - j, float(w)) for j, w in enumerate(row) if w > 0.0] for row in weights]
+
+
 @dataclass(frozen=True)
 class RunResult:
     """What a finished (or stopped) run produced.
@@ -159,6 +179,12 @@ class CoSimulation:
         length = self.fingertip.element.params.length_m
         coverage = self.unit.coverage if self.unit is not None else self.fingertip.coverage  # where the gel touches
         edges, self._cell_strip = coverage_cells(np.linspace(0.0, length, n + 1), coverage)
+        # With a spreading layer every coverage cell feels the whole pad's face (guards too);
+        # without, the strip above it (the per-step path then skips the weights).
+        self._spread = config.sensor.load_spread == "layer"
+        depth = self.fingertip.gel.params.thickness_m if self._spread else 0.0
+        self._cell_weights = coverage_weights(self.bridge.geometry, length, edges, depth)
+        self._cell_fractions = (np.diff(edges) / (edges[-1] - edges[0])).tolist()  # of the coverage's length
         rng = np.random.default_rng(config.sensor.seed)
         self.pads = tuple(f"{p}_pad" for p in config.sensor.pads)
         self._pad_rows = [PAD_NAMES.index(p) for p in self.pads]
@@ -221,6 +247,14 @@ class CoSimulation:
         self._profile_index = [[row * n + n - 1 - k for k in range(n)] for row in self._pad_rows]
         self._cells = [int(i) for i in self._cell_strip]
         self._cells_are_strips = self._cells == list(range(n))  # the profile is the channel's input as is
+        # With a spreading layer: every strip of each instrumented pad is read (flat indices
+        # into the bridge's strips), the element's among them root to tip for the record.
+        geometry = self.bridge.geometry
+        n_strips = len(geometry.strip_lengths_m)
+        self._pad_strips = [row * n_strips + k for row in self._pad_rows for k in range(n_strips)]
+        element_strips = np.flatnonzero(geometry.on_element).tolist()
+        self._element_of_pad = element_strips[::-1]
+        self._n_strips = n_strips
         self._channel_list = [self.channels[pad] for pad in self.pads]
         self._qpos, self._actuator_force = memoryview(d.qpos), memoryview(d.actuator_force)
         self._qvel, self._sensordata = d.qvel, d.sensordata
@@ -230,7 +264,6 @@ class CoSimulation:
         self._xpos, self._object_body = d.xpos, m.body("object").id
         self._contact_list = [int(self._contact_adr[pad]) for pad in self.pads]
         self._lift_q, self._finger_q = int(self._lift_qpos), [int(a) for a in self._finger_qpos]
-        geometry = self.bridge.geometry
         self._p_stop = float(self.fingertip.gel.pressure_from_indentation(geometry.stop_m)) * (1 - 1e-9)
         self._object_dof_i, self._lift_dof_i = int(self._object_dof), int(self._lift_dof)
         self._finger_list, self._table_i = [int(a) for a in self._finger_adr], int(self._table_adr)
@@ -241,6 +274,7 @@ class CoSimulation:
             side = pad.removesuffix("_pad")
             names = (
                 "true_pressure_pa",
+                "coverage_pressure_pa",
                 "contact_force_n",
                 "estimate_pa",
                 "uncertainty_pa",
@@ -260,10 +294,10 @@ class CoSimulation:
         """Advance one control period; return the recorded row's values, in :attr:`columns` order."""
         # 1. physics (the gel's law acts on the pad joints every substep)
         self._physics()
-        # 2. pad pressure along each element (Pa), root to tip, per instrumented pad
-        profiles = self._pressures()
+        # 2. pad pressure along each element (Pa), root to tip, and on its coverage cells
+        profiles, cells = self._pressures()
         # 3-4. gel -> sensor (envelope), the driven mode only
-        readings = self._sense(profiles)
+        readings = self._sense(cells)
         # 5. readout (inverse)
         signals = self._readout(readings)
         # 6. controller (sensors and proprioception only)
@@ -272,7 +306,7 @@ class CoSimulation:
         # 7. actuators and drive modes
         self._actuate(command)
         # 8. record
-        return self._record(obs, command, profiles)
+        return self._record(obs, command, profiles, cells)
 
     # -- the same step in two halves, for a driver outside the loop (a Gymnasium agent) -------
 
@@ -280,8 +314,8 @@ class CoSimulation:
         """Steps 1-5 of :meth:`advance`: physics over one control period, then what the
         controller would see.  Follow it with :meth:`act`."""
         self._physics()
-        self._pending_profiles = self._pressures()
-        self._pending_obs = self._observe(self._readout(self._sense(self._pending_profiles)))
+        self._pending_profiles, self._pending_cells = self._pressures()
+        self._pending_obs = self._observe(self._readout(self._sense(self._pending_cells)))
         return self._pending_obs
 
     def act(self, command: Command) -> list[float]:
@@ -289,7 +323,7 @@ class CoSimulation:
         ``command`` and return the recorded row.  ``sense(); act(controller.step(obs))`` is
         exactly :meth:`advance`."""
         self._actuate(command)
-        return self._record(self._pending_obs, command, self._pending_profiles)
+        return self._record(self._pending_obs, command, self._pending_profiles, self._pending_cells)
 
     def step(self) -> dict[str, float]:
         """Advance one control period; return the recorded row (column name -> value)."""
@@ -338,15 +372,39 @@ class CoSimulation:
         self.time_s += self.dt
         self.steps += 1
 
-    def _pressures(self) -> list[list[float]]:
-        values = self.bridge.element_pressure_values(self.data)
-        return [[values[i] for i in index] for index in self._profile_index]
+    def _pressures(self) -> tuple[list[list[float]], list[list[float]]]:
+        """Per instrumented pad: the gel pressure over its element strips (Pa, root to tip: the
+        record's cells) and the mean pressure on each coverage cell (Pa: the channel's input)."""
+        if not self._spread:  # each cell feels the strip above it
+            values = self.bridge.element_pressure_values(self.data)
+            profiles = [[values[i] for i in index] for index in self._profile_index]
+            if self._cells_are_strips:
+                return profiles, profiles
+            cells = self._cells
+            return profiles, [[profile[i] for i in cells] for profile in profiles]
+        values = self.bridge.compressive_values(self.data, self._pad_strips)
+        n, element, weights = self._n_strips, self._element_of_pad, self._cell_weights
+        profiles, covered = [], []
+        for start in range(0, len(values), n):
+            strips = values[start : start + n]
+            profiles.append([strips[i] for i in element])
+            covered.append([sum(w * strips[i] for i, w in row) for row in weights])
+        return profiles, covered
 
-    def _sense(self, profiles: list[list[float]]) -> list[Reading]:
-        cells, dt = self._cells, self.dt
-        if not self._cells_are_strips:
-            profiles = [[profile[i] for i in cells] for profile in profiles]
-        return [channel.update_trusted(profile, dt) for channel, profile in zip(self._channel_list, profiles, strict=True)]
+    def coverage_pressures(self) -> np.ndarray:
+        """The mean gel pressure on each coverage cell of each instrumented pad now, Pa, shape
+        (pads, cells): the sensor channels' input, computed with numpy from every strip's
+        pressure (a check on the per-step path; :func:`coverage_weights`)."""
+        strips = np.maximum(self.bridge.strip_pressures(self.data), 0.0)[self._pad_rows]
+        matrix = np.zeros((len(self._cell_weights), self._n_strips))
+        for c, row in enumerate(self._cell_weights):
+            for i, w in row:
+                matrix[c, i] = w
+        return strips @ matrix.T
+
+    def _sense(self, cells: list[list[float]]) -> list[Reading]:
+        dt = self.dt
+        return [channel.update_trusted(profile, dt) for channel, profile in zip(self._channel_list, cells, strict=True)]
 
     def _readout(self, readings: list[Reading]) -> dict[str, PadSignal]:
         return {
@@ -392,7 +450,7 @@ class CoSimulation:
                 f"(timestep {self.model.opt.timestep:g} s, integrator {self.config.physics.integrator})"
             )
 
-    def _record(self, obs: Observation, command: Command, profiles: list[list[float]]) -> list[float]:
+    def _record(self, obs: Observation, command: Command, profiles: list[list[float]], cells: list[list[float]]) -> list[float]:
         """The row's values in :attr:`columns` order (all Python floats)."""
         # One conversion per array to Python floats (a numpy scalar per value costs more).
         x, y, z = self._xpos[self._object_body].tolist()
@@ -417,12 +475,14 @@ class CoSimulation:
         ]
         if self._track_peaks:
             row += self._finger_peaks
-        for pad, profile, adr in zip(self.pads, profiles, self._contact_list, strict=True):
+        fractions = self._cell_fractions
+        for pad, profile, covered, adr in zip(self.pads, profiles, cells, self._contact_list, strict=True):
             sig = obs.pads[pad]
             r, e = sig.reading, sig.estimate
             mean = profile[0] if len(profile) == 1 else float(np.mean(profile))
             row += (
                 mean,
+                covered[0] if len(covered) == 1 else sum(f * p for f, p in zip(fractions, covered, strict=True)),
                 abs(sensordata[adr]),
                 e.pressure_pa,
                 e.uncertainty_pa,

@@ -129,11 +129,17 @@ class PadGeometry:
         return np.concatenate(([self.guard_length_m], seg, [self.guard_length_m]))
 
     @property
-    def strip_centers_m(self) -> np.ndarray:
-        """z of each strip's centre from the pad's centre, m."""
+    def strip_edges_m(self) -> np.ndarray:
+        """z of the strips' edges from the pad's centre (the element's centre), m, distal first."""
         edges = np.concatenate(([0.0], np.cumsum(self.strip_lengths_m))) - 0.5 * self.pad_length_m
         if not self.has_guards:
             edges = edges + 0.5 * (self.pad_length_m - self.element_length_m)
+        return edges
+
+    @property
+    def strip_centers_m(self) -> np.ndarray:
+        """z of each strip's centre from the pad's centre, m."""
+        edges = self.strip_edges_m
         return 0.5 * (edges[:-1] + edges[1:])
 
     @property
@@ -491,6 +497,7 @@ class PadBridge:
             zip(self._qadr.tolist(), self._dof.tolist(), self._jnt.tolist(), self._area.tolist(), self._qspring.tolist(), strict=True)
         )
         self._element_qadr = self._qadr_element.tolist()
+        self._qadr_list = self._qadr.tolist()
         self._stiffness = memoryview(model.jnt_stiffness)
         self._views_of: mujoco.MjData | None = None
 
@@ -579,6 +586,14 @@ class PadBridge:
         qpos = self._data_views(data)[0]
         lookup = self._lookup.at
         return [max(lookup(qpos[a])[0], 0.0) for a in self._element_qadr]
+
+    def compressive_values(self, data: mujoco.MjData, strips: list[int]) -> list[float]:
+        """Gel pressure of the ``strips`` (flat indices: pads in ``PAD_NAMES`` order, strips
+        distal first, guards included), Pa, compressive only, as Python floats: the
+        co-simulation's per-step read when the whole pad's face reaches the element."""
+        qpos = self._data_views(data)[0]
+        lookup, qadr = self._lookup.at, self._qadr_list
+        return [max(lookup(qpos[qadr[i]])[0], 0.0) for i in strips]
 
     def strip_pressures(self, data: mujoco.MjData) -> np.ndarray:
         """Gel pressure of every strip, guards included, Pa, shape (pads, strips); tension < 0."""

@@ -19,6 +19,8 @@ from dataclasses import dataclass, field
 OBJECT_SHAPES = ("box", "cylinder", "sphere", "egg")
 INTEGRATORS = ("discrete", "implicitfast", "implicit", "Euler", "RK4")
 SENSOR_DYNAMICS = ("steady", "envelope", "carrier")
+LOAD_SPREADS = ("layer", "none")
+"""sensor.load_spread: the gel layer spreads a face pressure over the element (sensor/spread.py), or not."""
 CONTROLLERS = ("scripted", "multimode")
 #: The physics timesteps tested stable with the discrete integrator (tests/test_extremes.py): 0.1 ms
 #: (smaller only costs time) to 20 ms (the pads' contact time constant, 2 steps, is then 40 ms).
@@ -147,6 +149,11 @@ class SensorConfig:
     gel_layer : "winkler" (the layer's low-frequency stiffness) or "dynamic" (its dynamic
         stiffness, M k cot(k h): 100-4000x more damping, mass-like k_e; evaluated exactly).
         README "The gel's two layer models" compares them.
+    load_spread : how a pressure on the pad's face reaches the element under it: "layer" (the
+        gel layer spreads it over about its thickness, Flamant's half-space solution at the
+        gel's depth, sensor/spread.py: a contact anywhere near the coverage is felt there, at
+        every pad resolution) or "none" (each coverage cell feels only the strip above it:
+        with fine strips, a contact beside the coverage is not felt at all).
     damage_stiffness, damage_coupling, damage_damping : injected element damage, factors on
         the healthy stiffness, d31 and damping (sensor.selftest.damaged); the multimode
         controller's start-up self-test must catch them.
@@ -175,6 +182,7 @@ class SensorConfig:
     exact_gel: bool = False
     carrier_samples_per_cycle: int = 16
     gel_layer: str = "winkler"
+    load_spread: str = "layer"
     variation: str = "none"
     unit_seed: int = 0
     calibration: str | None = None
@@ -183,6 +191,7 @@ class SensorConfig:
 
     def validate(self) -> None:
         _one_of("sensor.gel_layer", self.gel_layer, ("winkler", "dynamic"))
+        _one_of("sensor.load_spread", self.load_spread, LOAD_SPREADS)
         self.unit_config()  # variation, seed, calibration and temperature, each named if bad
         if not isinstance(self.carrier_samples_per_cycle, int) or not 4 <= self.carrier_samples_per_cycle <= 256:
             raise ValueError(f"sensor.carrier_samples_per_cycle must be an integer in 4..256, got {self.carrier_samples_per_cycle!r}")

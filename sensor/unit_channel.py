@@ -238,7 +238,6 @@ class UnitChannel(SensorChannel):
             self._inference.restart(t, z / g)
         self.rezeros += 1
 
-
     def _new_carrier(self, mode: int) -> CarrierResonator:
         if self._unit is None:
             return super()._new_carrier(mode)

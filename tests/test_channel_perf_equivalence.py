@@ -317,7 +317,7 @@ def test_recorded_row_is_what_the_checked_api_gives():
             assert cells == pressures[prow].tolist()
             assert row[f"{side}_true_pressure_pa"] == float(np.mean(pressures[prow]))
             twin.select_mode(int(row[f"{side}_mode"]))
-            r = twin.update(pressures[prow][sim._cell_strip], sim.dt)
+            r = twin.update(sim.coverage_pressures()[sim.pads.index(pad)], sim.dt)
             assert row[f"{side}_v1"] == pytest.approx(r.v1, rel=RTOL)
             e = twin.estimate(r)
             assert row[f"{side}_estimate_pa"] == pytest.approx(e.pressure_pa, rel=1e-9, nan_ok=True)

@@ -246,3 +246,23 @@ def test_mode_ranges_are_computed_once_per_fingertip_and_never_shared_across_con
         assert value[1] != first[1] or value[2] != first[2], name  # other bands or limits
     first[2][1] = -1.0  # the caller's copy: the cache stays as it was
     assert allowed_ranges(base, (1, 2, 3, 4))[2][1] > 0
+
+
+def test_the_joints_feel_a_contact_as_a_rise_of_the_closing_drive_over_the_grip_floor():
+    """The drive's force at pace is learned once steady; a rise over it by more than the grip
+    floor is a contact felt by the joints, a smaller one (or any while speeding up) is not."""
+    from piezotip.cosim.loop import CoSimulation
+
+    c = CoSimulation(scenarios.get("grasp")).controller
+    floor, pace = c.grip_floor_n, c.cfg.closing_speed_m_s
+    c._finger_speed = 0.5 * pace  # speeding up: the drive's force climbs, and says nothing
+    assert not any(c._joint_touch(0.1 * k) for k in range(5))
+    c._finger_speed = pace
+    assert not c._joint_touch(0.40 - 2 * floor)  # the first periods at pace still climb
+    assert not c._joint_touch(0.40)
+    assert c._free_drive_n is None
+    assert not c._joint_touch(0.40)  # steady: learned
+    assert c._free_drive_n == 0.40
+    assert not c._joint_touch(0.40 + 0.5 * floor)
+    assert not c._joint_touch(0.40 + 0.9 * floor)  # a slow creep counts from the free force...
+    assert "0.4" in c._joint_touch(0.40 + 1.1 * floor)  # ...and is felt once past the floor

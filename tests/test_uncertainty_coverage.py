@@ -36,7 +36,9 @@ def readings(data):
     zs, near = [], []
     for side in ("left", "right"):
         ok = data[f"{side}_status"] == OK
-        est, unc, true = (data[f"{side}_{k}"] for k in ("estimate_pa", "uncertainty_pa", "true_pressure_pa"))
+        # The truth a fingertip reads is the pressure the gel brings to its coverage (the pad's
+        # own pressure differs from it for a contact beside the coverage: sensor/spread.py).
+        est, unc, true = (data[f"{side}_{k}"] for k in ("estimate_pa", "uncertainty_pa", "coverage_pressure_pa"))
         change = np.zeros_like(true)
         for k in range(1, HORIZON_PERIODS + 1):
             change[k:] = np.maximum(change[k:], np.abs(true[k:] - true[:-k]))

@@ -187,6 +187,7 @@ def test_m4_keeps_each_buckets_extremes_ends_and_gaps():
     kept_t, kept_y = m4_decimate(t, y, bucket)
     assert np.all(np.diff(kept_t) > 0)
     kept_bucket = np.floor(kept_t / 0.05).astype(np.int64)
+
     def same(a, b):
         return a == b or (np.isnan(a) and np.isnan(b))
 

@@ -167,6 +167,11 @@ class MultimodeGrasp:
         self.finger_accel_m_s2 = 0.5 * sel.p_min_pa[lowest] / robot.pad_areal_mass_kg_m2
         self._finger_speed = 0.0
         self._opening_speed = 0.0  # of the opening target on release, m/s
+        # The drive's force while the fingers close freely at pace (learned, as the fingertips'
+        # baselines are), and the force in the last period: see _joint_touch.
+        self._free_drive_n: float | None = None
+        self._joints_felt_touch = False  # the last touch was the joints', not the fingertips'
+        self._last_drive_n = math.nan
         #: Share of a load change the lift's own acceleration explains (load = m (g + a)).
         self.load_noise_fraction = c.lift_accel_m_s2 / robot.gravity_m_s2
         #: The load transfer gives up after twice the time the grip needs to ramp to its cap
@@ -294,12 +299,16 @@ class MultimodeGrasp:
         self._finger_speed = min(self.cfg.closing_speed_m_s, self._finger_speed + self.finger_accel_m_s2 * dt_s)
         self.opening_target = max(0.0, self.opening_target - self._finger_speed * dt_s)
         touched = [self.touch[pad].update(obs.pads[pad].reading.v1) for pad in self.pads]
-        if all(touched):
+        felt_by_joints = self._joint_touch(obs.grip_force_n)
+        if all(touched) or felt_by_joints:
             self.touch_time_s = t
             self._width_m = obs.opening_m  # the object's width: the pads barely pressed yet
             self.opening_target = 0.0  # squeeze at the force limit
             self.grip_n = self.grip_floor_n
-            self._enter(Phase.SQUEEZE, t, f"touch on {', '.join(self.pads)} (CUSUM); grip floor {self.grip_floor_n:.3g} N")
+            self._free_drive_n = None
+            self._joints_felt_touch = not all(touched)
+            how = f"on {', '.join(self.pads)} (CUSUM)" if all(touched) else f"felt by the joints ({felt_by_joints})"
+            self._enter(Phase.SQUEEZE, t, f"touch {how}; grip floor {self.grip_floor_n:.3g} N")
         elif self.opening_target <= 0.0:
             if obs.opening_m < 0.002:
                 self._give_up(t, "no_object", "closed without feeling a touch", Phase.RELEASE)
@@ -316,6 +325,32 @@ class MultimodeGrasp:
                 )
         self._last_opening_m = obs.opening_m
 
+    def _joint_touch(self, drive_n: float) -> str:
+        """Whether the fingers' drive, closing at pace, meets a resistance the fingertips have
+        not reported: a message saying so, or "".
+
+        The drive's force at a steady closing speed is constant (its damping at that speed);
+        it is learned once it stops changing by more than the grip floor per period, as the
+        lowest it has been since.  A rise over it by more than the grip floor (the gentlest
+        grip a fingertip resolves, on its coverage) is a contact the joints feel first: on a
+        pad beside the element's coverage, which the gel brings to the element weakened
+        (sensor/spread.py), or on a resonator still ringing up.  Closing on until the
+        fingertips felt it would press on at the pace's force, a period at a time.
+        """
+        last, self._last_drive_n = self._last_drive_n, drive_n
+        if self._finger_speed < self.cfg.closing_speed_m_s:  # still speeding up
+            self._free_drive_n = None
+            return ""
+        free, floor = self._free_drive_n, self.grip_floor_n
+        if free is None:
+            if abs(drive_n - last) < floor:
+                self._free_drive_n = drive_n
+            return ""
+        if drive_n - free > floor:
+            return f"the drive needs {drive_n:.3g} N against its free {free:.3g} N"
+        self._free_drive_n = min(free, drive_n)
+        return ""
+
     def _squeeze(self, obs: Observation, t: float, dt_s: float) -> None:
         if t - self._t_phase < self.cfg.squeeze_settle_s:
             return
@@ -329,6 +364,17 @@ class MultimodeGrasp:
             # touching the guards below or above the pads): closing on would loop forever.
             unfelt = len(empty) == len(self.pads)
             previous, self._unfelt_opening_m = self._unfelt_opening_m, obs.opening_m if unfelt else None
+            if unfelt and self._joints_felt_touch:
+                # The joints felt the contact that stopped the closing, and no fingertip reads it
+                # at the grip floor: closing on would press it at the pace's force, unfelt.
+                self._give_up(
+                    t,
+                    "unfelt_contact",
+                    f"the joints felt a contact at {obs.opening_m * 1e3:.1f} mm that no fingertip reads at the grip floor: "
+                    "the object touches the pads away from the element's gel coverage",
+                    Phase.RELEASE,
+                )
+                return
             if unfelt and previous is not None and previous - obs.opening_m < self.cfg.closing_speed_m_s * dt_s:
                 self._give_up(
                     t,
