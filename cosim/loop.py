@@ -386,9 +386,8 @@ class CoSimulation:
         n, element, weights = self._n_strips, self._element_of_pad, self._cell_weights
         profiles, covered = [], []
         for start in range(0, len(values), n):
-            strips = values[start : start + n]
-            profiles.append([strips[i] for i in element])
-            covered.append([sum(w * strips[i] for i, w in row) for row in weights])
+            profiles.append([values[start + i] for i in element])
+            covered.append([sum([w * values[start + i] for i, w in row]) for row in weights])
         return profiles, covered
 
     def coverage_pressures(self) -> np.ndarray:
