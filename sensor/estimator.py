@@ -199,13 +199,15 @@ class ModeInverse:
         reading's: as :meth:`__call__` with sigma scaled by max(gain, 1) for the below-detection
         test (within 3 scaled sigma of unloaded; its uncertainty is the scaled detection limit)
         and by max(gain, GAIN_FLOOR) for the uncertainty of an "ok" estimate."""
-        if 1.0 - v1 < self._three_sigma * (gain if gain > 1.0 else 1.0):
-            return _estimate(max(1.0 - v1, 0.0) / self._slope0, self._p_min_f * (gain if gain > 1.0 else 1.0), "below_detection")
+        drop = 1.0 - v1
+        below_scale = gain if gain > 1.0 else 1.0
+        if drop < self._three_sigma * below_scale:
+            return _estimate(max(drop, 0.0) / self._slope0, self._p_min_f * below_scale, "below_detection")
         g = gain if gain > GAIN_FLOOR else GAIN_FLOOR
         if v1 <= self._v_last:
             return _estimate(math.nan, math.nan, "saturated")
         if v1 >= self._v_first:
-            return _estimate((1.0 - v1) / self._slope0, g * self._sigma_f / self._slope0, "ok")
+            return _estimate(drop / self._slope0, g * self._sigma_f / self._slope0, "ok")
         log_p = interp(-v1, self._neg_v_list, self._log_p_list)
         p = math.exp(log_p)
         if not p <= self._p_max_f:

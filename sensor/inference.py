@@ -56,6 +56,8 @@ _SUSPECT_STAT_LONGEST = 7.5
 #: ...the latest reading on every reading, the longer look-backs in turn (the per-reading cost:
 #: two or three of them a reading; the coverage measured with all five every reading is the same).
 _SCALE_TURNS = ((1, 5), (1, 3, 9), (1, 5, 27), (1, 3))
+#: The same turns without the latest reading's look-back (SteadyInference.step takes it first).
+_LONGER_TURNS = tuple(turn[1:] for turn in _SCALE_TURNS)
 #: Weight of the integrated noise in the fit's residual (see SteadyInference, "noise").
 _INTEGRATED_NOISE = 0.05
 #: The inferred load mu (and so 1 / mu) is trusted only while known to this fraction (1 sigma):
@@ -130,10 +132,31 @@ class SteadyInference:
     switch, 0.06 to 0.35 s and 10 to 45 ms.
     """
 
-    __slots__ = ("base", "c_known", "fits", "q1", "q2", "samples", "sigma", "tau0", "tau0_sq", "tr", "turn", "w_target")
+    __slots__ = (
+        "base",
+        "c_known",
+        "fits",
+        "half_sig_sq",
+        "q1",
+        "q2",
+        "samples",
+        "sig_sq",
+        "sig_sq_tau0",
+        "sig_sq_tau0_sq",
+        "sigma",
+        "tau0",
+        "tau0_sq",
+        "tr",
+        "turn",
+        "w_target",
+    )
 
     def __init__(self, tau0_s: float, sigma: float) -> None:
         self.tau0, self.tau0_sq, self.sigma = tau0_s, tau0_s * tau0_s, sigma
+        # The noise terms' constant factors, once (the same products _fit formed every reading:
+        # sigma^2, sigma^2 tau0, sigma^2 tau0^2 and sigma^2 / 2, left to right as written there).
+        self.sig_sq = sig_sq = sigma * sigma
+        self.sig_sq_tau0, self.sig_sq_tau0_sq, self.half_sig_sq = sig_sq * tau0_s, sig_sq * self.tau0_sq, 0.5 * sig_sq
         # Per reading in the window: (t, a, X1, X2, Y, then the running sums since the segment's
         # start of X1, X2, Y, |X1|^2, |X2|^2, conj(X1) X2, conj(X1) Y, conj(X2) Y); the window's
         # sums are the last reading's minus ``base``'s (the reading before the window).
@@ -162,7 +185,7 @@ class SteadyInference:
         self.restart(t_end - n * dt_s, None)
         for k in range(n + 1):
             self._append(t_end - (n - k) * dt_s, a)
-        self.fits.append(self._fit(t_end)[4])
+        self.fits.append(self._fit(t_end)[-1])
 
     def _integrate(self, t: float, a: complex) -> tuple[complex, complex, complex]:
         """(X1, X2, Y) of a reading ``a`` at ``t`` (the integrals continued from the last reading)."""
@@ -213,7 +236,8 @@ class SteadyInference:
         return new
 
     def _fit(self, t: float) -> tuple:
-        """Least squares over the window: (mu(t), its variance, ramp chi-square, |mu1|, fit record).
+        """Least squares over the window: (mu(t), |mu(t)|^2, its variance, ramp chi-square, |mu1|^2,
+        fit record) (|mu1|^2, not |mu1|: its root is wanted only while the load ramps).
 
         The record keeps what the change test needs to predict the next readings: the
         coefficients (c, b1, b2), 1 / n and the regressors' means (0 with a known start), the
@@ -226,7 +250,7 @@ class SteadyInference:
         c = self.c_known
         if c is not None:  # known start: no intercept
             if n < 2:
-                return None, math.inf, 0.0, 0.0, None
+                return None, math.nan, math.inf, 0.0, 0.0, None
             c11, c22, c12 = last[8] - b[8], last[9] - b[9], last[10] - b[10]
             c1y = last[11] - b[11] - s1.conjugate() * c
             c2y = last[12] - b[12] - s2.conjugate() * c
@@ -234,7 +258,7 @@ class SteadyInference:
             inv_n = 0.0
         else:
             if n < 4:
-                return None, math.inf, 0.0, 0.0, None
+                return None, math.nan, math.inf, 0.0, 0.0, None
             inv_n = 1.0 / n
             m1, m2, my = s1 * inv_n, s2 * inv_n, sy * inv_n
             m1c, m2c = m1.conjugate(), m2.conjugate()
@@ -245,7 +269,7 @@ class SteadyInference:
             c2y = last[12] - b[12] - m2c * sy
         det = c11 * c22 - (c12.real * c12.real + c12.imag * c12.imag)
         if not det > 0.0:
-            return None, math.inf, 0.0, 0.0, None
+            return None, math.nan, math.inf, 0.0, 0.0, None
         inv_det = 1.0 / det
         b1 = (c22 * c1y - c12 * c2y) * inv_det
         b2 = (c11 * c2y - c12.conjugate() * c1y) * inv_det
@@ -259,7 +283,7 @@ class SteadyInference:
         mu = -(b1 + b2 * d)
         width = t - samples[0][0]
         mu_sq = mu.real * mu.real + mu.imag * mu.imag
-        sig_sq = self.sigma * self.sigma
+        sig_sq = self.sig_sq
         s2_res = sig_sq * (self.tau0_sq + _INTEGRATED_NOISE * mu_sq * width * width)
         var_mu = s2_res * (c22 + d * d * c11 - 2.0 * d * c12.real) * inv_det
         b2_sq = b2.real * b2.real + b2.imag * b2.imag
@@ -269,7 +293,6 @@ class SteadyInference:
         # integral, every later X1) ~ m (n0 + m (n1 + m n2)); and the fit's own error at them,
         # n_fit (m^2 / n + q) with q the quadratic form of the block's centered regressors
         # (the residual level n_fit: tau0^2 plus the integrated noise over the window).
-        tau0 = self.tau0
         record = (
             c,
             b1,
@@ -280,12 +303,12 @@ class SteadyInference:
             c22 * inv_det,
             c11 * inv_det,
             2.0 * c12 * inv_det,
-            sig_sq * self.tau0_sq,
-            sig_sq * tau0 * mu.real * h,
-            0.5 * sig_sq * mu_sq * h * h,
+            self.sig_sq_tau0_sq,
+            self.sig_sq_tau0 * mu.real * h,
+            self.half_sig_sq * mu_sq * h * h,
             sig_sq * (self.tau0_sq + mu_sq * h * width),
         )
-        return mu, var_mu, ramp_chi2, math.sqrt(b2_sq), record
+        return mu, mu_sq, var_mu, ramp_chi2, b2_sq, record
 
     def step(self, t: float, a: complex) -> tuple[complex, float, bool]:
         """Take the lock-in's reading ``a`` at time ``t``; return (a_ss, gain, trusted)."""
@@ -297,25 +320,34 @@ class SteadyInference:
         n_f = len(fits)
         if n_f and fits[-1] is not None:
             # The change test, before the reading joins the fit: the last m readings predicted
-            # with the fit made before them.
+            # with the fit made before them.  First m = 1, this reading alone (there is a
+            # reading before it: a fit is made only after one), with m = 1 written out of the
+            # general formula below (multiplying by 1 is exact: the same statistic, bit for bit).
+            c, b1, b2, inv_n, m1, m2, i11, i22, i12, n0, n1, n2, n_fit = fits[-1]
+            g1, g2, r = x1 - m1, x2 - m2, y - c - b1 * x1 - b2 * x2
+            w = i12 * g2
+            q = (
+                i11 * (g1.real * g1.real + g1.imag * g1.imag)
+                + i22 * (g2.real * g2.real + g2.imag * g2.imag)
+                - (g1.real * w.real + g1.imag * w.imag)
+            )
+            stat = (r.real * r.real + r.imag * r.imag) / (2.0 * ((n0 + (n1 + n2)) + n_fit * (inv_n + q)))
+            worst, worst_m = (stat, 1) if stat > 0.0 else (0.0, 0)
+            # Then this turn's longer look-back(s).
             last = samples[-1]
             n_s = len(samples)
-            worst, worst_m = 0.0, 0
             self.turn = turn = (self.turn + 1) & 3
-            for m in _SCALE_TURNS[turn]:
+            for m in _LONGER_TURNS[turn]:
                 if m > n_f or m > n_s:
                     break
                 fit = fits[-m]
                 if fit is None:
                     break
                 c, b1, b2, inv_n, m1, m2, i11, i22, i12, n0, n1, n2, n_fit = fit
-                if m == 1:
-                    g1, g2, r = x1 - m1, x2 - m2, y - c - b1 * x1 - b2 * x2
-                else:
-                    ref = samples[-m]
-                    g1, g2 = last[5] - ref[5] + x1, last[6] - ref[6] + x2
-                    r = (last[7] - ref[7] + y) - m * c - b1 * g1 - b2 * g2
-                    g1, g2 = g1 - m * m1, g2 - m * m2
+                ref = samples[-m]
+                g1, g2 = last[5] - ref[5] + x1, last[6] - ref[6] + x2
+                r = (last[7] - ref[7] + y) - m * c - b1 * g1 - b2 * g2
+                g1, g2 = g1 - m * m1, g2 - m * m2
                 w = i12 * g2
                 q = (
                     i11 * (g1.real * g1.real + g1.imag * g1.imag)
@@ -337,18 +369,17 @@ class SteadyInference:
         while t - samples[0][0] > w_target and len(samples) > _MIN_SAMPLES:
             self.base = samples.popleft()
             self.c_known = None  # the window no longer starts at the known start
-        mu, var_mu, ramp_chi2, ramp_rate, record = self._fit(t)
+        mu, mu_sq, var_mu, ramp_chi2, ramp_rate_sq, record = self._fit(t)
         fits.append(record)
         if record is None:
             return _NAN_ENVELOPE, math.inf, False
         # Shorten the window while the load ramps (see RAMP_WINDOW_FRACTION).
         if ramp_chi2 > _RAMP_CHI2:
             load = abs(mu - 1.0)
-            w = RAMP_WINDOW_FRACTION * (load if load > _MIN_LOAD else _MIN_LOAD) / ramp_rate
+            w = RAMP_WINDOW_FRACTION * (load if load > _MIN_LOAD else _MIN_LOAD) / math.sqrt(ramp_rate_sq)
             self.w_target = WINDOW_S if w > WINDOW_S else (MIN_WINDOW_S if w < MIN_WINDOW_S else w)
         elif w_target != WINDOW_S:
             self.w_target = WINDOW_S
-        mu_sq = mu.real * mu.real + mu.imag * mu.imag
         if not var_mu < _MAX_REL_SQ * mu_sq:
             return (1.0 / mu if mu_sq > 0 else _NAN_ENVELOPE), math.inf, False
         return 1.0 / mu, math.sqrt(var_mu) / (mu_sq * self.sigma), trusted
@@ -358,4 +389,4 @@ class SteadyInference:
         self.restart(readings[0][0], None)
         for t, a in readings:
             self._append(t, a)
-        self.fits.append(self._fit(readings[-1][0])[4])
+        self.fits.append(self._fit(readings[-1][0])[-1])
