@@ -88,6 +88,12 @@ class ModeSelector:
 
     def __init__(self, fingertip: Fingertip, modes: tuple[int, ...], hysteresis: float = 0.25, persist: int = 3) -> None:
         self.modes = tuple(sorted(modes))
+        # Each allowed mode's neighbours (next mode up, next mode down; None past either end),
+        # looked up on every reading rather than searched for.
+        self._neighbours = {
+            m: (self.modes[i + 1] if i + 1 < len(self.modes) else None, self.modes[i - 1] if i > 0 else None)
+            for i, m in enumerate(self.modes)
+        }
         self.fingertip, self.bands, self.p_min_pa, self.p_max_pa = allowed_ranges(fingertip, self.modes)
         # Switch pressure between consecutive allowed modes (the band edge), Pa.
         self.switch_pa = {(a[0], b[0]): a[2] for a, b in zip(self.bands, self.bands[1:], strict=False)}
@@ -103,14 +109,6 @@ class ModeSelector:
         self.status = "below_detection"  # status of the last trusted estimate
         self.trusted = True
 
-    def _up(self) -> int | None:
-        i = self.modes.index(self.mode)
-        return self.modes[i + 1] if i + 1 < len(self.modes) else None
-
-    def _down(self) -> int | None:
-        i = self.modes.index(self.mode)
-        return self.modes[i - 1] if i > 0 else None
-
     def update(self, estimate) -> tuple[int, object]:
         """Take one readout estimate; return (mode to drive next, why).
 
@@ -125,7 +123,7 @@ class ModeSelector:
         status = estimate.status
         if status in ("ok", "below_detection") and math.isfinite(estimate.pressure_pa):
             self.estimate_pa, self.uncertainty_pa, self.status = estimate.pressure_pa, estimate.uncertainty_pa, status
-        up, down = self._up(), self._down()
+        up, down = self._neighbours[self.mode]
         p = self.estimate_pa
         # A saturated reading is past the switch up (P_max lies above it), a below-detection
         # one past the switch down: one streak each, whatever mix of readings makes it.
