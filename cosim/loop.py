@@ -229,7 +229,19 @@ class CoSimulation:
         self._prepare_step()
 
     #: Live views of the model's and data's arrays (see _prepare_step): rebuilt, not copied.
-    _VIEWS = ("_qpos", "_actuator_force", "_qvel", "_sensordata", "_ctrl", "_forcerange", "_warning_number", "_xpos", "_mj_step")
+    _VIEWS = (
+        "_qpos",
+        "_actuator_force",
+        "_qvel",
+        "_sensordata",
+        "_ctrl",
+        "_forcerange",
+        "_warning_number",
+        "_xpos",
+        "_object_xpos",
+        "_object_qvel",
+        "_mj_step",
+    )
 
     def __getstate__(self) -> dict:
         return {k: v for k, v in self.__dict__.items() if k not in self._VIEWS}
@@ -262,6 +274,10 @@ class CoSimulation:
         self._warning_number = d.warning.number  # a live view of the warnings' counters
         self._mj_step = mujoco.mj_step  # watch_mj_step puts an instrument in front of it (not copied)
         self._xpos, self._object_body = d.xpos, m.body("object").id
+        # The object's position and velocity as live views of their own (for _record: indexing
+        # the whole arrays made a new view every step).
+        self._object_xpos = d.xpos[self._object_body]
+        self._object_qvel = d.qvel[int(self._object_dof) : int(self._object_dof) + 6]
         self._contact_list = [int(self._contact_adr[pad]) for pad in self.pads]
         self._lift_q, self._finger_q = int(self._lift_qpos), [int(a) for a in self._finger_qpos]
         self._p_stop = float(self.fingertip.gel.pressure_from_indentation(geometry.stop_m)) * (1 - 1e-9)
@@ -452,9 +468,10 @@ class CoSimulation:
     def _record(self, obs: Observation, command: Command, profiles: list[list[float]], cells: list[list[float]]) -> list[float]:
         """The row's values in :attr:`columns` order (all Python floats)."""
         # One conversion per array to Python floats (a numpy scalar per value costs more).
-        x, y, z = self._xpos[self._object_body].tolist()
-        vx, vy, vz, wx, wy, wz = self._qvel[self._object_dof_i : self._object_dof_i + 6].tolist()
+        x, y, z = self._object_xpos.tolist()
+        vx, vy, vz, wx, wy, wz = self._object_qvel.tolist()
         sensordata = self._sensordata.tolist()
+        left, right = self._finger_list
         row = [
             self.time_s,
             float(command.phase),
@@ -470,7 +487,8 @@ class CoSimulation:
             math.sqrt(vx * vx + vy * vy + vz * vz),
             math.sqrt(wx * wx + wy * wy + wz * wz),
             abs(sensordata[self._table_i + 2]),
-            *(abs(sensordata[a]) for a in self._finger_list),
+            abs(sensordata[left]),
+            abs(sensordata[right]),
         ]
         if self._track_peaks:
             row += self._finger_peaks
