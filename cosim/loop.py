@@ -178,11 +178,10 @@ class CoSimulation:
         n = self.bridge.geometry.segments
         length = self.fingertip.element.params.length_m
         coverage = self.unit.coverage if self.unit is not None else self.fingertip.coverage  # where the gel touches
-        edges, self._cell_strip = coverage_cells(np.linspace(0.0, length, n + 1), coverage)
+        edges, _ = coverage_cells(np.linspace(0.0, length, n + 1), coverage)
         # With a spreading layer every coverage cell feels the whole pad's face (guards too);
-        # without, the strip above it (the per-step path then skips the weights).
-        self._spread = config.sensor.load_spread == "layer"
-        depth = self.fingertip.gel.params.thickness_m if self._spread else 0.0
+        # without, the strip above it alone (a weight of exactly 1).
+        depth = self.fingertip.gel.params.thickness_m if config.sensor.load_spread == "layer" else 0.0
         self._cell_weights = coverage_weights(self.bridge.geometry, length, edges, depth)
         self._cell_fractions = (np.diff(edges) / (edges[-1] - edges[0])).tolist()  # of the coverage's length
         rng = np.random.default_rng(config.sensor.seed)
@@ -237,7 +236,6 @@ class CoSimulation:
         "_ctrl",
         "_forcerange",
         "_warning_number",
-        "_xpos",
         "_object_xpos",
         "_object_qvel",
         "_mj_step",
@@ -253,27 +251,26 @@ class CoSimulation:
     def _prepare_step(self) -> None:
         """Everything the per-step path reads, as Python scalars, lists and live array views."""
         m, d = self.model, self.data
-        n = self.bridge.geometry.segments
-        # Per instrumented pad: its element strips root to tip, as indices into the bridge's
-        # flat list (pads in PAD_NAMES order, strips distal first), and its channel's cells.
-        self._profile_index = [[row * n + n - 1 - k for k in range(n)] for row in self._pad_rows]
-        self._cells = [int(i) for i in self._cell_strip]
-        self._cells_are_strips = self._cells == list(range(n))  # the profile is the channel's input as is
-        # With a spreading layer: every strip of each instrumented pad is read (flat indices
-        # into the bridge's strips), the element's among them root to tip for the record.
+        # Per instrumented pad, only the strips read: the element's (the record's profile) and
+        # those the coverage cells weigh; as flat indices into the bridge's strips (pads in
+        # PAD_NAMES order, strips distal first), and the profile and weights as positions
+        # among one pad's strips read.
         geometry = self.bridge.geometry
-        n_strips = len(geometry.strip_lengths_m)
-        self._pad_strips = [row * n_strips + k for row in self._pad_rows for k in range(n_strips)]
-        element_strips = np.flatnonzero(geometry.on_element).tolist()
-        self._element_of_pad = element_strips[::-1]
-        self._n_strips = n_strips
+        self._n_strips = n_strips = len(geometry.strip_lengths_m)
+        element = np.flatnonzero(geometry.on_element).tolist()[::-1]  # root to tip
+        read = sorted({*element, *(i for row in self._cell_weights for i, _ in row)})
+        at = {strip: k for k, strip in enumerate(read)}
+        self._pad_strips = [row * n_strips + strip for row in self._pad_rows for strip in read]
+        self._strips_read = len(read)
+        self._element_of_pad = [at[i] for i in element]
+        self._weights_of_pad = [[(at[i], w) for i, w in row] for row in self._cell_weights]
         self._channel_list = [self.channels[pad] for pad in self.pads]
         self._qpos, self._actuator_force = memoryview(d.qpos), memoryview(d.actuator_force)
         self._qvel, self._sensordata = d.qvel, d.sensordata
         self._ctrl, self._forcerange = d.ctrl, m.actuator_forcerange
         self._warning_number = d.warning.number  # a live view of the warnings' counters
         self._mj_step = mujoco.mj_step  # watch_mj_step puts an instrument in front of it (not copied)
-        self._xpos, self._object_body = d.xpos, m.body("object").id
+        self._object_body = m.body("object").id
         # The object's position and velocity as live views of their own (for _record: indexing
         # the whole arrays made a new view every step).
         self._object_xpos = d.xpos[self._object_body]
@@ -302,7 +299,7 @@ class CoSimulation:
                 "bottomed",
             )
             self.columns += [f"{side}_{name}" for name in names]
-            self.columns += [f"{side}_cell{k}_pressure_pa" for k in range(n)]
+            self.columns += [f"{side}_cell{k}_pressure_pa" for k in range(geometry.segments)]
 
     # -- one control step --------------------------------------------------------------
 
@@ -391,15 +388,8 @@ class CoSimulation:
     def _pressures(self) -> tuple[list[list[float]], list[list[float]]]:
         """Per instrumented pad: the gel pressure over its element strips (Pa, root to tip: the
         record's cells) and the mean pressure on each coverage cell (Pa: the channel's input)."""
-        if not self._spread:  # each cell feels the strip above it
-            values = self.bridge.element_pressure_values(self.data)
-            profiles = [[values[i] for i in index] for index in self._profile_index]
-            if self._cells_are_strips:
-                return profiles, profiles
-            cells = self._cells
-            return profiles, [[profile[i] for i in cells] for profile in profiles]
         values = self.bridge.compressive_values(self.data, self._pad_strips)
-        n, element, weights = self._n_strips, self._element_of_pad, self._cell_weights
+        n, element, weights = self._strips_read, self._element_of_pad, self._weights_of_pad
         profiles, covered = [], []
         for start in range(0, len(values), n):
             profiles.append([values[start + i] for i in element])
