@@ -56,8 +56,6 @@ _SUSPECT_STAT_LONGEST = 7.5
 #: ...the latest reading on every reading, the longer look-backs in turn (the per-reading cost:
 #: two or three of them a reading; the coverage measured with all five every reading is the same).
 _SCALE_TURNS = ((1, 5), (1, 3, 9), (1, 5, 27), (1, 3))
-#: The same turns without the latest reading's look-back (SteadyInference.step takes it first).
-_LONGER_TURNS = tuple(turn[1:] for turn in _SCALE_TURNS)
 #: Weight of the integrated noise in the fit's residual (see SteadyInference, "noise").
 _INTEGRATED_NOISE = 0.05
 #: The inferred load mu (and so 1 / mu) is trusted only while known to this fraction (1 sigma):
@@ -320,34 +318,25 @@ class SteadyInference:
         n_f = len(fits)
         if n_f and fits[-1] is not None:
             # The change test, before the reading joins the fit: the last m readings predicted
-            # with the fit made before them.  First m = 1, this reading alone (there is a
-            # reading before it: a fit is made only after one), with m = 1 written out of the
-            # general formula below (multiplying by 1 is exact: the same statistic, bit for bit).
-            c, b1, b2, inv_n, m1, m2, i11, i22, i12, n0, n1, n2, n_fit = fits[-1]
-            g1, g2, r = x1 - m1, x2 - m2, y - c - b1 * x1 - b2 * x2
-            w = i12 * g2
-            q = (
-                i11 * (g1.real * g1.real + g1.imag * g1.imag)
-                + i22 * (g2.real * g2.real + g2.imag * g2.imag)
-                - (g1.real * w.real + g1.imag * w.imag)
-            )
-            stat = (r.real * r.real + r.imag * r.imag) / (2.0 * ((n0 + (n1 + n2)) + n_fit * (inv_n + q)))
-            worst, worst_m = (stat, 1) if stat > 0.0 else (0.0, 0)
-            # Then this turn's longer look-back(s).
+            # with the fit made before them.
             last = samples[-1]
             n_s = len(samples)
+            worst, worst_m = 0.0, 0
             self.turn = turn = (self.turn + 1) & 3
-            for m in _LONGER_TURNS[turn]:
+            for m in _SCALE_TURNS[turn]:
                 if m > n_f or m > n_s:
                     break
                 fit = fits[-m]
                 if fit is None:
                     break
                 c, b1, b2, inv_n, m1, m2, i11, i22, i12, n0, n1, n2, n_fit = fit
-                ref = samples[-m]
-                g1, g2 = last[5] - ref[5] + x1, last[6] - ref[6] + x2
-                r = (last[7] - ref[7] + y) - m * c - b1 * g1 - b2 * g2
-                g1, g2 = g1 - m * m1, g2 - m * m2
+                if m == 1:
+                    g1, g2, r = x1 - m1, x2 - m2, y - c - b1 * x1 - b2 * x2
+                else:
+                    ref = samples[-m]
+                    g1, g2 = last[5] - ref[5] + x1, last[6] - ref[6] + x2
+                    r = (last[7] - ref[7] + y) - m * c - b1 * g1 - b2 * g2
+                    g1, g2 = g1 - m * m1, g2 - m * m2
                 w = i12 * g2
                 q = (
                     i11 * (g1.real * g1.real + g1.imag * g1.imag)
