@@ -1,5 +1,6 @@
 """`bench --throughput`: its report's shape and verdicts (the timing itself is bench's, not a test's)."""
 
+import statistics
 import subprocess
 import sys
 from pathlib import Path
@@ -44,6 +45,24 @@ def test_the_text_gives_each_ratio_against_its_target():
     # The long-run target is judged on the hold against the hold, not on the whole runs.
     assert throughput.format_throughput(_report(hold_rt_ratio=0.8)).count("NO") == 1
     assert "NO" not in throughput.format_throughput(_report(long_run_rt_ratio=0.8))
+    windows = {"long_hold_window_s": 10.0, "long_hold_window_rt_factors": [24.0, 15.0, 26.0], "long_hold_rt_factor_mean": 21.0}
+    text = throughput.format_throughput(_report(**windows, hold_rt_ratio_mean=21.0 / 25.0))
+    assert "median of 3 windows of 10 s: slowest 15.0x, fastest 26.0x" in text and "ratio 0.84)" in text
+
+
+def test_the_long_hold_is_judged_by_its_median_window():
+    """A burst of a slow machine in a few windows does not move the median window; a cost that
+    grows with the run's length does (the failure the target is there to catch)."""
+    dt, per = 0.005, 100
+    steady = [1e-4] * (30 * per)
+    assert throughput.window_rt_factors(steady, dt, per) == pytest.approx([50.0] * 30)
+    burst = [1.6e-4 if 300 <= i < 900 else 1e-4 for i in range(30 * per)]  # 6 windows 1.6x slower
+    windows = throughput.window_rt_factors(burst, dt, per)
+    assert statistics.median(windows) == pytest.approx(50.0) and min(windows) == pytest.approx(50.0 / 1.6)
+    growing = [1e-4 * (1 + i / (30 * per)) for i in range(30 * per)]  # twice as dear at the end
+    assert statistics.median(throughput.window_rt_factors(growing, dt, per)) / 50.0 < 0.7
+    # A short tail joins the last window rather than standing alone.
+    assert len(throughput.window_rt_factors(steady + [1e-4] * 10, dt, per)) == 30
 
 
 def test_the_hold_is_timed_alone_in_both_runs(tmp_path):
@@ -52,6 +71,7 @@ def test_the_hold_is_timed_alone_in_both_runs(tmp_path):
     report = throughput.long_run_times(tmp_path, long_hold_s=0.6, short_hold_s=0.2)
     assert report["short_hold_rt_factor"] > 0 and report["long_hold_rt_factor"] > 0
     assert report["hold_rt_ratio"] == pytest.approx(report["long_hold_rt_factor"] / report["short_hold_rt_factor"])
+    assert report["hold_rt_ratio_mean"] == pytest.approx(report["long_hold_rt_factor_mean"] / report["short_hold_rt_factor"])
     assert report["long_run_sim_s"] - report["short_run_sim_s"] == pytest.approx(0.4, abs=0.1)
     assert {p.name for p in tmp_path.iterdir()} == {"hold-0.2", "hold-0.6", "hold-0.2-again"}
 
