@@ -10,7 +10,7 @@ envelope's own equation over a window, restarted when a change test says the loa
 tuples, the same operations in the same order), about ten times faster per reading.
 :data:`SteadyInference` is the compiled class where the package was built with it (``pip
 install`` builds it; :data:`COMPILED` says), else the reference; ``PIEZOTIP_PURE_PYTHON=1``
-makes the readout use the reference.
+makes the readout use the reference (:mod:`sensor.compiled`).
 :class:`sensor.channel.SensorChannel` feeds it the lock-in's readings and hands its steady
 reading to the estimator (:meth:`sensor.estimator.ModeInverse.inferred`) with its noise gain.
 """
@@ -18,8 +18,9 @@ reading to the estimator (:meth:`sensor.estimator.ModeInverse.inferred`) with it
 from __future__ import annotations
 
 import math
-import os
 from collections import deque
+
+from .compiled import twin
 
 # The readout's inference of the steady reading (see :class:`SteadyInference`).
 #: An inferred steady reading is trusted ("ok", "below_detection", "saturated") only while it
@@ -392,15 +393,8 @@ class PySteadyInference:
         self.fits.append(self._fit(readings[-1][0])[-1])
 
 
+
 #: The inference the readout uses: the compiled twin of :class:`PySteadyInference` where it is
-#: built (same results bit for bit: tests/test_inference_compiled.py), else the reference.
-SteadyInference: type = PySteadyInference
-#: Whether :data:`SteadyInference` is the compiled class.
-COMPILED = False
-if os.environ.get("PIEZOTIP_PURE_PYTHON", "") in ("", "0"):
-    try:
-        from . import _inference
-    except ImportError:  # not built (no compiler at install): the reference, slower
-        pass
-    else:
-        SteadyInference, COMPILED = _inference.SteadyInference, True
+#: built (same results bit for bit: tests/test_inference_compiled.py), else the reference
+#: (:mod:`sensor.compiled`); :data:`COMPILED` says which.
+SteadyInference, COMPILED = twin("piezotip.sensor._inference", "SteadyInference", PySteadyInference)

@@ -7,6 +7,8 @@ the interpolation itself (tests/test_channel_perf_equivalence.py checks these fu
 stages).  Tables are plain lists of floats with ``xp`` strictly increasing.
 :class:`UniformPairTable` is the same lookup on an evenly spaced grid, the interval found by one
 multiplication: the pads' gel law (P and dP/dq at an indentation) in the co-simulation's bridge.
+:class:`PyUniformPairTable` is its reference; ``sensor/_lookup.pyx`` its compiled twin, used
+where built (:mod:`sensor.compiled`; :data:`UNIFORM_COMPILED` says).
 """
 
 from __future__ import annotations
@@ -15,6 +17,8 @@ import math
 from bisect import bisect_right
 
 import numpy as np
+
+from .compiled import twin
 
 
 def interp(x: float, xp: list[float], fp: list[float]) -> float:
@@ -45,7 +49,7 @@ def interp_pair(x: float, xp: list[float], fa: list[float], fb: list[float]) -> 
     return math.nan, math.nan
 
 
-class UniformPairTable:
+class PyUniformPairTable:
     """Two columns ``fa``, ``fb`` over an evenly spaced ``grid`` (strictly increasing), looked up
     at one Python float: ``(np.interp(x, grid, fa), np.interp(x, grid, fb))``.
 
@@ -89,3 +93,7 @@ class UniformPairTable:
         if x <= self._x0:
             return self._fa[0], self._fb[0]
         return math.nan, math.nan
+
+
+#: The pads' lookup: the compiled twin of :class:`PyUniformPairTable` where built, else it.
+UniformPairTable, UNIFORM_COMPILED = twin("piezotip.sensor._lookup", "UniformPairTable", PyUniformPairTable)

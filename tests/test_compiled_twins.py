@@ -1,38 +1,40 @@
-"""The compiled steady-reading inference (sensor/_inference.pyx) is its Python reference, bit for bit.
+"""The compiled twins (sensor/_inference.pyx, sensor/_lookup.pyx) are their Python references, bit for bit.
 
-:class:`piezotip.sensor.inference.PySteadyInference` documents the inference and is the
-reference; the readout runs its compiled twin where the package was built with it.  Both are
-stepped through the same readings (held loads, steps that restart the window, ramps that shorten
-it, a ring-up from rest after a switch, a run past the re-basing age, copies made mid-run) and
-must return the same (a_ss, gain, trusted) on every reading: the same floats, not close ones.
+:class:`piezotip.sensor.inference.PySteadyInference` documents the readout's inference and is
+the reference; the readout runs its compiled twin where the package was built with it.  Both
+are stepped through the same readings (held loads, steps that restart the window, ramps that
+shorten it, a ring-up from rest after a switch, a run past the re-basing age, copies made
+mid-run) and must return the same (a_ss, gain, trusted) on every reading: the same floats, not
+close ones.  The same for the pads' gel-law lookup (:class:`PyUniformPairTable`).
 """
 
 from __future__ import annotations
 
 import copy
 import math
-import os
 import pickle
 import random
 
+import numpy as np
 import pytest
 
-from piezotip.sensor import inference
+from piezotip.cosim.pads import PadGeometry, _GelTable
+from piezotip.sensor import GelModel, inference, lookup
+from piezotip.sensor.compiled import PURE_PYTHON
 
-pytestmark = pytest.mark.skipif(
-    not inference.COMPILED and os.environ.get("PIEZOTIP_PURE_PYTHON", "") not in ("", "0"),
-    reason="PIEZOTIP_PURE_PYTHON is set: the readout runs the reference",
-)
+pytestmark = pytest.mark.skipif(PURE_PYTHON, reason="PIEZOTIP_PURE_PYTHON is set: the references run")
 
 TAU0_S = 0.66  # Table I's unloaded envelope time constant, s
 SIGMA = 1e-3  # one reading's noise, V_1 units
 
 
-def test_the_compiled_inference_is_built():
-    """An install builds it (``pip install -e .``; setup.py): without it every run is slower
-    and this fails, unless PIEZOTIP_PURE_PYTHON asks for the reference."""
+def test_the_compiled_twins_are_built():
+    """An install builds them (``pip install -e .``; setup.py): without them every run is slower
+    and this fails, unless PIEZOTIP_PURE_PYTHON asks for the references."""
     assert inference.COMPILED, "sensor/_inference.pyx is not built: reinstall (pip install -e .) with a C compiler"
     assert inference.SteadyInference is not inference.PySteadyInference
+    assert lookup.UNIFORM_COMPILED, "sensor/_lookup.pyx is not built: reinstall (pip install -e .) with a C compiler"
+    assert lookup.UniformPairTable is not lookup.PyUniformPairTable
 
 
 def readings(n: int, dt_s: float, ring_up: bool, seed: int):
@@ -99,3 +101,26 @@ def test_the_equivalence_test_can_fail(monkeypatch):
     reference = outputs(inference.PySteadyInference, 2000, 0.005, False, seed=3)
     compiled = outputs(inference.SteadyInference, 2000, 0.005, False, seed=3)
     assert any(not same(x, y) for x, y in zip(reference, compiled, strict=True))
+
+
+# ---------------------------------------------------------------------------------------
+# The pads' gel-law lookup.
+# ---------------------------------------------------------------------------------------
+
+
+def test_the_compiled_lookup_returns_the_references_numbers():
+    table = _GelTable.build(GelModel(), PadGeometry())
+    args = (table.grid_m, table.pressure_pa, table.tangent_pa_m)
+    reference, compiled = lookup.PyUniformPairTable(*args), lookup.UniformPairTable(*args)
+    g = table.grid_m
+    rng = np.random.default_rng(4)
+    qs = np.concatenate([rng.uniform(g[0] - 1e-4, g[-1] + 1e-4, 20000), g, np.nextafter(g, 1), np.nextafter(g, -1), [-1.0, 1.0]])
+    assert [compiled.at(q) for q in qs.tolist()] == [reference.at(q) for q in qs.tolist()]
+    assert all(math.isnan(v) for v in compiled.at(math.nan))
+    twin = pickle.loads(pickle.dumps(compiled))
+    assert [twin.at(q) for q in qs[:100].tolist()] == [reference.at(q) for q in qs[:100].tolist()]
+
+
+def test_the_compiled_lookup_checks_its_table_as_the_reference_does():
+    with pytest.raises(ValueError, match="strictly increasing"):
+        lookup.UniformPairTable([0.0, 0.0, 1.0], [1.0, 2.0, 3.0], [1.0, 2.0, 3.0])

@@ -1,0 +1,33 @@
+"""The compiled twins of the per-step path, and when they are used.
+
+A few classes run on every reading of every pad, where Python's per-operation cost is most of
+a control step's: each has a Python reference, which documents it and is the one to read, and
+a Cython twin (``sensor/_*.pyx``: the same arithmetic in the same order, results equal bit for
+bit, tested against the reference) that ``pip install`` builds (setup.py).  The twin is used
+where it was built; where it was not (no C compiler at install), or with the environment
+variable ``PIEZOTIP_PURE_PYTHON=1``, the reference is, slower and with the same numbers.
+
+- :class:`sensor.inference.PySteadyInference` / ``sensor/_inference.pyx``: the readout's
+  steady-reading inference;
+- :class:`sensor.lookup.PyUniformPairTable` / ``sensor/_lookup.pyx``: the pads' gel-law lookup.
+"""
+
+from __future__ import annotations
+
+import importlib
+import os
+
+#: Whether the references are used even where the twins are built (``PIEZOTIP_PURE_PYTHON``).
+PURE_PYTHON = os.environ.get("PIEZOTIP_PURE_PYTHON", "") not in ("", "0")
+
+
+def twin(module: str, name: str, reference: type) -> tuple[type, bool]:
+    """(the class to use, whether it is compiled): ``name`` from the compiled module ``module``
+    (e.g. ``"piezotip.sensor._inference"``) where it is built and not refused, else ``reference``."""
+    if PURE_PYTHON:
+        return reference, False
+    try:
+        compiled = importlib.import_module(module)
+    except ImportError:  # not built: the reference, slower
+        return reference, False
+    return getattr(compiled, name), True
