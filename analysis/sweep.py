@@ -29,10 +29,10 @@ import traceback
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-import numpy as np
-
-from .runner import check_out_dir, json_safe
+if TYPE_CHECKING:
+    import numpy as np
 
 #: A sweep row's result columns, after the grid's keys (units in the names; modes_used is a list
 #: written "1 2 3").
@@ -139,6 +139,8 @@ def grid_points(grid: Mapping[str, Sequence[object]], base_overrides: Sequence[s
 
 def point_row(summary: Mapping, data: Mapping[str, np.ndarray]) -> dict:
     """A finished run's row: the result columns and the extras, from its summary and record."""
+    import numpy as np
+
     held = data["phase"] == _HOLD_PHASE if data else np.zeros(0, bool)
     pads = [k.removesuffix("_true_pressure_pa") for k in data if k.endswith("_true_pressure_pa")] if data else []
     true_p = np.max([data[f"{p}_true_pressure_pa"] for p in pads], axis=0) if pads else np.zeros(0)
@@ -226,6 +228,8 @@ _NUMBER_COLUMNS = (
 def _normalized(row: dict) -> dict:
     """The row as it reads back from ``points.jsonl`` (JSON types, NaN for null numbers): a fresh
     row and a resumed one are then the same values."""
+    from .runner import json_safe
+
     row = json.loads(json.dumps(json_safe(row)))
     for key in _NUMBER_COLUMNS:
         if key in row and row[key] is None:
@@ -286,6 +290,8 @@ def run_points(
     ``out/runs/NN`` (NN the point's index).  ``options``: more keywords of ``run_scenario``.
     """
     from tqdm import tqdm
+
+    from .runner import check_out_dir, json_safe
 
     start = time.perf_counter()
     journal = None
