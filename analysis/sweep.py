@@ -19,11 +19,13 @@ the on-disk cache (:mod:`piezotip.sensor.cache`) shares them across processes an
 
 from __future__ import annotations
 
+import atexit
 import csv
 import itertools
 import json
 import math
 import os
+import sys
 import time
 import traceback
 from collections.abc import Mapping, Sequence
@@ -341,13 +343,102 @@ def run_points(
     return SweepRun(rows, len(points) - len(todo), n_workers, time.perf_counter() - start)
 
 
+#: What a point imports in its worker process, its first point paying for them otherwise (about
+#: 0.5 s: Dask, MuJoCo, the sensor's modules, scipy.special for the gel's contact fraction).
+#: The worker server imports them once, before any worker exists (:func:`start_worker_server`).
+WORKER_MODULES = (
+    "distributed",
+    "tqdm",
+    "piezotip.analysis.sweep",
+    "piezotip.analysis.runner",
+    "piezotip.analysis.run_report",
+    "piezotip.cosim.loop",
+    "scipy.special",
+)
+
+#: What Dask's nanny puts in the environment before it starts a worker process (its
+#: ``distributed.nanny.pre-spawn-environ`` defaults and its hash seed).  A worker forked from the
+#: worker server has the server's environment, so the server starts with these; a value already
+#: in this process's environment wins, as with Dask.
+WORKER_ENV = {
+    "MALLOC_TRIM_THRESHOLD_": "65536",
+    "OMP_NUM_THREADS": "1",
+    "MKL_NUM_THREADS": "1",
+    "OPENBLAS_NUM_THREADS": "1",
+    "PYTHONHASHSEED": "6640",
+}
+
+_worker_server = False
+
+#: Set, to this process's id, in the worker server's environment alone: the server's import of
+#: this module sees it (below) and takes it out (the workers forked later do not have it).
+_SERVER_FLAG = "PIEZOTIP_WORKER_SERVER_OF"
+
+
+def _exit_now() -> None:
+    """The worker server's exit (when the process that started it is gone; the workers are
+    gone too, each watches that process): at once, without the clean-up of an interpreter
+    that has Dask and MuJoCo loaded (0.15 s, which the command's caller waits for: the server
+    holds its output pipes too)."""
+    for stream in (sys.stdout, sys.stderr):
+        try:
+            stream.flush()
+        except (AttributeError, OSError, ValueError):
+            pass
+    os._exit(0)
+
+
+if os.environ.pop(_SERVER_FLAG, None) == str(os.getppid()):  # this is the worker server
+    atexit.register(_exit_now)
+
+
+def start_worker_server() -> bool:
+    """Start, in the background, the process this process's local clusters fork their workers
+    from (multiprocessing's forkserver, :data:`WORKER_MODULES` imported), and return whether
+    they will (False where there is no forkserver: they then start workers as Dask does, each
+    a fresh interpreter that imports everything itself).
+
+    Call it as early as possible (the command line does, before its own imports and checks):
+    the server's imports then run beside this process's work, and each worker starts in
+    milliseconds, imports done, instead of a second; it also exits without an interpreter's
+    clean-up.  The server is single-threaded when it forks (the point of a forkserver: this
+    process has threads, a fork of it could deadlock); it exits when this process does.
+    Without this call the local cluster spawns its workers (Dask's default), which leaves
+    multiprocessing's global forkserver alone for a program that uses the API."""
+    global _worker_server
+    if _worker_server:
+        return True
+    import multiprocessing
+    from multiprocessing import forkserver
+
+    if "forkserver" not in multiprocessing.get_all_start_methods():
+        return False
+    multiprocessing.get_context("forkserver").set_forkserver_preload(list(WORKER_MODULES))
+    server_env = {**{key: os.environ.get(key, value) for key, value in WORKER_ENV.items()}, _SERVER_FLAG: str(os.getpid())}
+    saved = {key: os.environ.get(key) for key in server_env}
+    os.environ.update(server_env)
+    try:
+        forkserver.ensure_running()  # starts it and returns; the server imports while we go on
+    except OSError:
+        return False
+    finally:
+        for key, value in saved.items():
+            if value is None:
+                os.environ.pop(key, None)
+            else:
+                os.environ[key] = value
+    _worker_server = True
+    return True
+
+
 class _client:
     """A Dask client on a local cluster of ``workers`` processes (closed on exit), or on the
-    scheduler at ``address``."""
+    scheduler at ``address``.  The local cluster's workers are forked from the worker server
+    when this process started one (:func:`start_worker_server`)."""
 
     def __init__(self, workers: int | None, address: str | None) -> None:
         self.workers, self.address = workers, address
-        self.cluster = self.client = None
+        self.cluster = self.client = self.config = None
 
     def __enter__(self):
         from dask.distributed import Client, LocalCluster
@@ -359,18 +450,32 @@ class _client:
                 raise ValueError(f"--scheduler {self.address}: cannot reach a Dask scheduler there ({err})") from None
             return self.client
         n = self.workers if self.workers is not None else (os.cpu_count() or 1)
-        # One thread per process: the loop holds the GIL; processes run side by side.
-        self.cluster = LocalCluster(
-            n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None, silence_logs=50, memory_limit=0
-        )
-        self.client = Client(self.cluster)
+        if _worker_server:
+            import dask
+
+            # Held while the cluster lives: a worker the nanny restarts is forked the same way.
+            self.config = dask.config.set({"distributed.worker.multiprocessing-method": "forkserver"})
+        try:
+            # One thread per process: the loop holds the GIL; processes run side by side.
+            self.cluster = LocalCluster(
+                n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None, silence_logs=50, memory_limit=0
+            )
+            self.client = Client(self.cluster)
+        except BaseException:
+            self.__exit__(None, None, None)
+            raise
         return self.client
 
     def __exit__(self, *exc) -> None:
-        if self.client is not None:
-            self.client.close()
-        if self.cluster is not None:
-            self.cluster.close()
+        try:
+            if self.client is not None:
+                self.client.close()
+            if self.cluster is not None:
+                self.cluster.close()
+        finally:
+            if self.config is not None:
+                self.config.__exit__(None, None, None)
+                self.config = None
 
 
 # -- the command's files ---------------------------------------------------------------------

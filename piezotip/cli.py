@@ -220,11 +220,13 @@ def _cmd_run(args: argparse.Namespace) -> int:
 
 
 def _cmd_experiment(args: argparse.Namespace) -> int:
+    if args.name != "grasp-range":
+        raise ValueError(f"unknown experiment {args.name!r}; valid experiments: grasp-range")
+    if not args.video:  # with --video each worker loads MuJoCo's GL backend itself, never a forked one
+        _start_workers_early(args)
     from piezotip.analysis.experiment import format_table, run_experiment, write_outputs
     from piezotip.analysis.runner import check_out_dir
 
-    if args.name != "grasp-range":
-        raise ValueError(f"unknown experiment {args.name!r}; valid experiments: grasp-range")
     out = check_out_dir(Path(args.out or "out/grasp-range"))
     from piezotip import scenarios
 
@@ -253,14 +255,26 @@ def _check_workers(args: argparse.Namespace) -> None:
         raise ValueError("give --workers (a local cluster) or --scheduler (an existing one), not both")
 
 
+def _start_workers_early(args: argparse.Namespace) -> None:
+    """For a command that will start a local Dask cluster: the server its workers are forked
+    from, first (analysis.sweep.start_worker_server), so that the workers' imports run while
+    this process imports and checks."""
+    if args.scheduler is None and (args.workers is None or args.workers > 0):
+        from piezotip.analysis.sweep import start_worker_server
+
+        start_worker_server()
+
+
 def _cmd_sweep(args: argparse.Namespace) -> int:
     from piezotip import scenarios
-    from piezotip.analysis.runner import check_out_dir
     from piezotip.analysis.sweep import check_points, format_rows, grid_points, parse_grid, run_points, write_sweep
 
     grid = parse_grid(args.grid or [])
     if args.scenario not in scenarios.names():
         scenarios.get(args.scenario)  # the unknown-scenario error, naming the valid ones
+    _start_workers_early(args)
+    from piezotip.analysis.runner import check_out_dir
+
     points = grid_points(grid, list(args.set or ()))
     check_points(args.scenario, points, args.preset)  # every point's config valid before any run
     _check_workers(args)

@@ -3,6 +3,8 @@
 import csv
 import json
 import math
+import os
+import time
 
 import pytest
 
@@ -19,6 +21,13 @@ from piezotip.analysis.sweep import (
 
 #: A short, cheap scenario: the fast preset, the grasp cut at 3 s (touch, squeeze, lift begins).
 SHORT = ("duration_s=3.0",)
+
+
+@pytest.fixture(autouse=True)
+def _spawned_workers_unless_started(monkeypatch):
+    """Local clusters spawn their workers (Dask's way) unless the test starts the worker server
+    (the command line does): one test's server does not change the next test's clusters."""
+    monkeypatch.setattr(sweep_module, "_worker_server", False)
 
 
 def _comparable(row: dict) -> dict:
@@ -186,3 +195,50 @@ def test_a_running_scheduler_takes_the_same_work(tmp_path, capsys):
     serial = json.loads(capsys.readouterr().out)
     assert remote["workers"] == 1
     assert [_comparable(r) for r in remote["rows"]] == [_comparable(r) for r in serial["rows"]]
+
+
+def _worker_view() -> tuple:
+    """In a worker: its parent, the worker modules already imported, the server's flag, BLAS threads."""
+    import os
+    import sys
+
+    from piezotip.analysis import sweep
+
+    modules = [m for m in sweep.WORKER_MODULES if m in sys.modules]
+    return os.getpid(), os.getppid(), modules, os.environ.get(sweep._SERVER_FLAG), os.environ.get("OMP_NUM_THREADS")
+
+
+@pytest.mark.slow
+def test_local_workers_are_forked_from_the_worker_server_with_their_imports_done():
+    before = dict(os.environ)
+    assert sweep_module.start_worker_server()
+    assert dict(os.environ) == before  # the server's environment is its own
+    with sweep_module._client(2, None) as client:
+        seen = list(client.run(_worker_view).values())
+    assert len(seen) == 2
+    for _pid, parent, modules, flag, omp in seen:
+        assert parent != os.getpid()  # forked by the server, not spawned by this process
+        assert modules == list(sweep_module.WORKER_MODULES)
+        assert flag is None  # only the server itself saw it
+        assert omp == os.environ.get("OMP_NUM_THREADS", "1")
+    # Closed: no worker left behind.
+    deadline = time.monotonic() + 10.0
+    alive = [pid for pid, *_ in seen]
+    while alive and time.monotonic() < deadline:
+        alive = [pid for pid in alive if os.path.exists(f"/proc/{pid}") and "Z" not in open(f"/proc/{pid}/stat").read().split()[2]]
+        time.sleep(0.05)
+    assert not alive
+
+
+@pytest.mark.slow
+def test_the_command_on_local_workers_gives_the_serial_rows(tmp_path, capsys):
+    """The command line's own path: the worker server started early, the workers forked from it."""
+    argv = ["sweep", "grasp", "--grid", "object.mass_kg=0.05,0.3", "--grid", "object.friction=0.6,1.0"]
+    argv += ["--set", SHORT[0], "--preset", "fast", "--json", "--no-plot"]
+    assert cli.main([*argv, "--workers", "2", "--out", str(tmp_path / "parallel")]) == 0
+    parallel = json.loads(capsys.readouterr().out)
+    assert sweep_module._worker_server  # the command started it
+    assert cli.main([*argv, "--workers", "0", "--out", str(tmp_path / "serial")]) == 0
+    serial = json.loads(capsys.readouterr().out)
+    assert parallel["workers"] == 2 and len({r["pid"] for r in parallel["rows"]}) == 2
+    assert [_comparable(r) for r in parallel["rows"]] == [_comparable(r) for r in serial["rows"]]
