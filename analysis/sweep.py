@@ -347,9 +347,9 @@ def run_points(
 #: 0.5 s: Dask, MuJoCo, the sensor's modules, scipy.special for the gel's contact fraction).
 #: The worker server imports them once, before any worker exists (:func:`start_worker_server`).
 WORKER_MODULES = (
+    "piezotip.analysis.sweep",  # first: in the server it sets the import path (see below)
     "distributed",
     "tqdm",
-    "piezotip.analysis.sweep",
     "piezotip.analysis.runner",
     "piezotip.analysis.run_report",
     "piezotip.cosim.loop",
@@ -370,8 +370,9 @@ WORKER_ENV = {
 
 _worker_server = False
 
-#: Set, to this process's id, in the worker server's environment alone: the server's import of
-#: this module sees it (below) and takes it out (the workers forked later do not have it).
+#: Set in the worker server's environment alone (this process's id and import path, as JSON):
+#: the server's import of this module sees it (below) and takes it out (the workers forked later
+#: do not have it).
 _SERVER_FLAG = "PIEZOTIP_WORKER_SERVER_OF"
 
 
@@ -388,8 +389,22 @@ def _exit_now() -> None:
     os._exit(0)
 
 
-if os.environ.pop(_SERVER_FLAG, None) == str(os.getppid()):  # this is the worker server
+def _in_worker_server() -> bool:
+    """Whether this process is the worker server that this module's parent process started."""
+    try:
+        parent = json.loads(os.environ.pop(_SERVER_FLAG, "null"))
+    except ValueError:
+        return False
+    if not isinstance(parent, dict) or parent.get("pid") != os.getppid():
+        return False
+    # Python 3.11's forkserver ignores the import path it is given: the parent's, as a spawned
+    # worker has it (the server's own would put the current folder first), before any other import.
+    sys.path[:] = parent["path"]
     atexit.register(_exit_now)
+    return True
+
+
+_in_worker_server()
 
 
 def start_worker_server() -> bool:
@@ -414,7 +429,8 @@ def start_worker_server() -> bool:
     if "forkserver" not in multiprocessing.get_all_start_methods():
         return False
     multiprocessing.get_context("forkserver").set_forkserver_preload(list(WORKER_MODULES))
-    server_env = {**{key: os.environ.get(key, value) for key, value in WORKER_ENV.items()}, _SERVER_FLAG: str(os.getpid())}
+    parent = json.dumps({"pid": os.getpid(), "path": sys.path})
+    server_env = {**{key: os.environ.get(key, value) for key, value in WORKER_ENV.items()}, _SERVER_FLAG: parent}
     saved = {key: os.environ.get(key) for key in server_env}
     os.environ.update(server_env)
     try:

@@ -242,3 +242,26 @@ def test_the_command_on_local_workers_gives_the_serial_rows(tmp_path, capsys):
     serial = json.loads(capsys.readouterr().out)
     assert parallel["workers"] == 2 and len({r["pid"] for r in parallel["rows"]}) == 2
     assert [_comparable(r) for r in parallel["rows"]] == [_comparable(r) for r in serial["rows"]]
+
+
+@pytest.mark.slow
+def test_the_worker_server_imports_from_the_commands_path_not_the_current_folder(tmp_path):
+    """A module in the folder the command runs from does not stand in for an installed one in
+    the workers (Python 3.11's forkserver would put that folder first on its import path)."""
+    import subprocess
+    import sys
+
+    here, scripts = tmp_path / "here", tmp_path / "scripts"
+    here.mkdir()
+    scripts.mkdir()
+    (here / "tqdm.py").write_text("# not the real tqdm\n")
+    (scripts / "probe.py").write_text(
+        "from piezotip.analysis import sweep\n"
+        "if __name__ == '__main__':\n"
+        "    sweep.start_worker_server()\n"
+        "    with sweep._client(1, None) as client:\n"
+        "        print(*client.run(lambda: __import__('sys').modules['tqdm'].__file__).values())\n"
+    )
+    proc = subprocess.run([sys.executable, str(scripts / "probe.py")], cwd=here, capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    assert "site-packages" in proc.stdout and str(here) not in proc.stdout
