@@ -401,7 +401,14 @@ def _in_worker_server() -> bool:
     # worker has it (the server's own would put the current folder first), before any other import.
     sys.path[:] = parent["path"]
     atexit.register(_exit_now)
+    sys.excepthook = _quiet_interrupt  # a Ctrl-C while it imports: the command says "interrupted"
     return True
+
+
+def _quiet_interrupt(kind, value, tb) -> None:
+    """The worker server's last word on an exception: none for Ctrl-C, the usual otherwise."""
+    if not issubclass(kind, KeyboardInterrupt):
+        sys.__excepthook__(kind, value, tb)
 
 
 _in_worker_server()
