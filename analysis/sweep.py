@@ -14,7 +14,10 @@ same folder skips the points already there (a point that raised is run again).  
 raises is recorded with its error (``outcome`` ``error``) and the sweep goes on.
 
 Worker processes keep their caches (mode bands, gel tables) across the points they run, and
-the on-disk cache (:mod:`piezotip.sensor.cache`) shares them across processes and runs.
+the on-disk cache (:mod:`piezotip.sensor.cache`) shares them across processes and runs.  The
+command line starts the local cluster's worker server first (:func:`start_worker_server`): its
+workers are forked from a process that has their imports done, which it did while the command
+imported and checked the points.
 """
 
 from __future__ import annotations
