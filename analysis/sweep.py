@@ -467,6 +467,7 @@ class _client:
         self.cluster = self.client = self.config = None
 
     def __enter__(self):
+        import dask
         from dask.distributed import Client, LocalCluster
 
         if self.address is not None:
@@ -476,11 +477,10 @@ class _client:
                 raise ValueError(f"--scheduler {self.address}: cannot reach a Dask scheduler there ({err})") from None
             return self.client
         n = self.workers if self.workers is not None else (os.cpu_count() or 1)
-        if _worker_server:
-            import dask
-
+        method = "distributed.worker.multiprocessing-method"
+        if _worker_server and dask.config.get(method) == "spawn":  # Dask's default; a method set otherwise stays
             # Held while the cluster lives: a worker the nanny restarts is forked the same way.
-            self.config = dask.config.set({"distributed.worker.multiprocessing-method": "forkserver"})
+            self.config = dask.config.set({method: "forkserver"})
         try:
             # One thread per process: the loop holds the GIL; processes run side by side.
             self.cluster = LocalCluster(
