@@ -13,8 +13,8 @@ arithmetic: C99 ``double complex`` products and sums are Python's formulas; the 
 """
 
 from cpython.complex cimport Py_complex
-from cpython.mem cimport PyMem_Free, PyMem_Malloc, PyMem_Realloc
-from libc.math cimport NAN, INFINITY, sqrt, fabs, isfinite
+from cpython.mem cimport PyMem_Free, PyMem_Malloc
+from libc.math cimport NAN, INFINITY, sqrt, fabs
 
 from . import inference as _py
 

@@ -29,9 +29,6 @@ cdef class UniformPairTable:
     cdef double _x0, _xn, _inv_step
     cdef object _args  # the constructor's arguments, for copies
 
-    def __cinit__(self, *args, **kwargs):
-        self._grid = self._fa = self._fb = self._fa_slope = self._fb_slope = NULL
-
     def __dealloc__(self):
         PyMem_Free(self._grid)
         PyMem_Free(self._fa)
