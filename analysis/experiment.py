@@ -13,6 +13,7 @@ left the model's valid range, and whether the gripper could physically do it at 
 from __future__ import annotations
 
 import csv
+import dataclasses
 import functools
 import json
 import math
@@ -23,7 +24,7 @@ import numpy as np
 
 from .plotting import new_figure, save_figure
 from .runner import json_safe
-from .sweep import OUTCOME_COLOUR
+from .sweep import OUTCOME_COLOUR, SweepRun
 
 
 @dataclass(frozen=True)
@@ -151,16 +152,17 @@ def run_experiment(
     options: dict | None = None,
     objects=None,
     controllers=CONTROLLERS,
-) -> list[dict]:
+) -> SweepRun:
     """Every (object, controller) on the sweep machinery (:func:`analysis.sweep.run_points`:
-    Dask, resumable from ``out``); each run's files in ``out/runs/NN``."""
+    Dask, resumable from ``out``); each run's files in ``out/runs/NN``.  The result's rows are
+    the experiment's (:func:`experiment_row`), its ``skipped`` the runs found done in ``out``."""
     from .sweep import run_points
 
     points = experiment_points(objects, controllers, base_overrides)
     result = run_points(
         "grasp", points, preset, out, workers, scheduler, progress, keep_runs=out is not None, desc="grasp-range", options=options
     )
-    return [experiment_row(r) for r in result.rows]
+    return dataclasses.replace(result, rows=[experiment_row(r) for r in result.rows])
 
 
 def format_table(rows: list[dict]) -> str:

@@ -347,7 +347,7 @@ def run_points(
 
 
 #: What a point imports in its worker process, its first point paying for them otherwise (about
-#: 0.5 s: Dask, MuJoCo, the sensor's modules, scipy.special for the gel's contact fraction).
+#: 0.5 s: Dask, MuJoCo, the sensor's modules).
 #: The worker server imports them once, before any worker exists (:func:`start_worker_server`).
 WORKER_MODULES = (
     "piezotip.analysis.sweep",  # first: in the server it sets the import path (see below)
@@ -356,7 +356,6 @@ WORKER_MODULES = (
     "piezotip.analysis.runner",
     "piezotip.analysis.run_report",
     "piezotip.cosim.loop",
-    "scipy.special",
 )
 
 #: What Dask's nanny puts in the environment before it starts a worker process (its

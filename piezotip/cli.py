@@ -233,16 +233,23 @@ def _cmd_experiment(args: argparse.Namespace) -> int:
     scenarios.get("grasp", list(args.set or ()), args.preset)  # bad overrides stop here, before any run
     _check_workers(args)
     video = _video_options(args)  # one clip per run: runs/NN/run.mp4, NN the row's index in the table
-    rows = run_experiment(
+    result = run_experiment(
         args.preset, tuple(args.set or ()), out, args.workers, args.scheduler, progress=not args.json, options=video
     )
+    rows = result.rows
     files = [str(p) for p in write_outputs(rows, out, plot=not args.no_plot)]
     if args.json:
-        print(json.dumps(_json_safe({"rows": rows, "files": files}), indent=2))
+        print(json.dumps(_json_safe({"rows": rows, "files": files, "skipped_done": result.skipped}), indent=2))
     else:
         print(format_table(rows))
         for f in files:
             print(f"wrote {f}")
+    if result.skipped:
+        # A resumed experiment keeps the rows it finds, whatever code made them: say so.
+        print(
+            f"{result.skipped} of {len(rows)} runs were done before in {out} and not run again (a new --out runs them all)",
+            file=sys.stderr,
+        )
     # Success: multimode carries every object the gripper can, and nothing it cannot.
     expected = all(r["success"] == r["feasible"] for r in rows if r["controller"] == "multimode")
     return 0 if expected else 1

@@ -164,16 +164,15 @@ def _check_freq(freq_hz, name: str = "freq_hz") -> float:
 
 def contact_fraction(pressure_pa, gel: GelParams) -> np.ndarray:
     """Part 1: Persson's true contact fraction phi(P) = erf(sqrt(2) P / (E* h'_rms)), in [0, 1]."""
-    return _erf()(math.sqrt(2.0) * np.asarray(pressure_pa, float) / (gel.contact_modulus_pa * gel.surface_slope_rms))
+    return _erf(math.sqrt(2.0) * np.asarray(pressure_pa, float) / (gel.contact_modulus_pa * gel.surface_slope_rms))
 
 
-@functools.cache
-def _erf():
-    """:func:`scipy.special.erf`, imported on first use: ``scipy.special`` takes about 0.13 s to
-    import, and a run whose tables come from the cache never evaluates it."""
-    from scipy.special import erf
-
-    return erf
+def _erf(x) -> np.ndarray:
+    """The error function of an array, element by element with the standard library's
+    ``math.erf`` (C99's erf): ``scipy.special`` costs about 0.13 s to import in every run and
+    sweep worker, and the arrays here are a pad's cells or a table's few hundred points."""
+    x = np.asarray(x, float)
+    return np.fromiter(map(math.erf, x.ravel().tolist()), float, x.size).reshape(x.shape)
 
 
 def gent_pressure_pa(stretch, gel: GelParams) -> np.ndarray:

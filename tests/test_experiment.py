@@ -67,6 +67,20 @@ def test_table_files_have_units_and_the_plot(table):
     assert (out / "grasp_range.png").stat().st_size > 10_000
 
 
+@pytest.mark.slow
+def test_a_resumed_experiment_says_what_it_did_not_run_again(table, capsys):
+    """Run again into the same folder, every run is found done: the rows are the same, and the
+    command says they were not run again (they may come from older code)."""
+    code, out = table
+    rows = json.loads((out / "grasp_range.json").read_text())["rows"]
+    capsys.readouterr()
+    assert run_sim.main(["experiment", "grasp-range", "--out", str(out), "--no-plot", "--json"]) == code
+    captured = capsys.readouterr()
+    report = json.loads(captured.out)
+    assert report["skipped_done"] == len(rows) and report["rows"] == rows
+    assert f"{len(rows)} of {len(rows)} runs were done before in {out}" in captured.err
+
+
 def test_unknown_experiment_names_the_valid_one(capsys):
     assert run_sim.main(["experiment", "grasp-everything"]) == 2
     assert "valid experiments: grasp-range" in capsys.readouterr().err
