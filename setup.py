@@ -1,8 +1,9 @@
 """The compiled parts of piezotip (everything else is declared in pyproject.toml).
 
-``sensor/_inference.pyx`` (the readout's steady-reading inference) and ``sensor/_lookup.pyx``
-(the pads' gel-law lookup) are statement-for-statement C twins of Python references
-(:mod:`piezotip.sensor.compiled` lists them).  They are optional: where they cannot be built
+``sensor/_inference.pyx`` (the readout's steady-reading inference), ``sensor/_lookup.pyx``
+(the pads' gel-law lookup), ``sensor/_sampler.pyx`` (a channel's reading) and
+``sensor/_estimator.pyx`` (the inverse of an inferred reading) are statement-for-statement C
+twins of Python references (:mod:`piezotip.sensor.compiled` lists them).  They are optional: where they cannot be built
 the package installs without them and the references run (slower, the same numbers).
 ``-ffp-contract=off``: no fused multiply-adds, so the C arithmetic rounds as Python's does (the
 twins agree bit for bit).
@@ -13,7 +14,7 @@ from setuptools import Extension, setup
 
 extensions = [
     Extension(f"piezotip.sensor.{name}", [f"sensor/{name}.pyx"], extra_compile_args=["-O2", "-ffp-contract=off"], optional=True)
-    for name in ("_inference", "_lookup")
+    for name in ("_inference", "_lookup", "_sampler", "_estimator")
 ]
 
 setup(ext_modules=cythonize(extensions, compiler_directives={"language_level": 3}, quiet=True))

@@ -66,6 +66,7 @@ from .resonator import (  # noqa: F401 - _steady, _step, SETTLE_FRACTION: import
     _steady,
     _step,
 )
+from .sampler import ModeSampler
 
 #: Noise is drawn in blocks (one generator call per block, not per reading; even: I and Q pair up).
 _NOISE_BLOCK = 4096
@@ -146,6 +147,16 @@ class SensorChannel:
             for m in used
         }
         self._rho_a_f, self._c_f = float(self._rho_a), float(self._c)
+        # A table-driven reading with steady or envelope dynamics is one sampler call (the
+        # carrier and the exact gel keep their own paths below).
+        self._samplers = (
+            {
+                m: ModeSampler(m, *self._fast[m][:2], self._c_f, self._rho_a_f, self._tables[m], self._fast[m][3], dynamics == "envelope")
+                for m in used
+            }
+            if not exact and dynamics != "carrier"
+            else {}
+        )
         self._tau0 = 2.0 * self._rho_a_f / self._c_f  # unloaded envelope time constant, s
         self.evaluations = 0  # gel/sensor evaluations, counted for "compute only what is needed" tests
         self.mode = fingertip.modes[0] if mode is None else fingertip._mode(mode)
@@ -251,9 +262,16 @@ class SensorChannel:
         active mode (counted in :attr:`evaluations`), then the envelope in complex scalars.
         """
         mode = self.mode
+        self.evaluations += 1
+        sampler = self._samplers.get(mode)
+        if sampler is not None:
+            self.time_in_mode_s = t = self.time_in_mode_s + dt_s
+            self._clock_s += dt_s
+            self._dt_s = dt_s
+            reading, self.envelope = sampler.sample(pressure_cells_pa, self.envelope, dt_s, t, self._iq_noise() if self.noise else None)
+            return reading
         omega, sigma, table_at, weights = self._fast[mode]
         c = self._c_f
-        self.evaluations += 1
         if table_at is None:  # exact: the gel model itself, on arrays
             k_e, c_e = self.tip.foundation(np.asarray(pressure_cells_pa, float), mode)
             kappa, gamma = float(k_e @ self._weights[mode]), float(c_e @ self._weights[mode])

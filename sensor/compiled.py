@@ -9,7 +9,11 @@ variable ``PIEZOTIP_PURE_PYTHON=1``, the reference is, slower and with the same 
 
 - :class:`sensor.inference.PySteadyInference` / ``sensor/_inference.pyx``: the readout's
   steady-reading inference;
-- :class:`sensor.lookup.PyUniformPairTable` / ``sensor/_lookup.pyx``: the pads' gel-law lookup.
+- :class:`sensor.lookup.PyUniformPairTable` / ``sensor/_lookup.pyx``: the pads' gel-law lookup;
+- :class:`sensor.sampler.PyModeSampler` / ``sensor/_sampler.pyx``: a table-driven channel's
+  reading (modal load, eq. 10, the envelope's step, the lock-in's noise);
+- :class:`sensor.estimator.PyInverseCore` / ``sensor/_estimator.pyx``: the inverse of an
+  inferred steady reading (:meth:`sensor.estimator.ModeInverse.inferred`).
 """
 
 from __future__ import annotations

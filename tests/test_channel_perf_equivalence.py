@@ -244,7 +244,8 @@ def test_gel_forces_and_pressures_equal_the_numpy_formulas(segments):
 
 
 def _count_work(sim: CoSimulation):
-    """Count gel-force applications (one per physics step) and table lookups per channel and mode."""
+    """Count gel-force applications (one per physics step); the channels' samplers count their
+    table lookups per mode themselves (``ModeSampler.lookups``)."""
     counts = {"gel": 0}
     apply = sim.bridge.apply_gel_forces
 
@@ -253,15 +254,10 @@ def _count_work(sim: CoSimulation):
         apply(data)
 
     sim.bridge.apply_gel_forces = counted_apply
-    lookups = {pad: dict.fromkeys(ch._fast, 0) for pad, ch in sim.channels.items()}
-    for pad, ch in sim.channels.items():
-        for mode, (omega, sigma, table_at, weights) in list(ch._fast.items()):
 
-            def counted(p, _at=table_at, _n=lookups[pad], _m=mode):
-                _n[_m] += 1
-                return _at(p)
+    def lookups() -> dict[str, dict[int, int]]:
+        return {pad: {m: s.lookups for m, s in ch._samplers.items()} for pad, ch in sim.channels.items()}
 
-            ch._fast[mode] = (omega, sigma, counted, weights)
     return counts, lookups
 
 
@@ -299,8 +295,10 @@ def test_each_control_step_does_the_work_it_needs_once(period, segments, kind, g
             assert sim.channels[pad].evaluations == k  # one gel/sensor evaluation per control step
             modes[pad].append(int(row[f"{pad.removesuffix('_pad')}_mode"]))
     cells = sim.channels[sim.pads[0]].n_cells
+    done = lookups()
     for pad in sim.pads:  # each evaluation in the mode driven at that step, one lookup per cell
-        assert lookups[pad] == {m: cells * modes[pad].count(m) for m in lookups[pad]}
+        assert set(done[pad]) == set(sim.channels[pad]._fast)  # a sampler for every mode used
+        assert done[pad] == {m: cells * modes[pad].count(m) for m in done[pad]}
 
 
 def test_recorded_row_is_what_the_checked_api_gives():

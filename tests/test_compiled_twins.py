@@ -1,11 +1,13 @@
-"""The compiled twins (sensor/_inference.pyx, sensor/_lookup.pyx) are their Python references, bit for bit.
+"""The compiled twins (sensor/_inference.pyx, _lookup.pyx, _sampler.pyx, _estimator.pyx) are their references, bit for bit.
 
 :class:`piezotip.sensor.inference.PySteadyInference` documents the readout's inference and is
 the reference; the readout runs its compiled twin where the package was built with it.  Both
 are stepped through the same readings (held loads, steps that restart the window, ramps that
 shorten it, a ring-up from rest after a switch, a run past the re-basing age, copies made
 mid-run) and must return the same (a_ss, gain, trusted) on every reading: the same floats, not
-close ones.  The same for the pads' gel-law lookup (:class:`PyUniformPairTable`).
+close ones.  The same for the pads' gel-law lookup (:class:`PyUniformPairTable`), a
+channel's reading (:class:`PyModeSampler`) and the inverse of an inferred reading
+(:class:`PyInverseCore`).
 """
 
 from __future__ import annotations
@@ -19,8 +21,10 @@ import numpy as np
 import pytest
 
 from piezotip.cosim.pads import PadGeometry, _GelTable
-from piezotip.sensor import GelModel, inference, lookup
+from piezotip.sensor import Fingertip, GelModel, SensorElement, estimator, inference, lookup, sampler
+from piezotip.sensor.channel import SensorChannel
 from piezotip.sensor.compiled import PURE_PYTHON
+from piezotip.sensor.estimator import _TABLE_P, foundation_table
 
 pytestmark = pytest.mark.skipif(PURE_PYTHON, reason="PIEZOTIP_PURE_PYTHON is set: the references run")
 
@@ -35,6 +39,10 @@ def test_the_compiled_twins_are_built():
     assert inference.SteadyInference is not inference.PySteadyInference
     assert lookup.UNIFORM_COMPILED, "sensor/_lookup.pyx is not built: reinstall (pip install -e .) with a C compiler"
     assert lookup.UniformPairTable is not lookup.PyUniformPairTable
+    assert sampler.SAMPLER_COMPILED, "sensor/_sampler.pyx is not built: reinstall (pip install -e .) with a C compiler"
+    assert sampler.ModeSampler is not sampler.PyModeSampler
+    assert estimator.INVERSE_COMPILED, "sensor/_estimator.pyx is not built: reinstall (pip install -e .) with a C compiler"
+    assert estimator.InverseCore is not estimator.PyInverseCore
 
 
 def readings(n: int, dt_s: float, ring_up: bool, seed: int):
@@ -124,3 +132,148 @@ def test_the_compiled_lookup_returns_the_references_numbers():
 def test_the_compiled_lookup_checks_its_table_as_the_reference_does():
     with pytest.raises(ValueError, match="strictly increasing"):
         lookup.UniformPairTable([0.0, 0.0, 1.0], [1.0, 2.0, 3.0], [1.0, 2.0, 3.0])
+
+
+# ---------------------------------------------------------------------------------------
+# A channel's reading.
+# ---------------------------------------------------------------------------------------
+
+
+def _samplers(mode: int, cells: int, envelope: bool):
+    """The reference and the twin for one mode of the default fingertip, ``cells`` cells."""
+    tip = Fingertip(element=SensorElement().with_quality_factor(70), coverage=(6.5e-3, 7.5e-3))
+    edges = np.linspace(6.5e-3, 7.5e-3, cells + 1)
+    ch = SensorChannel(tip, edges_m=edges, dynamics="envelope", noise=False)
+    omega, sigma, _, weights = ch._fast[mode]
+    args = (mode, omega, sigma, ch._c_f, ch._rho_a_f, foundation_table(tip, mode), weights, envelope)
+    return sampler.PyModeSampler(*args), sampler.ModeSampler(*args)
+
+
+def _pressures(n: int, seed: int) -> list[float]:
+    """Pressures, Pa: zero, below the table, its points exactly and beside them, log-uniform
+    over and past its range, a step up and back."""
+    rng = np.random.default_rng(seed)
+    grid = _TABLE_P[:: max(1, len(_TABLE_P) // 50)]
+    special = [0.0, 1e-9, 5e-4, *grid, *np.nextafter(grid, 0), *np.nextafter(grid, np.inf), 1e8, 1e12]
+    rest = 10 ** rng.uniform(-4, 7.5, max(n - len(special), 0))
+    return [float(p) for p in [*special, *rest, 0.0, 5e5, 5e5, 0.0]]
+
+
+def _exact(reading, envelope) -> tuple:
+    """Every field and the envelope as exact text (a float's repr round-trips; -0.0 and NaN kept)."""
+    return (repr(tuple(reading.__dict__.values())), tuple(reading.__dict__), repr(envelope), type(reading))
+
+
+@pytest.mark.parametrize("envelope", [True, False])
+@pytest.mark.parametrize(("mode", "cells"), [(1, 1), (3, 1), (2, 3)])
+def test_the_compiled_sampler_returns_the_references_readings(mode, cells, envelope):
+    reference, compiled = _samplers(mode, cells, envelope)
+    rng = np.random.default_rng(7)
+    pressures = _pressures(3000, seed=mode)
+    a_ref = a_cmp = 0j  # a ring-up from rest
+    t = 0.0
+    for k, p in enumerate(pressures):
+        profile = [p * (1.0 + 0.1 * i) for i in range(cells)]
+        dt = (0.001, 0.005, 0.0002)[k % 3]
+        t = math.inf if k == 1500 else t + dt  # a settled history, then on
+        noise = None if k % 4 == 0 else complex(*rng.standard_normal(2))
+        r_ref, a_ref = reference.sample(profile, a_ref, dt, t, noise)
+        r_cmp, a_cmp = compiled.sample(profile, a_cmp, dt, t, noise)
+        assert _exact(r_cmp, a_cmp) == _exact(r_ref, a_ref), f"sample {k} at {profile} Pa"
+        if k == 2000:
+            compiled = pickle.loads(pickle.dumps(compiled))  # a copy goes on as the original
+    assert compiled.lookups == reference.lookups == len(pressures) * cells
+
+
+def test_the_sampler_equivalence_test_can_fail():
+    """A twin given another damping returns other readings: the comparison sees the last bit."""
+    reference, _ = _samplers(1, 1, True)
+    tip_args = (1, reference._omega, reference._sigma, reference._c * (1 + 2**-52), reference._rho_a)
+    tip = Fingertip(element=SensorElement().with_quality_factor(70), coverage=(6.5e-3, 7.5e-3))
+    compiled = sampler.ModeSampler(*tip_args, foundation_table(tip, 1), reference._weights, True)
+    r_ref, a_ref = reference.sample([500.0], 1 + 0j, 0.005, 1.0, None)
+    r_cmp, a_cmp = compiled.sample([500.0], 1 + 0j, 0.005, 1.0, None)
+    assert _exact(r_cmp, a_cmp) != _exact(r_ref, a_ref)
+
+
+def test_a_channel_with_the_compiled_sampler_reads_as_with_the_reference(monkeypatch):
+    """A whole channel (its noise, clocks, switches) through the reference and through the twin."""
+    tip = Fingertip(element=SensorElement().with_quality_factor(70), coverage=(6.5e-3, 7.5e-3))
+    runs = []
+    for cls in (sampler.PyModeSampler, sampler.ModeSampler):
+        monkeypatch.setattr("piezotip.sensor.channel.ModeSampler", cls)
+        ch = SensorChannel(tip, dynamics="envelope", rng=np.random.default_rng(3))
+        assert all(type(s) is cls for s in ch._samplers.values())
+        out = []
+        for k, p in enumerate(_pressures(1200, seed=2)):
+            if k in (300, 700):
+                ch.select_mode(3 if k == 300 else 1)
+            r = ch.update([p], 0.005)
+            out.append((*_exact(r, ch.envelope), repr(ch.estimate(r))))
+        runs.append(out)
+    assert runs[0] == runs[1]
+
+
+# ---------------------------------------------------------------------------------------
+# The inverse of an inferred reading.
+# ---------------------------------------------------------------------------------------
+
+
+def _cores(mode: int):
+    """The reference and the twin of the default fingertip's inverse in ``mode``, and it."""
+    tip = Fingertip(element=SensorElement().with_quality_factor(70), coverage=(6.5e-3, 7.5e-3))
+    inverse = SensorChannel(tip, noise=False).inverse(mode)
+    args = (
+        inverse._neg_v_list,
+        inverse._log_p_list,
+        inverse._dv_dlogp_list,
+        inverse._v_first,
+        inverse._v_last,
+        inverse._slope0,
+        inverse._sigma_f,
+        inverse._p_min_f,
+        inverse._p_max_f,
+    )
+    return estimator.PyInverseCore(*args), estimator.InverseCore(*args), inverse
+
+
+@pytest.mark.parametrize("mode", [1, 2, 3, 4])
+def test_the_compiled_inverse_returns_the_references_estimates(mode):
+    reference, compiled, inverse = _cores(mode)
+    rng = np.random.default_rng(mode)
+    curve = (-np.asarray(reference._neg_v)).tolist()
+    v1s = [
+        *curve,
+        *np.nextafter(curve, 2.0).tolist(),
+        *np.nextafter(curve, -1.0).tolist(),
+        *rng.uniform(inverse._v_last - 0.02, 1.02, 5000).tolist(),
+        1.0,
+        1.0 - 3.0 * reference._sigma,
+        0.0,
+        -0.5,
+        math.nan,
+        math.inf,
+    ]
+    gains = [0.5, 1.0, 1.7, 25.0, 1e3, math.nan]
+    for k, v1 in enumerate(v1s):
+        gain = gains[k % len(gains)]
+        ref, cmp = reference.inferred(v1, gain), compiled.inferred(v1, gain)
+        assert repr(tuple(cmp.__dict__.items())) == repr(tuple(ref.__dict__.items())), f"V_1 = {v1!r}, gain {gain}"
+        assert type(cmp) is type(ref)
+    statuses = {reference.inferred(v1, 1.0).status for v1 in v1s}
+    assert statuses == {"ok", "below_detection", "saturated"}  # every branch was taken
+    twin = pickle.loads(pickle.dumps(compiled))
+    assert [repr(twin.inferred(v, 1.3)) for v in v1s[:200]] == [repr(reference.inferred(v, 1.3)) for v in v1s[:200]]
+
+
+def test_the_inverse_equivalence_test_can_fail():
+    reference, _, _ = _cores(2)
+    args = (reference._neg_v, reference._log_p, reference._dv_dlogp, reference._v_first, reference._v_last)
+    compiled = estimator.InverseCore(*args, reference._slope0, reference._sigma * (1 + 2**-52), reference._p_min, reference._p_max)
+    v1 = (reference._v_first + reference._v_last) / 2
+    assert repr(compiled.inferred(v1, 1.0)) != repr(reference.inferred(v1, 1.0))
+
+
+def test_the_mode_inverse_runs_the_compiled_core():
+    _, _, inverse = _cores(1)
+    assert estimator.INVERSE_COMPILED and type(inverse._core) is estimator.InverseCore
