@@ -267,7 +267,7 @@ class CoSimulation:
         self._channel_list = [self.channels[pad] for pad in self.pads]
         self._qpos, self._actuator_force = memoryview(d.qpos), memoryview(d.actuator_force)
         self._qvel, self._sensordata = d.qvel, d.sensordata
-        self._ctrl, self._forcerange = d.ctrl, m.actuator_forcerange
+        self._ctrl, self._forcerange = memoryview(d.ctrl), m.actuator_forcerange  # a memoryview's item is set faster
         self._warning_number = d.warning.number  # a live view of the warnings' counters
         self._mj_step = mujoco.mj_step  # watch_mj_step puts an instrument in front of it (not copied)
         self._object_body = m.body("object").id
@@ -363,6 +363,8 @@ class CoSimulation:
             sensordata, (left_adr, right_adr) = self._sensordata, self._finger_list
             left_peak = right_peak = 0.0
         last = self.substeps
+        if last > 1 and inner != flags:
+            opt.disableflags = inner  # set twice a period, not every substep
         for k in range(1, last + 1):
             ctrl[act] = start + k * delta
             ctrl[fingers] = f_start + k * f_delta
@@ -373,7 +375,8 @@ class CoSimulation:
                 # stiffness and offset force make MuJoCo apply -A P(q0) - A P'(q0) (q - q0) at
                 # every substep (implicitly), with no gel law in Python in between.
                 apply_gel_forces(d)
-            opt.disableflags = flags if k == last else inner
+            if k == last:
+                opt.disableflags = flags
             mj_step(m, d)
             if track:
                 left_peak = max(left_peak, abs(sensordata[left_adr]))
