@@ -17,4 +17,7 @@ extensions = [
     for name in ("_inference", "_lookup", "_sampler", "_estimator")
 ]
 
-setup(ext_modules=cythonize(extensions, compiler_directives={"language_level": 3}, quiet=True))
+# sensor/ on the include path: the twins cimport their shared inline helpers (_twin_helpers.pxd)
+# by its own name (Cython would look for a relative cimport under piezotip/sensor/, which the
+# repository's layout does not have).
+setup(ext_modules=cythonize(extensions, include_path=["sensor"], compiler_directives={"language_level": 3}, quiet=True))

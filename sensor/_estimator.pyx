@@ -11,8 +11,10 @@ and float division are written out with Python's errors, and ``-ffp-contract=off
 read from :mod:`sensor.estimator` when this module is imported.
 """
 
-from cpython.mem cimport PyMem_Free, PyMem_Malloc
-from libc.math cimport INFINITY, NAN, exp, fabs, isfinite, isinf
+from cpython.mem cimport PyMem_Free
+from libc.math cimport INFINITY, NAN, fabs
+
+from _twin_helpers cimport copy_doubles, exp_py, fdiv
 
 from . import estimator as _py
 
@@ -20,21 +22,6 @@ from . import estimator as _py
 cdef double GAIN_FLOOR = _py.GAIN_FLOOR
 cdef object Estimate = _py.Estimate
 cdef object _new = object.__new__
-
-
-cdef inline double fdiv(double a, double b) except? -1.0:
-    """a / b as Python's float division."""
-    if b == 0.0:
-        raise ZeroDivisionError("float division by zero")
-    return a / b
-
-
-cdef inline double exp_py(double x) except? -1.0:
-    """math.exp(x)."""
-    cdef double r = exp(x)
-    if isinf(r) and isfinite(x):
-        raise OverflowError("math range error")
-    return r
 
 
 cdef inline double interp(double x, const double *xp, const double *fp, Py_ssize_t n) noexcept:
@@ -82,7 +69,7 @@ cdef class InverseCore:
         reference = _py.PyInverseCore(neg_v, log_p, dv_dlogp, v_first, v_last, slope0, sigma, p_min_pa, p_max_pa)  # checks
         self._args = (neg_v, log_p, dv_dlogp, v_first, v_last, slope0, sigma, p_min_pa, p_max_pa)
         self._n = len(reference._neg_v)
-        self._neg_v, self._log_p, self._dv_dlogp = _copy(reference._neg_v), _copy(reference._log_p), _copy(reference._dv_dlogp)
+        self._neg_v, self._log_p, self._dv_dlogp = copy_doubles(reference._neg_v), copy_doubles(reference._log_p), copy_doubles(reference._dv_dlogp)
         self._v_first, self._v_last, self._slope0 = reference._v_first, reference._v_last, reference._slope0
         self._sigma, self._p_min, self._p_max = reference._sigma, reference._p_min, reference._p_max
         self._three_sigma = reference._three_sigma
@@ -112,12 +99,3 @@ cdef class InverseCore:
     def __reduce__(self):
         return InverseCore, self._args
 
-
-cdef double *_copy(list values) except NULL:
-    cdef double *out = <double *> PyMem_Malloc(len(values) * sizeof(double))
-    cdef Py_ssize_t i
-    if out == NULL:
-        raise MemoryError()
-    for i in range(len(values)):
-        out[i] = values[i]
-    return out

@@ -10,8 +10,10 @@ offset plus value, no fused multiply-add), so its results are the reference's bi
 built by the reference's own code (numpy), then copied into C arrays.
 """
 
-from cpython.mem cimport PyMem_Free, PyMem_Malloc
+from cpython.mem cimport PyMem_Free
 from libc.math cimport NAN
+
+from _twin_helpers cimport copy_doubles
 
 from . import lookup as _py
 
@@ -40,9 +42,9 @@ cdef class UniformPairTable:
         reference = _py.PyUniformPairTable(grid, fa, fb)  # checks the input and tabulates the slopes
         self._args = (grid, fa, fb)
         self._n = len(reference._fa)
-        self._grid = _copy(reference._grid)
-        self._fa, self._fb = _copy(reference._fa), _copy(reference._fb)
-        self._fa_slope, self._fb_slope = _copy(reference._fa_slope), _copy(reference._fb_slope)
+        self._grid = copy_doubles(reference._grid)
+        self._fa, self._fb = copy_doubles(reference._fa), copy_doubles(reference._fb)
+        self._fa_slope, self._fb_slope = copy_doubles(reference._fa_slope), copy_doubles(reference._fb_slope)
         self._x0, self._xn, self._inv_step = reference._x0, reference._xn, reference._inv_step
 
     cpdef tuple at(self, double x):
@@ -66,12 +68,3 @@ cdef class UniformPairTable:
     def __reduce__(self):
         return UniformPairTable, self._args
 
-
-cdef double *_copy(list values) except NULL:
-    cdef double *out = <double *> PyMem_Malloc(len(values) * sizeof(double))
-    cdef Py_ssize_t i
-    if out == NULL:
-        raise MemoryError()
-    for i in range(len(values)):
-        out[i] = values[i]
-    return out

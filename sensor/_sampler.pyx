@@ -25,8 +25,10 @@ import cmath
 import math
 
 from cpython.complex cimport Py_complex, PyComplex_AsCComplex
-from cpython.mem cimport PyMem_Free, PyMem_Malloc
+from cpython.mem cimport PyMem_Free
 from libc.math cimport NAN, atan2, cos, exp, isfinite, isinf, isnan, log, sin
+
+from _twin_helpers cimport copy_doubles, exp_py, fdiv
 
 from . import resonator as _res
 
@@ -64,26 +66,11 @@ cdef inline Py_complex quot(Py_complex a, Py_complex b) except *:
     return _Py_c_quot(a, b)
 
 
-cdef inline double fdiv(double a, double b) except? -1.0:
-    """a / b as Python's float division."""
-    if b == 0.0:
-        raise ZeroDivisionError("float division by zero")
-    return a / b
-
-
 cdef inline double cabs_py(Py_complex z) except? -1.0:
     """abs(z) for a Python complex."""
     cdef double r = _Py_c_abs(z)
     if isinf(r) and isfinite(z.real) and isfinite(z.imag):
         raise OverflowError("absolute value too large")
-    return r
-
-
-cdef inline double exp_py(double x) except? -1.0:
-    """math.exp(x)."""
-    cdef double r = exp(x)
-    if isinf(r) and isfinite(x):
-        raise OverflowError("math range error")
     return r
 
 
@@ -139,13 +126,13 @@ cdef class ModeSampler:
         self._rho_a = float(mass_per_length_kg_m)
         self._envelope = bool(envelope)
         self._n = len(weights)
-        self._weights = _copy(weights)
+        self._weights = copy_doubles(weights)
         self._m = len(table._log_p_list)
         if self._m < 2 or len(table._log_k_list) != self._m or len(table._log_c_list) != self._m:
             raise ValueError("a table needs two or more points and columns of its length")
-        self._log_p = _copy(table._log_p_list)
-        self._log_k = _copy(table._log_k_list)
-        self._log_c = _copy(table._log_c_list)
+        self._log_p = copy_doubles(table._log_p_list)
+        self._log_k = copy_doubles(table._log_k_list)
+        self._log_c = copy_doubles(table._log_c_list)
         self._p0, self._k0, self._c0 = table._p0_f, table._k0_f, table._c0_f
         self.lookups = 0
 
@@ -244,12 +231,3 @@ cdef class ModeSampler:
     def __setstate__(self, lookups):
         self.lookups = lookups
 
-
-cdef double *_copy(list values) except NULL:
-    cdef double *out = <double *> PyMem_Malloc(len(values) * sizeof(double))
-    cdef Py_ssize_t i
-    if out == NULL:
-        raise MemoryError()
-    for i in range(len(values)):
-        out[i] = values[i]
-    return out
