@@ -14,7 +14,7 @@ read from :mod:`sensor.estimator` when this module is imported.
 from cpython.mem cimport PyMem_Free
 from libc.math cimport INFINITY, NAN, fabs
 
-from _twin_helpers cimport copy_doubles, exp_py, fdiv
+from _twin_helpers cimport bisect_right, copy_doubles, exp_py, fdiv
 
 from . import estimator as _py
 
@@ -26,18 +26,11 @@ cdef object _new = object.__new__
 
 cdef inline double interp(double x, const double *xp, const double *fp, Py_ssize_t n) noexcept:
     """sensor.lookup.interp(x, xp, fp) on C arrays of n points."""
-    cdef Py_ssize_t lo, hi, mid, j
+    cdef Py_ssize_t j
     if x >= xp[n - 1]:
         return fp[n - 1]
     if x >= xp[0]:
-        lo, hi = 0, n  # bisect_right(xp, x)
-        while lo < hi:
-            mid = (lo + hi) // 2
-            if x < xp[mid]:
-                hi = mid
-            else:
-                lo = mid + 1
-        j = lo - 1
+        j = bisect_right(xp, n, x) - 1
         return (fp[j + 1] - fp[j]) / (xp[j + 1] - xp[j]) * (x - xp[j]) + fp[j]
     if x < xp[0]:
         return fp[0]

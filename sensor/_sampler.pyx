@@ -28,7 +28,7 @@ from cpython.complex cimport Py_complex, PyComplex_AsCComplex
 from cpython.mem cimport PyMem_Free
 from libc.math cimport NAN, atan2, cos, exp, isfinite, isinf, isnan, log, sin
 
-from _twin_helpers cimport copy_doubles, exp_py, fdiv
+from _twin_helpers cimport bisect_right, copy_doubles, exp_py, fdiv
 
 from . import resonator as _res
 
@@ -139,7 +139,7 @@ cdef class ModeSampler:
     cdef int _at(self, double p, double *k_e, double *c_e) except -1:
         """FoundationTable.at(p): (k_e, c_e) at p, Pa."""
         cdef double x, dx, h, log_k, log_c
-        cdef Py_ssize_t lo, hi, mid, j, last = self._m - 1
+        cdef Py_ssize_t j, last = self._m - 1
         cdef double *xp = self._log_p
         cdef double *fa = self._log_k
         cdef double *fb = self._log_c
@@ -150,14 +150,7 @@ cdef class ModeSampler:
         if x >= xp[last]:
             log_k, log_c = fa[last], fb[last]
         elif x >= xp[0]:
-            lo, hi = 0, self._m  # bisect_right(xp, x)
-            while lo < hi:
-                mid = (lo + hi) // 2
-                if x < xp[mid]:
-                    hi = mid
-                else:
-                    lo = mid + 1
-            j = lo - 1
+            j = bisect_right(xp, self._m, x) - 1
             dx, h = x - xp[j], xp[j + 1] - xp[j]
             log_k = (fa[j + 1] - fa[j]) / h * dx + fa[j]
             log_c = (fb[j + 1] - fb[j]) / h * dx + fb[j]

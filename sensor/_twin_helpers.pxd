@@ -30,3 +30,15 @@ cdef inline double *copy_doubles(list values) except NULL:
     for i in range(len(values)):
         out[i] = values[i]
     return out
+
+
+cdef inline Py_ssize_t bisect_right(const double *a, Py_ssize_t n, double x) noexcept:
+    """bisect.bisect_right on a C array of n sorted floats."""
+    cdef Py_ssize_t lo = 0, hi = n, mid
+    while lo < hi:
+        mid = (lo + hi) // 2
+        if x < a[mid]:
+            hi = mid
+        else:
+            lo = mid + 1
+    return lo
