@@ -24,7 +24,7 @@ from the channel's :class:`sensor.estimator.FoundationTable`.
 import cmath
 import math
 
-from cpython.complex cimport Py_complex, PyComplex_AsCComplex
+from cpython.complex cimport Py_complex
 from cpython.mem cimport PyMem_Free
 from libc.math cimport NAN, atan2, cos, exp, isfinite, isinf, isnan, log, sin
 
@@ -34,6 +34,7 @@ from . import resonator as _res
 
 
 cdef extern from "Python.h":
+    Py_complex PyComplex_AsCComplex(object) except *  # an error is raised, not ignored
     Py_complex _Py_c_sum(Py_complex, Py_complex)
     Py_complex _Py_c_diff(Py_complex, Py_complex)
     Py_complex _Py_c_neg(Py_complex)
