@@ -81,6 +81,27 @@ def test_a_failing_command_is_an_error_naming_it(tmp_path):
         throughput._timed_command(["run", "nothere"], throughput._env(tmp_path))
 
 
+def test_the_sweep_speedup_is_the_median_of_paired_rounds(tmp_path, monkeypatch):
+    """Each round times 1 and 2 workers back to back, in alternating order; one slow spell (here
+    the second round's 1-worker run) moves a single pair's ratio, not the median."""
+    calls = []
+    walls = iter([9.0, 8.0, 5.0, 5.0, 12.0, 8.5, 5.0])  # warm-up, then (1, 2), (2, 1), (1, 2)
+
+    def fake(args, env, script=None, cwd=None):
+        calls.append(args[args.index("--workers") + 1])
+        return next(walls)
+
+    monkeypatch.setattr(throughput, "_timed_command", fake)
+    report = throughput.sweep_times(tmp_path, rounds=3)
+    assert calls == ["0", "1", "2", "2", "1", "1", "2"]
+    assert report["sweep_1_worker_runs_s"] == [8.0, 12.0, 8.5] and report["sweep_2_workers_runs_s"] == [5.0, 5.0, 5.0]
+    assert report["sweep_speedups"] == pytest.approx([1.6, 2.4, 1.7])
+    assert report["sweep_speedup_2_vs_1"] == pytest.approx(1.7)
+    assert report["sweep_1_worker_s"] == 8.5 and report["sweep_2_workers_s"] == 5.0
+    text = throughput.format_throughput(_report(**{k: v for k, v in report.items() if k.startswith("sweep")}))
+    assert "median of 3 pairs of runs: 8.0 s / 5.0 s = 1.60x, 12.0 s / 5.0 s = 2.40x, 8.5 s / 5.0 s = 1.70x" in text
+
+
 def test_the_sweep_grid_has_the_points_it_says():
     assert throughput.SWEEP_GRID and all("=" in g for g in throughput.SWEEP_GRID)
 
