@@ -402,14 +402,37 @@ def _in_worker_server() -> bool:
     # Python 3.11's forkserver ignores the import path it is given: the parent's, as a spawned
     # worker has it (the server's own would put the current folder first), before any other import.
     sys.path[:] = parent["path"]
+    global _command_pid
+    _command_pid = parent["pid"]
     atexit.register(_exit_now)
-    sys.excepthook = _quiet_interrupt  # a Ctrl-C while it imports: the command says "interrupted"
+    # A Ctrl-C while it imports, or a worker it forks failing because the command is gone:
+    # the command says "interrupted", once.  The forkserver reports a fork's error through
+    # sys.excepthook.
+    sys.excepthook = _quiet_interrupt
     return True
 
 
+#: In the worker server (and the workers it forks): the process id of the command that started it.
+_command_pid: int | None = None
+
+
+def _command_gone() -> bool:
+    """Whether the command that started this worker server has exited."""
+    if _command_pid is None:
+        return False
+    try:
+        os.kill(_command_pid, 0)
+    except ProcessLookupError:
+        return True
+    except OSError:  # it exists (and belongs to another user: not ours, but alive)
+        return False
+    return False
+
+
 def _quiet_interrupt(kind, value, tb) -> None:
-    """The worker server's last word on an exception: none for Ctrl-C, the usual otherwise."""
-    if not issubclass(kind, KeyboardInterrupt):
+    """The worker server's last word on an exception: none for Ctrl-C or once the command is
+    gone (a worker forked as it was interrupted cannot reach it), the usual otherwise."""
+    if not (issubclass(kind, KeyboardInterrupt) or _command_gone()):
         sys.__excepthook__(kind, value, tb)
 
 
@@ -456,6 +479,32 @@ def start_worker_server() -> bool:
     return True
 
 
+class _interrupts_deferred:
+    """Inside, Ctrl-C (SIGINT) is held: it raises KeyboardInterrupt on leaving the block, not in
+    the middle of it.  Only in the main thread with Python's own SIGINT handler (elsewhere,
+    or with a handler a program set, nothing changes)."""
+
+    def __enter__(self):
+        import signal
+        import threading
+
+        self.caught, self.previous = False, None
+        if threading.current_thread() is threading.main_thread() and signal.getsignal(signal.SIGINT) is signal.default_int_handler:
+            self.previous = signal.signal(signal.SIGINT, self._hold)
+        return self
+
+    def _hold(self, signum, frame) -> None:
+        self.caught = True
+
+    def __exit__(self, kind, value, tb) -> None:
+        if self.previous is not None:
+            import signal
+
+            signal.signal(signal.SIGINT, self.previous)
+            if self.caught and kind is None:
+                raise KeyboardInterrupt
+
+
 class _client:
     """A Dask client on a local cluster of ``workers`` processes (closed on exit), or on the
     scheduler at ``address``.  The local cluster's workers are forked from the worker server
@@ -481,11 +530,15 @@ class _client:
             # Held while the cluster lives: a worker the nanny restarts is forked the same way.
             self.config = dask.config.set({method: "forkserver"})
         try:
-            # One thread per process: the loop holds the GIL; processes run side by side.
-            self.cluster = LocalCluster(
-                n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None, silence_logs=50, memory_limit=0
-            )
-            self.client = Client(self.cluster)
+            # A cluster interrupted half-started cannot be closed (Dask's own close at exit then
+            # fails with a traceback): a Ctrl-C waits until it is up (well under a second), then
+            # closes it.
+            with _interrupts_deferred():
+                # One thread per process: the loop holds the GIL; processes run side by side.
+                self.cluster = LocalCluster(
+                    n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None, silence_logs=50, memory_limit=0
+                )
+                self.client = Client(self.cluster)
         except BaseException:
             self.__exit__(None, None, None)
             raise

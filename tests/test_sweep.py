@@ -265,3 +265,69 @@ def test_the_worker_server_imports_from_the_commands_path_not_the_current_folder
     proc = subprocess.run([sys.executable, str(scripts / "probe.py")], cwd=here, capture_output=True, text=True, timeout=120)
     assert proc.returncode == 0, proc.stderr[-2000:]
     assert "site-packages" in proc.stdout and str(here) not in proc.stdout
+
+
+def test_a_ctrl_c_while_the_cluster_starts_waits_until_it_is_up_then_closes_it(monkeypatch):
+    """Dask cannot close a cluster interrupted half-started (its own close at exit then prints a
+    traceback): the interrupt is held until the cluster is up, then it is closed and the
+    KeyboardInterrupt goes on (the command says "interrupted", exit status 130)."""
+    import signal
+
+    import dask.distributed
+
+    events = []
+
+    class Cluster:
+        def __init__(self, **kwargs):
+            signal.raise_signal(signal.SIGINT)  # Ctrl-C in the middle of the start
+            events.append("started")
+
+        def close(self):
+            events.append("cluster closed")
+
+    class Client:
+        def __init__(self, cluster):
+            events.append("client")
+
+        def close(self):
+            events.append("client closed")
+
+    monkeypatch.setattr(dask.distributed, "LocalCluster", Cluster)
+    monkeypatch.setattr(dask.distributed, "Client", Client)
+    with pytest.raises(KeyboardInterrupt):
+        with sweep_module._client(1, None):
+            events.append("body")  # never reached
+    assert events == ["started", "client", "client closed", "cluster closed"]
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+
+
+def test_held_interrupts_raise_on_leaving_and_only_then():
+    import signal
+
+    with pytest.raises(KeyboardInterrupt):
+        with sweep_module._interrupts_deferred() as held:
+            signal.raise_signal(signal.SIGINT)
+            assert held.caught  # still inside: nothing raised yet
+    with sweep_module._interrupts_deferred() as held:
+        pass
+    assert not held.caught and signal.getsignal(signal.SIGINT) is signal.default_int_handler
+
+
+def test_the_worker_server_is_quiet_about_errors_once_its_command_is_gone(monkeypatch, capsys):
+    """A worker forked as the command was interrupted fails to reach it: no traceback for that;
+    while the command lives, an error is printed as usual."""
+    try:
+        raise FileNotFoundError(2, "No such file or directory")
+    except FileNotFoundError as err:
+        info = (type(err), err, err.__traceback__)
+    monkeypatch.setattr(sweep_module, "_command_pid", os.getpid())
+    sweep_module._quiet_interrupt(*info)
+    assert "FileNotFoundError" in capsys.readouterr().err
+    import subprocess
+    import sys
+
+    gone = subprocess.Popen([sys.executable, "-c", "pass"])
+    gone.wait()
+    monkeypatch.setattr(sweep_module, "_command_pid", gone.pid)
+    sweep_module._quiet_interrupt(*info)
+    assert capsys.readouterr().err == ""
