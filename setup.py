@@ -1,10 +1,12 @@
 """The compiled parts of piezotip (everything else is declared in pyproject.toml).
 
 ``sensor/_inference.pyx`` (the readout's steady-reading inference), ``sensor/_lookup.pyx``
-(the pads' gel-law lookup), ``sensor/_sampler.pyx`` (a channel's reading) and
-``sensor/_estimator.pyx`` (the inverse of an inferred reading) are statement-for-statement C
-twins of Python references (:mod:`piezotip.sensor.compiled` lists them).  They are optional: where they cannot be built
-the package installs without them and the references run (slower, the same numbers).
+(the pads' gel-law lookup), ``sensor/_sampler.pyx`` (a channel's reading),
+``sensor/_estimator.pyx`` (the inverse of an inferred reading) and ``cosim/_pad_kernels.pyx``
+(the gel law on the pad joints, the pads' pressure read) are statement-for-statement C twins
+of Python references (:mod:`piezotip.sensor.compiled` lists them).  They are optional: where
+they cannot be built the package installs without them and the references run (slower, the
+same numbers).
 ``-ffp-contract=off``: no fused multiply-adds, so the C arithmetic rounds as Python's does (the
 twins agree bit for bit).
 """
@@ -13,8 +15,14 @@ from Cython.Build import cythonize
 from setuptools import Extension, setup
 
 extensions = [
-    Extension(f"piezotip.sensor.{name}", [f"sensor/{name}.pyx"], extra_compile_args=["-O2", "-ffp-contract=off"], optional=True)
-    for name in ("_inference", "_lookup", "_sampler", "_estimator")
+    Extension(f"piezotip.{package}.{name}", [f"{package}/{name}.pyx"], extra_compile_args=["-O2", "-ffp-contract=off"], optional=True)
+    for package, name in (
+        ("sensor", "_inference"),
+        ("sensor", "_lookup"),
+        ("sensor", "_sampler"),
+        ("sensor", "_estimator"),
+        ("cosim", "_pad_kernels"),
+    )
 ]
 
 # sensor/ on the include path: the twins cimport their shared inline helpers (_twin_helpers.pxd)

@@ -239,6 +239,7 @@ class CoSimulation:
         "_object_xpos",
         "_object_qvel",
         "_mj_step",
+        "_pressure_reader",
     )
 
     def __getstate__(self) -> dict:
@@ -264,6 +265,8 @@ class CoSimulation:
         self._strips_read = len(read)
         self._element_of_pad = [at[i] for i in element]
         self._weights_of_pad = [[(at[i], w) for i, w in row] for row in self._cell_weights]
+        self._pressure_reader = self.bridge.pressure_reader(self._pad_strips, self._strips_read, self._element_of_pad, self._weights_of_pad)
+        self._pressure_reader.bind(d.qpos)
         self._channel_list = [self.channels[pad] for pad in self.pads]
         self._qpos, self._actuator_force = memoryview(d.qpos), memoryview(d.actuator_force)
         self._qvel, self._sensordata = d.qvel, d.sensordata
@@ -391,13 +394,7 @@ class CoSimulation:
     def _pressures(self) -> tuple[list[list[float]], list[list[float]]]:
         """Per instrumented pad: the gel pressure over its element strips (Pa, root to tip: the
         record's cells) and the mean pressure on each coverage cell (Pa: the channel's input)."""
-        values = self.bridge.compressive_values(self.data, self._pad_strips)
-        n, element, weights = self._strips_read, self._element_of_pad, self._weights_of_pad
-        profiles, covered = [], []
-        for start in range(0, len(values), n):
-            profiles.append([values[start + i] for i in element])
-            covered.append([sum([w * values[start + i] for i, w in row]) for row in weights])
-        return profiles, covered
+        return self._pressure_reader.read()
 
     def coverage_pressures(self) -> np.ndarray:
         """The mean gel pressure on each coverage cell of each instrumented pad now, Pa, shape

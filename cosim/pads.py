@@ -36,6 +36,8 @@ import numpy as np
 from piezotip.sensor.gel import GelModel, GelParams, gent_pressure_pa, modulus_ratio
 from piezotip.sensor.lookup import UniformPairTable
 
+from .pad_kernels import GelForces, PadPressures
+
 MODELS_DIR = Path(__file__).resolve().parent.parent / "models"
 """Where the MJCF files live (``gripper.xml``, ``table.xml``, ``scene_*.xml``)."""
 
@@ -489,16 +491,14 @@ class PadBridge:
         self._elliptic = model.opt.cone == mujoco.mjtCone.mjCONE_ELLIPTIC
         model.jnt_stiffnesspoly[self._jnt] = 0.0
         self._check_stability()
-        # The per-substep path works on Python scalars: one tuple per strip (qpos address, dof,
-        # joint, area, spring reference), the table as lists, and memoryviews of the arrays it
-        # reads and writes (item access on them costs a fraction of a numpy scalar's).
-        self._lookup = UniformPairTable(self._table.grid_m, self._table.pressure_pa, self._table.tangent_pa_m)
-        self._strips = tuple(
-            zip(self._qadr.tolist(), self._dof.tolist(), self._jnt.tolist(), self._area.tolist(), self._qspring.tolist(), strict=True)
-        )
+        # The per-step path: the gel law on every strip joint (cosim/pad_kernels.py, compiled
+        # where built), bound to the arrays of the MjData it last saw; scalar reads on lists and
+        # memoryviews (item access on them costs a fraction of a numpy scalar's).
+        self._columns = (self._table.grid_m, self._table.pressure_pa, self._table.tangent_pa_m)
+        self._lookup = UniformPairTable(*self._columns)
+        self._gel_forces = GelForces(self._columns, self._qadr, self._dof, self._jnt, self._area, self._qspring)
         self._element_qadr = self._qadr_element.tolist()
         self._qadr_list = self._qadr.tolist()
-        self._stiffness = memoryview(model.jnt_stiffness)
         self._views_of: mujoco.MjData | None = None
 
     # -- set-up checks -------------------------------------------------------------------
@@ -543,22 +543,14 @@ class PadBridge:
         """
         if data is not self._views_of:
             self._data_views(data)
-        qpos, qfrc = self._views
-        stiffness, at = self._stiffness, self._lookup.at
-        for qadr, dof, jnt, area, qspring in self._strips:
-            q = qpos[qadr]
-            pressure, tangent = at(q)
-            k = area * tangent
-            stiffness[jnt] = k
-            qfrc[dof] = k * (q - qspring) - area * pressure
+        self._gel_forces.apply()
 
-    def __getstate__(self) -> dict:  # memoryviews are not copied: a copy makes its own
-        return {k: v for k, v in self.__dict__.items() if k not in ("_stiffness", "_views", "_views_of")}
+    def __getstate__(self) -> dict:  # views are not copied: a copy makes its own
+        return {k: v for k, v in self.__dict__.items() if k not in ("_views", "_views_of")}
 
     def __setstate__(self, state: dict) -> None:
         self.__dict__.update(state)
-        self._stiffness = memoryview(self.model.jnt_stiffness)
-        self._views_of = None
+        self._views_of = None  # the gel-force kernel (copied unbound) is bound at its first use
 
     @property
     def joint_ids(self) -> np.ndarray:
@@ -569,6 +561,7 @@ class PadBridge:
         """memoryviews of ``data.qpos`` and ``data.qfrc_applied`` (kept while the same MjData comes back)."""
         if data is not self._views_of:
             self._views = memoryview(data.qpos), memoryview(data.qfrc_applied)
+            self._gel_forces.bind(data.qpos, data.qfrc_applied, self.model.jnt_stiffness)
             self._views_of = data
         return self._views
 
@@ -587,13 +580,14 @@ class PadBridge:
         lookup = self._lookup.at
         return [max(lookup(qpos[a])[0], 0.0) for a in self._element_qadr]
 
-    def compressive_values(self, data: mujoco.MjData, strips: list[int]) -> list[float]:
-        """Gel pressure of the ``strips`` (flat indices: pads in ``PAD_NAMES`` order, strips
-        distal first, guards included), Pa, compressive only, as Python floats: the
-        co-simulation's per-step read when the whole pad's face reaches the element."""
-        qpos = self._data_views(data)[0]
-        lookup, qadr = self._lookup.at, self._qadr_list
-        return [max(lookup(qpos[qadr[i]])[0], 0.0) for i in strips]
+    def pressure_reader(self, strips: list[int], per_pad: int, element: list[int], weights: list[list[tuple[int, float]]]) -> PadPressures:
+        """The co-simulation's per-step pressure read (:class:`cosim.pad_kernels.PyPadPressures`,
+        compiled where built), unbound: the gel pressure of ``strips`` (flat indices: pads in
+        ``PAD_NAMES`` order, strips distal first, guards included; ``per_pad`` a pad), Pa,
+        compressive only, as each pad's element profile (``element``: positions among a pad's
+        strips read) and coverage cells (``weights``).  Bind it to ``data.qpos``."""
+        qadr = [self._qadr_list[i] for i in strips]
+        return PadPressures(self._columns, qadr, per_pad, element, weights)
 
     def strip_pressures(self, data: mujoco.MjData) -> np.ndarray:
         """Gel pressure of every strip, guards included, Pa, shape (pads, strips); tension < 0."""

@@ -10,10 +10,7 @@ offset plus value, no fused multiply-add), so its results are the reference's bi
 built by the reference's own code (numpy), then copied into C arrays.
 """
 
-from cpython.mem cimport PyMem_Free
-from libc.math cimport NAN
-
-from _twin_helpers cimport copy_doubles
+from _twin_helpers cimport UniformPairs, uniform_pairs_at, uniform_pairs_free, uniform_pairs_from
 
 from . import lookup as _py
 
@@ -22,48 +19,23 @@ cdef class UniformPairTable:
     """The compiled :class:`sensor.lookup.PyUniformPairTable` (see there): two columns over an
     evenly spaced grid, looked up at one float, exactly ``np.interp`` of each."""
 
-    cdef double *_grid  # the grid and a sentinel (inf) past its end
-    cdef double *_fa
-    cdef double *_fb
-    cdef double *_fa_slope
-    cdef double *_fb_slope
-    cdef Py_ssize_t _n
-    cdef double _x0, _xn, _inv_step
+    cdef UniformPairs _t
     cdef object _args  # the constructor's arguments, for copies
 
     def __dealloc__(self):
-        PyMem_Free(self._grid)
-        PyMem_Free(self._fa)
-        PyMem_Free(self._fb)
-        PyMem_Free(self._fa_slope)
-        PyMem_Free(self._fb_slope)
+        uniform_pairs_free(&self._t)
 
     def __init__(self, grid, fa, fb):
         reference = _py.PyUniformPairTable(grid, fa, fb)  # checks the input and tabulates the slopes
         self._args = (grid, fa, fb)
-        self._n = len(reference._fa)
-        self._grid = copy_doubles(reference._grid)
-        self._fa, self._fb = copy_doubles(reference._fa), copy_doubles(reference._fb)
-        self._fa_slope, self._fb_slope = copy_doubles(reference._fa_slope), copy_doubles(reference._fb_slope)
-        self._x0, self._xn, self._inv_step = reference._x0, reference._xn, reference._inv_step
+        uniform_pairs_free(&self._t)
+        uniform_pairs_from(&self._t, reference)
 
     cpdef tuple at(self, double x):
         """(fa(x), fb(x)), exactly ``np.interp`` of the two columns."""
-        cdef Py_ssize_t j
-        cdef double dx
-        if x > self._x0:
-            if x < self._xn:
-                j = <Py_ssize_t> ((x - self._x0) * self._inv_step)  # at most one past the last interval
-                while x < self._grid[j]:
-                    j -= 1
-                while x >= self._grid[j + 1]:
-                    j += 1
-                dx = x - self._grid[j]
-                return self._fa_slope[j] * dx + self._fa[j], self._fb_slope[j] * dx + self._fb[j]
-            return self._fa[self._n - 1], self._fb[self._n - 1]
-        if x <= self._x0:
-            return self._fa[0], self._fb[0]
-        return NAN, NAN
+        cdef double a, b
+        uniform_pairs_at(&self._t, x, &a, &b)
+        return a, b
 
     def __reduce__(self):
         return UniformPairTable, self._args

@@ -1,9 +1,10 @@
 # cython: language_level=3
-"""What the compiled twins (sensor/_*.pyx) share: Python's float semantics in C, and tables
-copied into C arrays.  Inline functions, compiled into each twin that cimports them."""
+"""What the compiled twins (sensor/_*.pyx, cosim/_pads.pyx) share: Python's float semantics in
+C, tables copied into C arrays, and the pads' uniform-grid lookup.  Inline functions, compiled
+into each twin that cimports them."""
 
-from cpython.mem cimport PyMem_Malloc
-from libc.math cimport exp, isfinite, isinf
+from cpython.mem cimport PyMem_Free, PyMem_Malloc
+from libc.math cimport NAN, exp, isfinite, isinf
 
 
 cdef inline double fdiv(double a, double b) except? -1.0:
@@ -42,3 +43,56 @@ cdef inline Py_ssize_t bisect_right(const double *a, Py_ssize_t n, double x) noe
         else:
             lo = mid + 1
     return lo
+
+
+cdef struct UniformPairs:
+    # sensor.lookup.PyUniformPairTable's numbers: the grid and a sentinel (inf) past its end,
+    # the two columns and their slopes per interval.
+    double *grid
+    double *fa
+    double *fb
+    double *fa_slope
+    double *fb_slope
+    Py_ssize_t n
+    double x0, xn, inv_step
+
+
+cdef inline int uniform_pairs_from(UniformPairs *t, object reference) except -1:
+    """Copy a PyUniformPairTable's numbers into ``t`` (free them with uniform_pairs_free)."""
+    t.grid = t.fa = t.fb = t.fa_slope = t.fb_slope = NULL
+    t.n = len(reference._fa)
+    t.grid = copy_doubles(reference._grid)
+    t.fa, t.fb = copy_doubles(reference._fa), copy_doubles(reference._fb)
+    t.fa_slope, t.fb_slope = copy_doubles(reference._fa_slope), copy_doubles(reference._fb_slope)
+    t.x0, t.xn, t.inv_step = reference._x0, reference._xn, reference._inv_step
+    return 0
+
+
+cdef inline void uniform_pairs_free(UniformPairs *t) noexcept:
+    PyMem_Free(t.grid)
+    PyMem_Free(t.fa)
+    PyMem_Free(t.fb)
+    PyMem_Free(t.fa_slope)
+    PyMem_Free(t.fb_slope)
+    t.grid = t.fa = t.fb = t.fa_slope = t.fb_slope = NULL
+
+
+cdef inline void uniform_pairs_at(const UniformPairs *t, double x, double *a, double *b) noexcept:
+    """PyUniformPairTable.at(x): (fa(x), fb(x)), exactly np.interp of each column."""
+    cdef Py_ssize_t j
+    cdef double dx
+    if x > t.x0:
+        if x < t.xn:
+            j = <Py_ssize_t> ((x - t.x0) * t.inv_step)  # at most one past the last interval
+            while x < t.grid[j]:
+                j -= 1
+            while x >= t.grid[j + 1]:
+                j += 1
+            dx = x - t.grid[j]
+            a[0], b[0] = t.fa_slope[j] * dx + t.fa[j], t.fb_slope[j] * dx + t.fb[j]
+        else:
+            a[0], b[0] = t.fa[t.n - 1], t.fb[t.n - 1]
+    elif x <= t.x0:
+        a[0], b[0] = t.fa[0], t.fb[0]
+    else:
+        a[0] = b[0] = NAN

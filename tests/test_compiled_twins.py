@@ -1,4 +1,4 @@
-"""The compiled twins (sensor/_inference.pyx, _lookup.pyx, _sampler.pyx, _estimator.pyx) are their references, bit for bit.
+"""The compiled twins (sensor/_*.pyx, cosim/_pad_kernels.pyx) are their Python references, bit for bit.
 
 :class:`piezotip.sensor.inference.PySteadyInference` documents the readout's inference and is
 the reference; the readout runs its compiled twin where the package was built with it.  Both
@@ -6,8 +6,8 @@ are stepped through the same readings (held loads, steps that restart the window
 shorten it, a ring-up from rest after a switch, a run past the re-basing age, copies made
 mid-run) and must return the same (a_ss, gain, trusted) on every reading: the same floats, not
 close ones.  The same for the pads' gel-law lookup (:class:`PyUniformPairTable`), a
-channel's reading (:class:`PyModeSampler`) and the inverse of an inferred reading
-(:class:`PyInverseCore`).
+channel's reading (:class:`PyModeSampler`), the inverse of an inferred reading
+(:class:`PyInverseCore`) and the pads' kernels (:class:`PyGelForces`, :class:`PyPadPressures`).
 """
 
 from __future__ import annotations
@@ -20,6 +20,7 @@ import random
 import numpy as np
 import pytest
 
+from piezotip.cosim import pad_kernels
 from piezotip.cosim.pads import PadGeometry, _GelTable
 from piezotip.sensor import Fingertip, GelModel, SensorElement, estimator, inference, lookup, sampler
 from piezotip.sensor.channel import SensorChannel
@@ -43,6 +44,8 @@ def test_the_compiled_twins_are_built():
     assert sampler.ModeSampler is not sampler.PyModeSampler
     assert estimator.INVERSE_COMPILED, "sensor/_estimator.pyx is not built: reinstall (pip install -e .) with a C compiler"
     assert estimator.InverseCore is not estimator.PyInverseCore
+    assert pad_kernels.PAD_KERNELS_COMPILED, "cosim/_pad_kernels.pyx is not built: reinstall (pip install -e .) with a C compiler"
+    assert pad_kernels.GelForces is not pad_kernels.PyGelForces and pad_kernels.PadPressures is not pad_kernels.PyPadPressures
 
 
 def readings(n: int, dt_s: float, ring_up: bool, seed: int):
@@ -277,3 +280,94 @@ def test_the_inverse_equivalence_test_can_fail():
 def test_the_mode_inverse_runs_the_compiled_core():
     _, _, inverse = _cores(1)
     assert estimator.INVERSE_COMPILED and type(inverse._core) is estimator.InverseCore
+
+
+# ---------------------------------------------------------------------------------------
+# The pads' kernels: the gel law on the strip joints, the pressure read.
+# ---------------------------------------------------------------------------------------
+
+
+def _pad_arrays(rng, table, n_q: int = 40) -> np.ndarray:
+    """A qpos-like array: indentations inside, at and past the gel law's grid, and NaN."""
+    g = table.grid_m
+    q = rng.uniform(g[0] - 1e-4, g[-1] + 1e-4, n_q)
+    q[:6] = [g[0], g[-1], g[3], np.nextafter(g[5], 1), -1.0, math.nan]
+    return q
+
+
+def test_the_compiled_gel_forces_write_what_the_reference_writes():
+    table = _GelTable.build(GelModel(), PadGeometry())
+    columns = (table.grid_m, table.pressure_pa, table.tangent_pa_m)
+    rng = np.random.default_rng(11)
+    n = 12
+    qadr, dof, jnt = rng.permutation(40)[:n].tolist(), rng.permutation(30)[:n].tolist(), rng.permutation(20)[:n].tolist()
+    area, qspring = rng.uniform(1e-6, 1e-4, n).tolist(), rng.uniform(-1e-4, 1e-4, n).tolist()
+    twins = {cls: cls(columns, qadr, dof, jnt, area, qspring) for cls in (pad_kernels.PyGelForces, pad_kernels.GelForces)}
+    for k in range(200):
+        qpos = _pad_arrays(rng, table)
+        written = {}
+        for cls, kernel in twins.items():
+            qfrc, stiffness = np.full(30, 7.0), np.full(20, 7.0)
+            kernel.bind(qpos, qfrc, stiffness)
+            kernel.apply()
+            written[cls] = (qfrc.tobytes(), stiffness.tobytes())
+        assert written[pad_kernels.GelForces] == written[pad_kernels.PyGelForces], f"state {k}"
+        if k == 100:
+            twins = {cls: pickle.loads(pickle.dumps(kernel)) for cls, kernel in twins.items()}  # copies come unbound
+            with pytest.raises(RuntimeError, match="bind"):
+                twins[pad_kernels.GelForces].apply()
+
+
+def test_the_compiled_pressure_read_returns_the_references_pressures():
+    table = _GelTable.build(GelModel(), PadGeometry())
+    columns = (table.grid_m, table.pressure_pa, table.tangent_pa_m)
+    rng = np.random.default_rng(12)
+    per_pad = 5
+    qadr = rng.permutation(40)[: 2 * per_pad].tolist()
+    element = [3, 1, 2]
+    weights = [[(0, 0.25), (1, 0.5), (4, 0.25)], [(2, 1.0)], [(3, 0.3), (4, -0.0), (0, 0.7)]]
+    kernels = {cls: cls(columns, qadr, per_pad, element, weights) for cls in (pad_kernels.PyPadPressures, pad_kernels.PadPressures)}
+    for k in range(300):
+        qpos = _pad_arrays(rng, table)
+        out = {}
+        for cls, kernel in kernels.items():
+            kernel.bind(qpos)
+            out[cls] = repr(kernel.read())
+        assert out[pad_kernels.PadPressures] == out[pad_kernels.PyPadPressures], f"state {k}"
+
+
+def test_the_pad_kernels_check_their_indices_as_the_references_do():
+    table = _GelTable.build(GelModel(), PadGeometry())
+    columns = (table.grid_m, table.pressure_pa, table.tangent_pa_m)
+    for cls in (pad_kernels.PyPadPressures, pad_kernels.PadPressures):
+        with pytest.raises(ValueError, match="do not make pads"):
+            cls(columns, [0, 1, 2], 2, [0], [[(0, 1.0)]])
+        with pytest.raises(ValueError, match="weight indices"):
+            cls(columns, [0, 1], 2, [0], [[(2, 1.0)]])
+        with pytest.raises(ValueError, match="at least one"):
+            cls(columns, [0, 1], 2, [0], [[]])
+        with pytest.raises(ValueError, match="qpos indices"):
+            cls(columns, [0, 9], 2, [0], [[(1, 1.0)]]).bind(np.zeros(5))
+    for cls in (pad_kernels.PyGelForces, pad_kernels.GelForces):
+        with pytest.raises(ValueError, match="dof indices"):
+            cls(columns, [0], [7], [0], [1e-5], [0.0]).bind(np.zeros(3), np.zeros(3), np.zeros(3))
+
+
+def test_the_pad_kernels_equivalence_test_can_fail():
+    table = _GelTable.build(GelModel(), PadGeometry())
+    columns = (table.grid_m, table.pressure_pa, table.tangent_pa_m)
+    other = (table.grid_m, table.pressure_pa * (1 + 2**-52), table.tangent_pa_m)
+    qpos = np.full(4, 0.5 * (table.grid_m[0] + table.grid_m[-1]))
+    a, b = pad_kernels.PyPadPressures(columns, [0, 1], 2, [0], [[(1, 1.0)]]), pad_kernels.PadPressures(other, [0, 1], 2, [0], [[(1, 1.0)]])
+    a.bind(qpos)
+    b.bind(qpos)
+    assert repr(a.read()) != repr(b.read())
+
+
+def test_the_simulation_runs_the_compiled_pad_kernels():
+    from piezotip import scenarios
+    from piezotip.cosim.loop import CoSimulation
+
+    sim = CoSimulation(scenarios.get("grasp"))
+    assert pad_kernels.PAD_KERNELS_COMPILED
+    assert type(sim.bridge._gel_forces) is pad_kernels.GelForces and type(sim._pressure_reader) is pad_kernels.PadPressures
