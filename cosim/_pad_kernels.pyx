@@ -10,23 +10,13 @@ once as typed memoryviews (indices checked there, by the reference's own check) 
 written directly.
 """
 
-from cpython.mem cimport PyMem_Free, PyMem_Malloc
+from cpython.mem cimport PyMem_Free
 
-from _twin_helpers cimport UniformPairs, copy_doubles, uniform_pairs_at, uniform_pairs_free, uniform_pairs_from
+from _twin_helpers cimport UniformPairs, copy_doubles, copy_indices, uniform_pairs_at, uniform_pairs_free, uniform_pairs_from
 
 from piezotip.sensor import lookup as _lookup
 
 from . import pad_kernels as _py
-
-
-cdef Py_ssize_t *_copy_indices(list values) except NULL:
-    cdef Py_ssize_t *out = <Py_ssize_t *> PyMem_Malloc(max(len(values), 1) * sizeof(Py_ssize_t))
-    cdef Py_ssize_t i
-    if out == NULL:
-        raise MemoryError()
-    for i in range(len(values)):
-        out[i] = values[i]
-    return out
 
 
 cdef class GelForces:
@@ -57,9 +47,9 @@ cdef class GelForces:
         strips = reference._strips
         self._n = len(strips)
         uniform_pairs_from(&self._t, _lookup.PyUniformPairTable(*table))
-        self._qadr = _copy_indices([s[0] for s in strips])
-        self._dof = _copy_indices([s[1] for s in strips])
-        self._jnt = _copy_indices([s[2] for s in strips])
+        self._qadr = copy_indices([s[0] for s in strips])
+        self._dof = copy_indices([s[1] for s in strips])
+        self._jnt = copy_indices([s[2] for s in strips])
         self._area = copy_doubles([s[3] for s in strips])
         self._qspring = copy_doubles([s[4] for s in strips])
         self._bound = False
@@ -117,9 +107,9 @@ cdef class PadPressures:
         self._args, self._reference = (table, qadr, per_pad, element, weights), reference
         uniform_pairs_from(&self._t, _lookup.PyUniformPairTable(*table))
         self._n, self._per_pad = len(reference._qadr), reference._per_pad
-        self._qadr = _copy_indices(reference._qadr)
+        self._qadr = copy_indices(reference._qadr)
         self._n_element = len(reference._element)
-        self._element = _copy_indices(reference._element)
+        self._element = copy_indices(reference._element)
         rows = reference._weights
         self._n_cells = len(rows)
         starts, at, weight = [0], [], []
@@ -128,8 +118,8 @@ cdef class PadPressures:
             weight += [w for _, w in row]
             starts.append(len(at))
         self._n_terms = len(at)
-        self._cell_start = _copy_indices(starts)
-        self._term_at = _copy_indices(at)
+        self._cell_start = copy_indices(starts)
+        self._term_at = copy_indices(at)
         self._term_weight = copy_doubles(weight)
         self._values = copy_doubles([0.0] * self._n)
         self._bound = False

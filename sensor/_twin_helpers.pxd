@@ -45,6 +45,17 @@ cdef inline Py_ssize_t bisect_right(const double *a, Py_ssize_t n, double x) noe
     return lo
 
 
+
+cdef inline Py_ssize_t *copy_indices(list values) except NULL:
+    """A C array of the ints ``values`` (PyMem_Malloc'd: the caller frees it)."""
+    cdef Py_ssize_t *out = <Py_ssize_t *> PyMem_Malloc(max(len(values), 1) * sizeof(Py_ssize_t))
+    cdef Py_ssize_t i
+    if out == NULL:
+        raise MemoryError()
+    for i in range(len(values)):
+        out[i] = values[i]
+    return out
+
 cdef struct UniformPairs:
     # sensor.lookup.PyUniformPairTable's numbers: the grid and a sentinel (inf) past its end,
     # the two columns and their slopes per interval.
