@@ -2,8 +2,9 @@
 
 ``sensor/_inference.pyx`` (the readout's steady-reading inference), ``sensor/_lookup.pyx``
 (the pads' gel-law lookup), ``sensor/_sampler.pyx`` (a channel's reading),
-``sensor/_estimator.pyx`` (the inverse of an inferred reading) and ``cosim/_pad_kernels.pyx``
-(the gel law on the pad joints, the pads' pressure read) are statement-for-statement C twins
+``sensor/_estimator.pyx`` (the inverse of an inferred reading), ``cosim/_pad_kernels.pyx``
+(the gel law on the pad joints, the pads' pressure read) and ``cosim/_rows.pyx`` (a control
+step's recorded row) are statement-for-statement C twins
 of Python references (:mod:`piezotip.sensor.compiled` lists them).  They are optional: where
 they cannot be built the package installs without them and the references run (slower, the
 same numbers).
@@ -22,6 +23,7 @@ extensions = [
         ("sensor", "_sampler"),
         ("sensor", "_estimator"),
         ("cosim", "_pad_kernels"),
+        ("cosim", "_rows"),
     )
 ]
 

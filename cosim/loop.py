@@ -30,6 +30,7 @@ from piezotip.sensor.unit_channel import UnitChannel
 from .control import Command, Controller, Observation, PadSignal, RobotLimits, ScriptedGrasp, make_observation, make_pad_signal
 from .pads import PAD_NAMES, PAD_SIDES, PadBridge, PadGeometry
 from .recorder import Recorder
+from .rows import RowBuilder
 from .scene import build_scene, check_reach, finite_state, reset_home, robot_limits
 
 
@@ -240,6 +241,7 @@ class CoSimulation:
         "_object_qvel",
         "_mj_step",
         "_pressure_reader",
+        "_row_builder",
     )
 
     def __getstate__(self) -> dict:
@@ -303,6 +305,17 @@ class CoSimulation:
             )
             self.columns += [f"{side}_{name}" for name in names]
             self.columns += [f"{side}_cell{k}_pressure_pa" for k in range(geometry.segments)]
+        self._row_builder = RowBuilder(
+            self.pads,
+            self._contact_list,
+            self._finger_list,
+            self._table_i,
+            self._track_peaks,
+            self._cell_fractions,
+            self._p_stop,
+            _STATUS_INDEX,
+        )
+        self._row_builder.bind(self._object_xpos, self._object_qvel, self._sensordata)
 
     # -- one control step --------------------------------------------------------------
 
@@ -456,54 +469,8 @@ class CoSimulation:
             )
 
     def _record(self, obs: Observation, command: Command, profiles: list[list[float]], cells: list[list[float]]) -> list[float]:
-        """The row's values in :attr:`columns` order (all Python floats)."""
-        # One conversion per array to Python floats (a numpy scalar per value costs more).
-        x, y, z = self._object_xpos.tolist()
-        vx, vy, vz, wx, wy, wz = self._object_qvel.tolist()
-        sensordata = self._sensordata.tolist()
-        left, right = self._finger_list
-        row = [
-            self.time_s,
-            float(command.phase),
-            obs.lift_pos_m,
-            obs.opening_m,
-            obs.grip_force_n,
-            obs.lift_force_n,
-            # Ground truth (never observed): the object's pose and motion, what touches it.
-            z,
-            x,
-            y,
-            vz,
-            math.sqrt(vx * vx + vy * vy + vz * vz),
-            math.sqrt(wx * wx + wy * wy + wz * wz),
-            abs(sensordata[self._table_i + 2]),
-            abs(sensordata[left]),
-            abs(sensordata[right]),
-        ]
-        if self._track_peaks:
-            row += self._finger_peaks
-        fractions = self._cell_fractions
-        for pad, profile, covered, adr in zip(self.pads, profiles, cells, self._contact_list, strict=True):
-            sig = obs.pads[pad]
-            r, e = sig.reading, sig.estimate
-            mean = profile[0] if len(profile) == 1 else float(np.mean(profile))
-            row += (
-                mean,
-                covered[0] if len(covered) == 1 else sum(f * p for f, p in zip(fractions, covered, strict=True)),
-                abs(sensordata[adr]),
-                e.pressure_pa,
-                e.uncertainty_pa,
-                _STATUS_INDEX[e.status],
-                float(r.mode),
-                r.v1,
-                r.v1_true,
-                float(r.settled),
-                # The gel is on its housing stop under the element: the pressure there is the
-                # stop's, and the housing carries the rest (the sensor model is told, here).
-                float(max(profile) >= self._p_stop),
-            )
-            row += profile
-        return row
+        """The row's values in :attr:`columns` order (all Python floats: cosim/rows.py)."""
+        return self._row_builder.row(self.time_s, obs, command, profiles, cells, self._finger_peaks)
 
     # -- instruments (run_sim.py bench): measured without patching ---------------------------
 

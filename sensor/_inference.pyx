@@ -6,7 +6,7 @@ of every pad; in Python it was a fifth of a control step's own cost).
 The Python class is the reference and holds the documentation (the model, the fit, the change
 test, the window): this file mirrors it statement for statement, with the window's readings and
 the fits in C ring buffers instead of deques of tuples.  Its results are the Python class's bit
-for bit (tests/test_inference_compiled.py steps both through the same readings).  Complex
+for bit (tests/test_compiled_twins.py steps both through the same readings).  Complex
 arithmetic: C99 ``double complex`` products and sums are Python's formulas; the one division,
 1 / mu, calls CPython's own ``_Py_c_quot``.  The constants are read from
 :mod:`sensor.inference` when this module is imported (one owner for each value).

@@ -15,7 +15,8 @@ variable ``PIEZOTIP_PURE_PYTHON=1``, the reference is, slower and with the same 
 - :class:`sensor.estimator.PyInverseCore` / ``sensor/_estimator.pyx``: the inverse of an
   inferred steady reading (:meth:`sensor.estimator.ModeInverse.inferred`);
 - :class:`cosim.pad_kernels.PyGelForces` and :class:`cosim.pad_kernels.PyPadPressures` /
-  ``cosim/_pad_kernels.pyx``: the gel law on the pad joints, the pads' pressure read.
+  ``cosim/_pad_kernels.pyx``: the gel law on the pad joints, the pads' pressure read;
+- :class:`cosim.rows.PyRowBuilder` / ``cosim/_rows.pyx``: a control step's recorded row.
 
 Their shared C (Python's float division and ``math.exp``, the uniform-grid lookup, bisection,
 tables copied into C arrays) is in ``sensor/_twin_helpers.pxd``, inline.

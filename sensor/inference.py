@@ -393,8 +393,7 @@ class PySteadyInference:
         self.fits.append(self._fit(readings[-1][0])[-1])
 
 
-
 #: The inference the readout uses: the compiled twin of :class:`PySteadyInference` where it is
-#: built (same results bit for bit: tests/test_inference_compiled.py), else the reference
+#: built (same results bit for bit: tests/test_compiled_twins.py), else the reference
 #: (:mod:`sensor.compiled`); :data:`COMPILED` says which.
 SteadyInference, COMPILED = twin("piezotip.sensor._inference", "SteadyInference", PySteadyInference)

@@ -7,7 +7,8 @@ shorten it, a ring-up from rest after a switch, a run past the re-basing age, co
 mid-run) and must return the same (a_ss, gain, trusted) on every reading: the same floats, not
 close ones.  The same for the pads' gel-law lookup (:class:`PyUniformPairTable`), a
 channel's reading (:class:`PyModeSampler`), the inverse of an inferred reading
-(:class:`PyInverseCore`) and the pads' kernels (:class:`PyGelForces`, :class:`PyPadPressures`).
+(:class:`PyInverseCore`), the pads' kernels (:class:`PyGelForces`, :class:`PyPadPressures`)
+and a control step's row (:class:`PyRowBuilder`).
 """
 
 from __future__ import annotations
@@ -20,7 +21,7 @@ import random
 import numpy as np
 import pytest
 
-from piezotip.cosim import pad_kernels
+from piezotip.cosim import pad_kernels, rows
 from piezotip.cosim.pads import PadGeometry, _GelTable
 from piezotip.sensor import Fingertip, GelModel, SensorElement, estimator, inference, lookup, sampler
 from piezotip.sensor.channel import SensorChannel
@@ -46,6 +47,8 @@ def test_the_compiled_twins_are_built():
     assert estimator.InverseCore is not estimator.PyInverseCore
     assert pad_kernels.PAD_KERNELS_COMPILED, "cosim/_pad_kernels.pyx is not built: reinstall (pip install -e .) with a C compiler"
     assert pad_kernels.GelForces is not pad_kernels.PyGelForces and pad_kernels.PadPressures is not pad_kernels.PyPadPressures
+    assert rows.ROWS_COMPILED, "cosim/_rows.pyx is not built: reinstall (pip install -e .) with a C compiler"
+    assert rows.RowBuilder is not rows.PyRowBuilder
 
 
 def readings(n: int, dt_s: float, ring_up: bool, seed: int):
@@ -371,3 +374,73 @@ def test_the_simulation_runs_the_compiled_pad_kernels():
     sim = CoSimulation(scenarios.get("grasp"))
     assert pad_kernels.PAD_KERNELS_COMPILED
     assert type(sim.bridge._gel_forces) is pad_kernels.GelForces and type(sim._pressure_reader) is pad_kernels.PadPressures
+
+
+# ---------------------------------------------------------------------------------------
+# A control step's recorded row.
+# ---------------------------------------------------------------------------------------
+
+
+class _BothRows:
+    """Makes each row with the reference and the twin, bound to the same arrays, and keeps both."""
+
+    def __init__(self, sim):
+        args = sim._row_builder.__reduce__()[1]
+        self.builders = [cls(*args) for cls in (rows.PyRowBuilder, rows.RowBuilder)]
+        for b in self.builders:
+            b.bind(sim._object_xpos, sim._object_qvel, sim._sensordata)
+        self.pairs = []
+
+    def row(self, *args):
+        made = [b.row(*args) for b in self.builders]
+        self.pairs.append((repr(made[0]), repr(made[1]), [type(v) for v in made[0]] == [type(v) for v in made[1]]))
+        self.length = len(made[0])
+        return made[0]
+
+
+@pytest.mark.parametrize(
+    "overrides",
+    [
+        [],
+        ["object.crush_force_n=0.5"],  # the fingers' peak forces in the row
+        ["sensor.coverage_mm=(2.0, 4.5)", "physics.pad_segments=3"],  # profiles and cells of several values
+    ],
+)
+def test_the_compiled_row_is_the_references_row(overrides):
+    from piezotip import scenarios
+    from piezotip.cosim.loop import CoSimulation
+
+    sim = CoSimulation(scenarios.get("grasp", overrides))
+    assert type(sim._row_builder) is rows.RowBuilder
+    both = sim._row_builder = _BothRows(sim)
+    for _ in range(900):  # through touch, squeeze and the lift
+        sim.advance()
+    differing = [k for k, (a, b, types) in enumerate(both.pairs) if a != b or not types]
+    assert not differing, f"{len(differing)} rows differ, first at step {differing[0]}"
+    assert len(both.pairs) == 900 and both.length == len(sim.columns)
+
+
+def test_the_row_equivalence_test_can_fail():
+    from piezotip import scenarios
+    from piezotip.cosim.loop import CoSimulation
+
+    sim = CoSimulation(scenarios.get("grasp"))
+    both = _BothRows(sim)
+    args = list(sim._row_builder.__reduce__()[1])
+    args[7] = {status: index + 1.0 for status, index in args[7].items()}  # another status numbering
+    both.builders[1] = rows.RowBuilder(*args)
+    both.builders[1].bind(sim._object_xpos, sim._object_qvel, sim._sensordata)
+    sim._row_builder = both
+    sim.advance()
+    assert both.pairs[0][0] != both.pairs[0][1]
+
+
+def test_the_row_builders_check_their_arrays_as_the_reference_does():
+    for cls in (rows.PyRowBuilder, rows.RowBuilder):
+        builder = cls(["left_pad"], [5], [1, 3], 7, False, [1.0], 1e5, {"ok": 0.0})
+        with pytest.raises(ValueError, match="outside"):
+            builder.bind(np.zeros(3), np.zeros(6), np.zeros(8))
+        with pytest.raises(ValueError, match="contiguous"):
+            builder.bind(np.zeros(6)[::2], np.zeros(6), np.zeros(12))
+        with pytest.raises(RuntimeError, match="bind"):
+            pickle.loads(pickle.dumps(builder)).row(0.0, None, None, [[1.0]], [[1.0]], ())
