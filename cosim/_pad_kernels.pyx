@@ -16,7 +16,12 @@ from _twin_helpers cimport UniformPairs, copy_doubles, copy_indices, uniform_pai
 
 from piezotip.sensor import lookup as _lookup
 
-from . import pad_kernels as _py
+
+def _reference():
+    # Imported when first needed, not with this module (see cosim/_rows.pyx).
+    from . import pad_kernels
+
+    return pad_kernels
 
 
 cdef class GelForces:
@@ -42,7 +47,7 @@ cdef class GelForces:
         PyMem_Free(self._qspring)
 
     def __init__(self, table, qadr, dof, jnt, area_m2, qspring_m):
-        reference = _py.PyGelForces(table, qadr, dof, jnt, area_m2, qspring_m)  # checks
+        reference = _reference().PyGelForces(table, qadr, dof, jnt, area_m2, qspring_m)  # checks
         self._args, self._reference = (table, qadr, dof, jnt, area_m2, qspring_m), reference
         strips = reference._strips
         self._n = len(strips)
@@ -103,7 +108,7 @@ cdef class PadPressures:
         PyMem_Free(self._values)
 
     def __init__(self, table, qadr, per_pad, element, weights):
-        reference = _py.PyPadPressures(table, qadr, per_pad, element, weights)  # checks
+        reference = _reference().PyPadPressures(table, qadr, per_pad, element, weights)  # checks
         self._args, self._reference = (table, qadr, per_pad, element, weights), reference
         uniform_pairs_from(&self._t, _lookup.PyUniformPairTable(*table))
         self._n, self._per_pad = len(reference._qadr), reference._per_pad

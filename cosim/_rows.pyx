@@ -9,11 +9,18 @@ where the reference converts, ``sqrt`` and ``fabs`` as ``math.sqrt`` and ``abs``
 than one cell.
 """
 
+from cpython.float cimport PyFloat_AS_DOUBLE, PyFloat_CheckExact
 from libc.math cimport fabs, sqrt
 
 import numpy as np
 
-from . import rows as _py
+
+def _reference():
+    # Imported when first needed, not with this module: cosim/rows.py imports this module at its
+    # end, under either of its names (piezotip.cosim.rows, or cosim.rows from the repository).
+    from . import rows
+
+    return rows
 
 
 cdef class RowBuilder:
@@ -29,7 +36,7 @@ cdef class RowBuilder:
     cdef object _args, _reference
 
     def __init__(self, pads, contact_adr, finger_adr, table_adr, track_peaks, cell_fractions, stop_pressure_pa, status_index):
-        reference = _py.PyRowBuilder(pads, contact_adr, finger_adr, table_adr, track_peaks, cell_fractions, stop_pressure_pa, status_index)
+        reference = _reference().PyRowBuilder(pads, contact_adr, finger_adr, table_adr, track_peaks, cell_fractions, stop_pressure_pa, status_index)
         self._args, self._reference = (pads, contact_adr, finger_adr, table_adr, track_peaks, cell_fractions, stop_pressure_pa, status_index), reference
         self._pads, self._contact_adr, self._fractions = reference._pads, reference._contact_adr, reference._fractions
         self._left, self._right = reference._finger_adr
@@ -114,3 +121,24 @@ cdef class RowBuilder:
 
     def __reduce__(self):
         return RowBuilder, self._args
+
+
+def stack_rows(list rows, Py_ssize_t n_columns):
+    """:func:`cosim.rows.py_stack_rows`: the rows (lists of Python floats) as one float64 array;
+    anything else (another length, a value not a float) goes to the reference, with its errors."""
+    cdef Py_ssize_t i, j, n = len(rows)
+    cdef list row
+    cdef double[:, ::1] out
+    for i in range(n):
+        if type(rows[i]) is not list or len(<list> rows[i]) != n_columns:
+            return _reference().py_stack_rows(rows, n_columns)
+    table = np.empty((n, n_columns))
+    out = table
+    for i in range(n):
+        row = <list> rows[i]
+        for j in range(n_columns):
+            value = row[j]
+            if not PyFloat_CheckExact(value):
+                return _reference().py_stack_rows(rows, n_columns)
+            out[i, j] = PyFloat_AS_DOUBLE(value)
+    return table

@@ -23,6 +23,8 @@ from pathlib import Path
 
 import numpy as np
 
+from .rows import stack_rows
+
 _META = "meta.json"
 
 
@@ -108,7 +110,7 @@ class Recorder:
         """Write the pending rows as one more chunk file (and append them to the CSV)."""
         if not self._chunk or self._columns is None:
             return
-        chunk = np.asarray(self._chunk, dtype=float)
+        chunk = stack_rows(self._chunk, len(self._columns))  # numpy's conversion, compiled where built
         self._chunk = []
         index = len(self._flushed)
         self._flushed.append(chunk)

@@ -444,3 +444,20 @@ def test_the_row_builders_check_their_arrays_as_the_reference_does():
             builder.bind(np.zeros(6)[::2], np.zeros(6), np.zeros(12))
         with pytest.raises(RuntimeError, match="bind"):
             pickle.loads(pickle.dumps(builder)).row(0.0, None, None, [[1.0]], [[1.0]], ())
+
+
+def test_the_compiled_row_stacking_is_numpys():
+    rng = np.random.default_rng(5)
+    chunk = [rng.standard_normal(39).tolist() for _ in range(500)]
+    chunk[3][4], chunk[7][0], chunk[9][1] = math.nan, -0.0, math.inf
+    ref, cmp = rows.py_stack_rows(chunk, 39), rows.stack_rows(chunk, 39)
+    assert cmp.dtype == ref.dtype == np.float64 and cmp.shape == ref.shape == (500, 39)
+    assert cmp.tobytes() == ref.tobytes()
+    assert rows.stack_rows([], 39).shape == (0, 39)
+    mixed = [[1, 2.5, True]]  # not all floats: numpy's own conversion
+    assert rows.stack_rows(mixed, 3).tobytes() == np.asarray(mixed, dtype=float).tobytes()
+    for stack in (rows.py_stack_rows, rows.stack_rows):
+        with pytest.raises(ValueError):
+            stack([[1.0, 2.0], [1.0]], 2)
+        with pytest.raises(ValueError, match="rows of 3 values"):
+            stack([[1.0, 2.0]], 3)
