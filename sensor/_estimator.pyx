@@ -37,9 +37,14 @@ cdef inline double interp(double x, const double *xp, const double *fp, Py_ssize
     return NAN
 
 
+cdef extern from "Python.h":
+    int PyObject_GenericSetDict(object, object, void *) except -1
+
+
 cdef inline object estimate(double pressure_pa, double uncertainty_pa, str status):
+    """sensor.estimator._estimate: the Estimate's fields set at once (its instance dict)."""
     e = _new(Estimate)
-    e.__dict__.update(pressure_pa=pressure_pa, uncertainty_pa=uncertainty_pa, status=status)
+    PyObject_GenericSetDict(e, {"pressure_pa": pressure_pa, "uncertainty_pa": uncertainty_pa, "status": status}, NULL)
     return e
 
 

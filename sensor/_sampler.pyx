@@ -34,6 +34,7 @@ from . import resonator as _res
 
 
 cdef extern from "Python.h":
+    int PyObject_GenericSetDict(object, object, void *) except -1
     Py_complex PyComplex_AsCComplex(object) except *  # an error is raised, not ignored
     Py_complex _Py_c_sum(Py_complex, Py_complex)
     Py_complex _Py_c_diff(Py_complex, Py_complex)
@@ -204,19 +205,21 @@ cdef class ModeSampler:
         phase = -atan2_py(env.imag, env.real) if v1_true > 0 else 0.0
         v1 = cabs_py(iq)
         new_envelope = complex(env.real, env.imag)
+        # The Reading's fields set at once (its instance dict, in the dataclass's field order),
+        # as sensor.resonator._reading does, without a keyword dict in between.
         reading = _new(Reading)
-        reading.__dict__.update(
-            mode=self.mode,
-            v1=v1,
-            v1_true=v1_true,
-            phase_rad=phase,
-            time_in_mode_s=time_in_mode_s,
-            tau_s=tau,
-            settled=settled,
-            kappa=kappa,
-            gamma=gamma,
-            iq=complex(iq.real, iq.imag) if noise_iq is not None else new_envelope,
-        )
+        PyObject_GenericSetDict(reading, {
+            "mode": self.mode,
+            "v1": v1,
+            "v1_true": v1_true,
+            "phase_rad": phase,
+            "time_in_mode_s": time_in_mode_s,
+            "tau_s": tau,
+            "settled": settled,
+            "kappa": kappa,
+            "gamma": gamma,
+            "iq": complex(iq.real, iq.imag) if noise_iq is not None else new_envelope,
+        }, NULL)
         return reading, new_envelope
 
     def __reduce__(self):
