@@ -358,7 +358,11 @@ def test_stretch_property_any_gel_any_pressure(log_p, log_e, log_jm, index):
     long = np.geomspace(max(p, 1e-300) / 10, max(p, 1e-300) * 10, 100)
     long[index] = p
     assert_allclose(stretch_from_pressure(long, gel)[index], lam, rtol=2 * EPS, atol=0)
-    if jm >= 0.01:  # the bracketed Newton is good to 1e-14 there (see the agreement test)
+    # The bracketed Newton (the reference, and the fallback) is good to 1e-14 there (see the
+    # agreement test), up to 1e10 E: past it the gel sits at its locking stretch to 1e-10 and the
+    # reference's residual, next to the law's pole, limits it to about 1e-13 (measured: 1.2e-13
+    # at 5e13 E, J_m = 7.6); the fast inversion is held to the 60-digit one there, above.
+    if jm >= 0.01 and p <= 1e10 * e:
         assert_allclose(lam, float(gel_module._stretch_bracketed(np.array(p), gel)), rtol=1e-14)
 
 
