@@ -30,7 +30,7 @@ from piezotip.sensor.unit_channel import UnitChannel
 from .control import Command, Controller, Observation, PadSignal, RobotLimits, ScriptedGrasp, make_observation, make_pad_signal
 from .pads import PAD_NAMES, PAD_SIDES, PadBridge, PadGeometry
 from .recorder import Recorder
-from .rows import RowBuilder
+from .rows import _STATUS_INDEX, PEAK_COLUMNS, STATUS_CODES, TRUTH_COLUMNS, RowBuilder, row_columns  # noqa: F401 - importable from here as before
 from .scene import build_scene, check_reach, finite_state, reset_home, robot_limits
 
 
@@ -285,26 +285,7 @@ class CoSimulation:
         self._p_stop = float(self.fingertip.gel.pressure_from_indentation(geometry.stop_m)) * (1 - 1e-9)
         self._object_dof_i, self._lift_dof_i = int(self._object_dof), int(self._lift_dof)
         self._finger_list, self._table_i = [int(a) for a in self._finger_adr], int(self._table_adr)
-        self.columns = ["time_s", "phase", "lift_m", "opening_m", "grip_force_n", "lift_force_n", *TRUTH_COLUMNS]
-        if self._track_peaks:
-            self.columns += PEAK_COLUMNS
-        for pad in self.pads:
-            side = pad.removesuffix("_pad")
-            names = (
-                "true_pressure_pa",
-                "coverage_pressure_pa",
-                "contact_force_n",
-                "estimate_pa",
-                "uncertainty_pa",
-                "status",
-                "mode",
-                "v1",
-                "v1_true",
-                "settled",
-                "bottomed",
-            )
-            self.columns += [f"{side}_{name}" for name in names]
-            self.columns += [f"{side}_cell{k}_pressure_pa" for k in range(geometry.segments)]
+        self.columns = row_columns(self.pads, geometry.segments, self._track_peaks)
         self._row_builder = RowBuilder(
             self.pads,
             self._contact_list,
@@ -576,28 +557,4 @@ STAGE_METHODS = {
     "record": ("_record",),
 }
 
-#: The recorded ground truth (the referee's; never in an Observation): the object's centre
-#: (m), its vertical velocity, speed and spin (m/s, rad/s), the table's vertical push on it and
-#: each finger's net contact force (N).
-TRUTH_COLUMNS = (
-    "object_height_m",
-    "object_x_m",
-    "object_y_m",
-    "object_vz_m_s",
-    "object_speed_m_s",
-    "object_spin_rad_s",
-    "table_force_n",
-    "left_finger_force_n",
-    "right_finger_force_n",
-)
-
-#: Each finger's largest net contact force on the object over the period's physics steps (N),
-#: recorded for an object with a crush limit (the referee's crush test): a force can peak
-#: between two periods' samples.
-PEAK_COLUMNS = ("left_finger_peak_force_n", "right_finger_peak_force_n")
-
 _NO_SENSORS = int(mujoco.mjtDisableBit.mjDSBL_SENSOR)
-
-#: Readout statuses, recorded as their index (``{side}_status`` columns).
-STATUS_CODES = ("ok", "below_detection", "saturated", "settling")
-_STATUS_INDEX = {status: float(i) for i, status in enumerate(STATUS_CODES)}

@@ -1,4 +1,4 @@
-"""One control step's recorded row, in the record's column order (:attr:`cosim.loop.CoSimulation.columns`).
+"""One control step's recorded row, and its columns' names (:func:`row_columns`).
 
 Every control step the co-simulation records what happened: the time, the controller's phase,
 what the robot senses of itself, the ground truth of the object (its pose, speed and spin,
@@ -34,7 +34,69 @@ import numpy as np
 
 from piezotip.sensor.compiled import twin
 
-__all__ = ["ROWS_COMPILED", "PyRowBuilder", "RowBuilder", "py_stack_rows", "stack_rows"]
+__all__ = [
+    "PEAK_COLUMNS",
+    "ROWS_COMPILED",
+    "STATUS_CODES",
+    "TRUTH_COLUMNS",
+    "PyRowBuilder",
+    "RowBuilder",
+    "py_stack_rows",
+    "row_columns",
+    "stack_rows",
+]
+
+#: The recorded ground truth (the referee's; never in an Observation): the object's centre
+#: (m), its vertical velocity, speed and spin (m/s, rad/s), the table's vertical push on it and
+#: each finger's net contact force (N).
+TRUTH_COLUMNS = (
+    "object_height_m",
+    "object_x_m",
+    "object_y_m",
+    "object_vz_m_s",
+    "object_speed_m_s",
+    "object_spin_rad_s",
+    "table_force_n",
+    "left_finger_force_n",
+    "right_finger_force_n",
+)
+
+#: Each finger's largest net contact force on the object over the period's physics steps (N),
+#: recorded for an object with a crush limit (the referee's crush test): a force can peak
+#: between two periods' samples.
+PEAK_COLUMNS = ("left_finger_peak_force_n", "right_finger_peak_force_n")
+
+#: Readout statuses, recorded as their index (``{side}_status`` columns).
+STATUS_CODES = ("ok", "below_detection", "saturated", "settling")
+_STATUS_INDEX = {status: float(i) for i, status in enumerate(STATUS_CODES)}
+
+#: Per instrumented pad, its columns before the element's cells (``{side}_{name}``).
+PAD_COLUMNS = (
+    "true_pressure_pa",
+    "coverage_pressure_pa",
+    "contact_force_n",
+    "estimate_pa",
+    "uncertainty_pa",
+    "status",
+    "mode",
+    "v1",
+    "v1_true",
+    "settled",
+    "bottomed",
+)
+
+
+def row_columns(pads: Sequence[str], segments: int, track_peaks: bool) -> list[str]:
+    """The record's column names, in the order of :meth:`PyRowBuilder.row`'s values: ``pads``
+    the instrumented pads (``left_pad``, ...), ``segments`` the element's cells per pad."""
+    columns = ["time_s", "phase", "lift_m", "opening_m", "grip_force_n", "lift_force_n", *TRUTH_COLUMNS]
+    if track_peaks:
+        columns += PEAK_COLUMNS
+    for pad in pads:
+        side = pad.removesuffix("_pad")
+        columns += [f"{side}_{name}" for name in PAD_COLUMNS]
+        columns += [f"{side}_cell{k}_pressure_pa" for k in range(segments)]
+    return columns
 
 
 def py_stack_rows(rows: Sequence[Sequence[float]], n_columns: int) -> np.ndarray:
