@@ -263,11 +263,12 @@ class CoSimulation:
         element = np.flatnonzero(geometry.on_element).tolist()[::-1]  # root to tip
         read = sorted({*element, *(i for row in self._cell_weights for i, _ in row)})
         at = {strip: k for k, strip in enumerate(read)}
-        self._pad_strips = [row * n_strips + strip for row in self._pad_rows for strip in read]
-        self._strips_read = len(read)
-        self._element_of_pad = [at[i] for i in element]
-        self._weights_of_pad = [[(at[i], w) for i, w in row] for row in self._cell_weights]
-        self._pressure_reader = self.bridge.pressure_reader(self._pad_strips, self._strips_read, self._element_of_pad, self._weights_of_pad)
+        self._pressure_reader = self.bridge.pressure_reader(
+            [row * n_strips + strip for row in self._pad_rows for strip in read],
+            len(read),
+            [at[i] for i in element],
+            [[(at[i], w) for i, w in row] for row in self._cell_weights],
+        )
         self._pressure_reader.bind(d.qpos)
         self._channel_list = [self.channels[pad] for pad in self.pads]
         self._qpos, self._actuator_force = memoryview(d.qpos), memoryview(d.actuator_force)
@@ -275,25 +276,22 @@ class CoSimulation:
         self._ctrl, self._forcerange = memoryview(d.ctrl), m.actuator_forcerange  # a memoryview's item is set faster
         self._warning_number = d.warning.number  # a live view of the warnings' counters
         self._mj_step = mujoco.mj_step  # watch_mj_step puts an instrument in front of it (not copied)
-        self._object_body = m.body("object").id
-        # The object's position and velocity as live views of their own (for _record: indexing
-        # the whole arrays made a new view every step).
-        self._object_xpos = d.xpos[self._object_body]
+        # The object's position and velocity as live views of their own (the record's).
+        self._object_xpos = d.xpos[m.body("object").id]
         self._object_qvel = d.qvel[int(self._object_dof) : int(self._object_dof) + 6]
-        self._contact_list = [int(self._contact_adr[pad]) for pad in self.pads]
         self._lift_q, self._finger_q = int(self._lift_qpos), [int(a) for a in self._finger_qpos]
-        self._p_stop = float(self.fingertip.gel.pressure_from_indentation(geometry.stop_m)) * (1 - 1e-9)
         self._object_dof_i, self._lift_dof_i = int(self._object_dof), int(self._lift_dof)
         self._finger_list, self._table_i = [int(a) for a in self._finger_adr], int(self._table_adr)
         self.columns = row_columns(self.pads, geometry.segments, self._track_peaks)
+        stop_pa = float(self.fingertip.gel.pressure_from_indentation(geometry.stop_m)) * (1 - 1e-9)  # the housing's stop
         self._row_builder = RowBuilder(
             self.pads,
-            self._contact_list,
+            [int(self._contact_adr[pad]) for pad in self.pads],
             self._finger_list,
             self._table_i,
             self._track_peaks,
             self._cell_fractions,
-            self._p_stop,
+            stop_pa,
             _STATUS_INDEX,
         )
         self._row_builder.bind(self._object_xpos, self._object_qvel, self._sensordata)
