@@ -461,3 +461,49 @@ def test_the_compiled_row_stacking_is_numpys():
             stack([[1.0, 2.0], [1.0]], 2)
         with pytest.raises(ValueError, match="rows of 3 values"):
             stack([[1.0, 2.0]], 3)
+
+
+def test_each_value_of_a_row_lands_under_its_column_name():
+    """row_columns and the row builders agree, column by column: a row made from distinct, known
+    values reads each back under its name, in both builders; the gel sits on its stop exactly
+    from the stop's pressure on (``bottomed``)."""
+    from types import SimpleNamespace as NS
+
+    stop_pa = 1000.0
+    columns = rows.row_columns(["left_pad", "right_pad"], 2, True)
+    status_index = {status: float(i) for i, status in enumerate(rows.STATUS_CODES)}
+    xpos, qvel = np.array([0.1, 0.2, 0.3]), np.array([0.0, 0.0, -2.0, 3.0, 0.0, 4.0])
+    sensordata = np.arange(20, dtype=float) - 30.0  # negative: the row records magnitudes
+    obs = NS(
+        lift_pos_m=0.01,
+        opening_m=0.02,
+        grip_force_n=1.5,
+        lift_force_n=2.5,
+        pads={
+            "left_pad": NS(
+                reading=NS(mode=2, v1=0.8, v1_true=0.81, settled=True),
+                estimate=NS(pressure_pa=500.0, uncertainty_pa=5.0, status="ok"),
+            ),
+            "right_pad": NS(
+                reading=NS(mode=3, v1=0.9, v1_true=0.91, settled=False),
+                estimate=NS(pressure_pa=math.nan, uncertainty_pa=math.nan, status="settling"),
+            ),
+        },
+    )
+    command = NS(phase=4)
+    profiles, cells = [[999.0, 998.0], [1000.0, 10.0]], [[100.0, 300.0], [7.0, 9.0]]
+    for cls in (rows.PyRowBuilder, rows.RowBuilder):
+        builder = cls(["left_pad", "right_pad"], [5, 6], [1, 3], 7, True, [0.25, 0.75], stop_pa, status_index)
+        builder.bind(xpos, qvel, sensordata)
+        row = dict(zip(columns, builder.row(1.25, obs, command, profiles, cells, (11.0, 12.0)), strict=True))
+        assert (row["time_s"], row["phase"], row["lift_m"], row["opening_m"]) == (1.25, 4.0, 0.01, 0.02)
+        assert (row["object_height_m"], row["object_x_m"], row["object_y_m"], row["object_vz_m_s"]) == (0.3, 0.1, 0.2, -2.0)
+        assert (row["object_speed_m_s"], row["object_spin_rad_s"]) == (2.0, 5.0)
+        assert (row["table_force_n"], row["left_finger_force_n"], row["right_finger_force_n"]) == (21.0, 29.0, 27.0)
+        assert (row["left_finger_peak_force_n"], row["right_finger_peak_force_n"]) == (11.0, 12.0)
+        assert (row["left_true_pressure_pa"], row["left_coverage_pressure_pa"], row["left_contact_force_n"]) == (998.5, 250.0, 25.0)
+        assert (row["left_estimate_pa"], row["left_status"], row["left_mode"], row["left_settled"]) == (500.0, 0.0, 2.0, 1.0)
+        assert (row["left_v1"], row["left_v1_true"], row["left_cell1_pressure_pa"]) == (0.8, 0.81, 998.0)
+        assert row["left_bottomed"] == 0.0 and row["right_bottomed"] == 1.0  # 999 Pa below the stop, 1000 Pa on it
+        assert math.isnan(row["right_estimate_pa"]) and row["right_status"] == float(rows.STATUS_CODES.index("settling"))
+        assert (row["right_coverage_pressure_pa"], row["right_cell0_pressure_pa"], row["right_settled"]) == (8.5, 1000.0, 0.0)
