@@ -237,6 +237,7 @@ class CoSimulation:
         "_ctrl",
         "_forcerange",
         "_warning_number",
+        "_opt",
         "_object_xpos",
         "_object_qvel",
         "_mj_step",
@@ -272,9 +273,11 @@ class CoSimulation:
         self._pressure_reader.bind(d.qpos)
         self._channel_list = [self.channels[pad] for pad in self.pads]
         self._qpos, self._actuator_force = memoryview(d.qpos), memoryview(d.actuator_force)
-        self._qvel, self._sensordata = d.qvel, d.sensordata
-        self._ctrl, self._forcerange = memoryview(d.ctrl), m.actuator_forcerange  # a memoryview's item is set faster
-        self._warning_number = d.warning.number  # a live view of the warnings' counters
+        # Memoryviews: an item is read and set, and a list made, faster than through numpy.
+        self._qvel, self._sensordata = memoryview(d.qvel), d.sensordata
+        self._ctrl, self._forcerange = memoryview(d.ctrl), m.actuator_forcerange
+        self._warning_number = memoryview(d.warning.number)  # a live view of the warnings' counters
+        self._opt = m.opt  # each m.opt builds a new wrapper (0.35 us): the loop sets its flags twice a period
         self._mj_step = mujoco.mj_step  # watch_mj_step puts an instrument in front of it (not copied)
         # The object's position and velocity as live views of their own (the record's).
         self._object_xpos = d.xpos[m.body("object").id]
@@ -350,7 +353,7 @@ class CoSimulation:
         # MuJoCo's sensors (the referee's ground truth, read by _record alone) are computed in
         # the period's last substep only: they never act on the dynamics.  For an object with a
         # crush limit they run in every substep, for the fingers' peak force (PEAK_COLUMNS).
-        opt = m.opt
+        opt = self._opt
         flags = opt.disableflags  # the model's own, between periods (kept in every substep)
         track = self._track_peaks
         inner = flags if track else flags | _NO_SENSORS  # the sensors of the period's other substeps
@@ -360,15 +363,14 @@ class CoSimulation:
         last = self.substeps
         if last > 1 and inner != flags:
             opt.disableflags = inner  # set twice a period, not every substep
+        # With gel_update=period the gel's law is linearized once per control period (k = 1):
+        # the bridge's tangent stiffness and offset force make MuJoCo apply
+        # -A P(q0) - A P'(q0) (q - q0) at every substep (implicitly), no gel law in Python between.
+        every_substep = self._gel_every_substep
         for k in range(1, last + 1):
             ctrl[act] = start + k * delta
             ctrl[fingers] = f_start + k * f_delta
-            if self._gel_every_substep:
-                apply_gel_forces(d)
-            elif k == 1:
-                # The gel's law linearized once per control period: the bridge's tangent
-                # stiffness and offset force make MuJoCo apply -A P(q0) - A P'(q0) (q - q0) at
-                # every substep (implicitly), with no gel law in Python in between.
+            if k == 1 or every_substep:
                 apply_gel_forces(d)
             if k == last:
                 opt.disableflags = flags
@@ -418,7 +420,7 @@ class CoSimulation:
             opening_m=qpos[self._finger_q[0]] + qpos[self._finger_q[1]],
             lift_force_n=force[self._lift_act],
             grip_force_n=-force[self._finger_act],
-            lift_vel_m_s=float(self._qvel[self._lift_dof_i]),
+            lift_vel_m_s=self._qvel[self._lift_dof_i],
         )
 
     def _actuate(self, command: Command) -> None:

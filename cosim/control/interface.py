@@ -165,9 +165,7 @@ class Why:
     @classmethod
     def join(cls, pairs: list) -> Why:
         """'pad: why; pad: why', lazily."""
-        why = cls("")
-        why.template, why.args = None, tuple(pairs)
-        return why
+        return cls(None, *pairs)
 
 
 _new = object.__new__

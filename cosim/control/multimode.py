@@ -145,6 +145,10 @@ class MultimodeGrasp:
         lowest, highest = min(c.modes), max(c.modes)
         sigma = fingertip.sigma(lowest)
         self.touch = {pad: TouchDetector(sigma, c.cusum_drift_sigma, c.cusum_alarm_sigma, c.touch_single_sigma) for pad in pads}
+        # Per pad, its selector and the readings it takes as in range, [0, 1] widened by
+        # out_of_range_sigma of the lowest mode's sigma (V_1 units): the element is faulty outside.
+        bound = c.out_of_range_sigma
+        self._reading_bounds = {pad: (self.selectors[pad], -bound * sigma, 1 + bound * sigma) for pad in pads}
         sel = self.selectors[pads[0]]
         area = robot.pad_area_m2
         #: The most grip whose pressure the fingertip still measures, N per finger.
@@ -262,22 +266,21 @@ class MultimodeGrasp:
         self._last_vel = obs.lift_vel_m_s
         self._raw_load_n = self.robot.lift_load_n(self.lift_target, obs.lift_pos_m, obs.lift_vel_m_s, accel) - self._baseline_n
         self._load_n += (self._raw_load_n - self._load_n) * min(1.0, dt_s / self.cfg.load_filter_s)
-        handler = _HANDLERS[self.phase]
-        handler(self, obs, t, dt_s)
+        _HANDLERS[self.phase](self, obs, t, dt_s)
         return make_command(self.lift_target, self.opening_target, self.grip_n, modes, self.phase, Why.join(reasons))
 
     def _read_fingertips(self, obs: Observation, t: float) -> tuple[dict[str, int], list]:
         """Check each reading's range and choose each fingertip's next mode."""
         modes, reasons = {}, []
-        bound = self.cfg.out_of_range_sigma
         for pad, sig in obs.pads.items():
-            sel = self.selectors[pad]
-            sigma = self.touch[pad].sigma
-            v1 = sig.reading.v1
-            if not (-bound * sigma <= v1 <= 1 + bound * sigma) and self.phase is not Phase.FAULT:
+            sel, low, high = self._reading_bounds[pad]
+            reading = sig.reading
+            v1 = reading.v1
+            if not (low <= v1 <= high) and self.phase is not Phase.FAULT:
+                bound = self.cfg.out_of_range_sigma
                 self._fault(t, pad, "out_of_range", f"{pad}: reading {v1!r} outside [0, 1] by more than {bound:g} sigma")
             mode, why = sel.update(sig.estimate)
-            if mode != sig.reading.mode:
+            if mode != reading.mode:
                 self._event(t, "mode_switch", str(why), pad)
             if sel.blind and pad not in self._saturated_logged:
                 self._saturated_logged.add(pad)
@@ -706,13 +709,18 @@ class MultimodeGrasp:
         self.grip_n = min(wanted, self.grip_cap_n)
 
 
-_HANDLERS = {
-    Phase.APPROACH: MultimodeGrasp._approach,
-    Phase.CLOSE: MultimodeGrasp._close,
-    Phase.SQUEEZE: MultimodeGrasp._squeeze,
-    Phase.LIFT: MultimodeGrasp._lift,
-    Phase.HOLD: MultimodeGrasp._hold,
-    Phase.PLACE: MultimodeGrasp._place,
-    Phase.RELEASE: MultimodeGrasp._release,
-    Phase.DONE: MultimodeGrasp._done,
-}
+#: Each phase's method, indexed by the phase (an IntEnum: a tuple's index is cheaper than an
+#: enum's hash, a Python function).
+_HANDLERS = tuple(
+    {
+        Phase.APPROACH: MultimodeGrasp._approach,
+        Phase.CLOSE: MultimodeGrasp._close,
+        Phase.SQUEEZE: MultimodeGrasp._squeeze,
+        Phase.LIFT: MultimodeGrasp._lift,
+        Phase.HOLD: MultimodeGrasp._hold,
+        Phase.PLACE: MultimodeGrasp._place,
+        Phase.RELEASE: MultimodeGrasp._release,
+        Phase.DONE: MultimodeGrasp._done,
+    }.get(phase)
+    for phase in Phase
+)

@@ -88,15 +88,19 @@ class ModeSelector:
 
     def __init__(self, fingertip: Fingertip, modes: tuple[int, ...], hysteresis: float = 0.25, persist: int = 3) -> None:
         self.modes = tuple(sorted(modes))
-        # Each allowed mode's neighbours (next mode up, next mode down; None past either end),
-        # looked up on every reading rather than searched for.
-        self._neighbours = {
-            m: (self.modes[i + 1] if i + 1 < len(self.modes) else None, self.modes[i - 1] if i > 0 else None)
-            for i, m in enumerate(self.modes)
-        }
         self.fingertip, self.bands, self.p_min_pa, self.p_max_pa = allowed_ranges(fingertip, self.modes)
         # Switch pressure between consecutive allowed modes (the band edge), Pa.
         self.switch_pa = {(a[0], b[0]): a[2] for a, b in zip(self.bands, self.bands[1:], strict=False)}
+        # Each allowed mode's neighbours (next mode up, next mode down; None past either end)
+        # and its switch pressures up and down (Pa; inf and 0 past either end), looked up on
+        # every reading rather than searched for.
+        self._neighbours = {}
+        for i, m in enumerate(self.modes):
+            up = self.modes[i + 1] if i + 1 < len(self.modes) else None
+            down = self.modes[i - 1] if i > 0 else None
+            up_pa = self.switch_pa[(m, up)] if up is not None else math.inf
+            down_pa = self.switch_pa[(down, m)] if down is not None else 0.0
+            self._neighbours[m] = (up, down, up_pa, down_pa)
         self.hysteresis = hysteresis
         self.persist = persist
         self.mode = self.modes[0]
@@ -123,14 +127,12 @@ class ModeSelector:
         status = estimate.status
         if status in ("ok", "below_detection") and math.isfinite(estimate.pressure_pa):
             self.estimate_pa, self.uncertainty_pa, self.status = estimate.pressure_pa, estimate.uncertainty_pa, status
-        up, down = self._neighbours[self.mode]
+        up, down, up_pa, down_pa = self._neighbours[self.mode]
         p = self.estimate_pa
         # A saturated reading is past the switch up (P_max lies above it), a below-detection
         # one past the switch down: one streak each, whatever mix of readings makes it.
         self._saturated = self._saturated + 1 if status == "saturated" else 0
         h = self.hysteresis
-        up_pa = self.switch_pa[(self.mode, up)] if up is not None else math.inf
-        down_pa = self.switch_pa[(down, self.mode)] if down is not None else 0.0
         above = up is not None and (status == "saturated" or (status == "ok" and p > up_pa * (1 + h)))
         under = down is not None and (status == "below_detection" or (status == "ok" and p < down_pa * (1 - h)))
         self._above_switch = self._above_switch + 1 if above else 0
