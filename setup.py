@@ -3,8 +3,9 @@
 ``sensor/_inference.pyx`` (the readout's steady-reading inference), ``sensor/_lookup.pyx``
 (the pads' gel-law lookup), ``sensor/_sampler.pyx`` (a channel's reading),
 ``sensor/_estimator.pyx`` (the inverse of an inferred reading), ``cosim/_pad_kernels.pyx``
-(the gel law on the pad joints, the pads' pressure read) and ``cosim/_rows.pyx`` (a control
-step's recorded row) are statement-for-statement C twins
+(the gel law on the pad joints, the pads' pressure read), ``cosim/_rows.pyx`` (a control
+step's recorded row) and ``cosim/control/_control.pyx`` (the controller's mode selector,
+touch detector and per-step records) are statement-for-statement C twins
 of Python references (:mod:`piezotip.sensor.compiled` lists them).  They are optional: where
 they cannot be built the package installs without them and the references run (slower, the
 same numbers).
@@ -16,7 +17,12 @@ from Cython.Build import cythonize
 from setuptools import Extension, setup
 
 extensions = [
-    Extension(f"piezotip.{package}.{name}", [f"{package}/{name}.pyx"], extra_compile_args=["-O2", "-ffp-contract=off"], optional=True)
+    Extension(
+        f"piezotip.{package.replace('/', '.')}.{name}",
+        [f"{package}/{name}.pyx"],
+        extra_compile_args=["-O2", "-ffp-contract=off"],
+        optional=True,
+    )
     for package, name in (
         ("sensor", "_inference"),
         ("sensor", "_lookup"),
@@ -24,6 +30,7 @@ extensions = [
         ("sensor", "_estimator"),
         ("cosim", "_pad_kernels"),
         ("cosim", "_rows"),
+        ("cosim/control", "_control"),
     )
 ]
 

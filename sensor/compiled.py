@@ -16,7 +16,11 @@ variable ``PIEZOTIP_PURE_PYTHON=1``, the reference is, slower and with the same 
   inferred steady reading (:meth:`sensor.estimator.ModeInverse.inferred`);
 - :class:`cosim.pad_kernels.PyGelForces` and :class:`cosim.pad_kernels.PyPadPressures` /
   ``cosim/_pad_kernels.pyx``: the gel law on the pad joints, the pads' pressure read;
-- :class:`cosim.rows.PyRowBuilder` / ``cosim/_rows.pyx``: a control step's recorded row.
+- :class:`cosim.rows.PyRowBuilder` / ``cosim/_rows.pyx``: a control step's recorded row;
+- :class:`cosim.control.selector.PyModeSelector` and :class:`cosim.control.selector.PyTouchDetector`,
+  and :func:`cosim.control.interface.py_make_pad_signal`, ``py_make_observation`` and
+  ``py_make_command`` / ``cosim/control/_control.pyx``: the controller's mode selection and
+  touch detection on every reading, and the records a control step passes between stages.
 
 Their shared C (Python's float division and ``math.exp``, the uniform-grid lookup, bisection,
 tables copied into C arrays) is in ``sensor/_twin_helpers.pxd``, inline.

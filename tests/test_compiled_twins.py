@@ -8,7 +8,8 @@ mid-run) and must return the same (a_ss, gain, trusted) on every reading: the sa
 close ones.  The same for the pads' gel-law lookup (:class:`PyUniformPairTable`), a
 channel's reading (:class:`PyModeSampler`), the inverse of an inferred reading
 (:class:`PyInverseCore`), the pads' kernels (:class:`PyGelForces`, :class:`PyPadPressures`)
-and a control step's row (:class:`PyRowBuilder`).
+a control step's row (:class:`PyRowBuilder`), and the controller's mode selector, touch detector
+and per-step records (:class:`PyModeSelector`, :class:`PyTouchDetector`, ``py_make_*``).
 """
 
 from __future__ import annotations
@@ -22,6 +23,7 @@ import numpy as np
 import pytest
 
 from piezotip.cosim import pad_kernels, rows
+from piezotip.cosim.control import interface, selector
 from piezotip.cosim.pads import PadGeometry, _GelTable
 from piezotip.sensor import Fingertip, GelModel, SensorElement, estimator, inference, lookup, sampler
 from piezotip.sensor.channel import SensorChannel
@@ -49,6 +51,9 @@ def test_the_compiled_twins_are_built():
     assert pad_kernels.GelForces is not pad_kernels.PyGelForces and pad_kernels.PadPressures is not pad_kernels.PyPadPressures
     assert rows.ROWS_COMPILED, "cosim/_rows.pyx is not built: reinstall (pip install -e .) with a C compiler"
     assert rows.RowBuilder is not rows.PyRowBuilder
+    assert selector.SELECTOR_COMPILED, "cosim/control/_control.pyx is not built: reinstall (pip install -e .) with a C compiler"
+    assert selector.ModeSelector is not selector.PyModeSelector and selector.TouchDetector is not selector.PyTouchDetector
+    assert interface.INTERFACE_COMPILED and interface.make_command is not interface.py_make_command
 
 
 def readings(n: int, dt_s: float, ring_up: bool, seed: int):
@@ -507,3 +512,140 @@ def test_each_value_of_a_row_lands_under_its_column_name():
         assert row["left_bottomed"] == 0.0 and row["right_bottomed"] == 1.0  # 999 Pa below the stop, 1000 Pa on it
         assert math.isnan(row["right_estimate_pa"]) and row["right_status"] == float(rows.STATUS_CODES.index("settling"))
         assert (row["right_coverage_pressure_pa"], row["right_cell0_pressure_pa"], row["right_settled"]) == (8.5, 1000.0, 0.0)
+
+
+# -- the controller's per-reading parts (cosim/control/_control.pyx) ---------------------------
+
+
+def selector_estimates(p_max_pa: float, n: int, seed: int):
+    """Estimates a selector meets: pressures over every band (log-uniform from well under the
+    lowest mode's detection limit to past the highest's P_max), held, stepped and ramped, with
+    settling, saturated, below-detection and non-finite readings among them."""
+    from piezotip.sensor.channel import Estimate
+
+    rng = random.Random(seed)
+    p = 1.0
+    for _ in range(n):
+        roll = rng.random()
+        if roll < 0.2:
+            p = 10 ** rng.uniform(-2.0, math.log10(3.0 * p_max_pa))  # a step anywhere
+        elif roll < 0.8:
+            p *= 10 ** rng.uniform(-0.05, 0.08)  # a ramp, mostly up
+        status = rng.choices(["ok", "settling", "saturated", "below_detection", "nan"], [70, 10, 8, 8, 4])[0]
+        if status == "nan":
+            yield Estimate(math.nan, math.nan, "ok")
+        elif status == "saturated":
+            yield Estimate(math.nan, math.nan, "saturated")
+        else:
+            yield Estimate(p, 0.01 * p + 1e-3, status)
+
+
+SELECTOR_FIELDS = (
+    "mode",
+    "blind",
+    "estimate_pa",
+    "uncertainty_pa",
+    "status",
+    "trusted",
+    "empty",
+    "_saturated",
+    "_above_switch",
+    "_under_switch",
+)
+
+
+def _selector_state(sel) -> tuple:
+    return tuple(getattr(sel, name) for name in SELECTOR_FIELDS)
+
+
+def _same(a, b) -> bool:
+    """Equal, NaN equal to NaN, and of the same types."""
+    return type(a) is type(b) and (a == b or (isinstance(a, float) and math.isnan(a) and math.isnan(b)))
+
+
+@pytest.mark.parametrize(
+    ("modes", "hysteresis", "persist", "seed"),
+    [((1, 2, 3, 4), 0.25, 3, 0), ((1, 3), 0.1, 1, 1), ((2,), 0.25, 3, 2), ((1, 2, 3, 4), 0.0, 2, 3)],
+)
+def test_the_compiled_selector_decides_as_the_reference(modes, hysteresis, persist, seed):
+    tip = Fingertip()
+    ref, cmp = selector.PyModeSelector(tip, modes, hysteresis, persist), selector.ModeSelector(tip, modes, hysteresis, persist)
+    assert (cmp.modes, cmp.bands, cmp.p_min_pa, cmp.p_max_pa, cmp.switch_pa) == (
+        ref.modes,
+        ref.bands,
+        ref.p_min_pa,
+        ref.p_max_pa,
+        ref.switch_pa,
+    )
+    switches = 0
+    for k, estimate in enumerate(selector_estimates(ref.p_max_pa[max(modes)], 3000, seed)):
+        if k == 1500:
+            cmp = copy.deepcopy(cmp)  # a copy goes on as the original
+        (mode_r, why_r), (mode_c, why_c) = ref.update(estimate), cmp.update(estimate)
+        assert (mode_c, str(why_c)) == (mode_r, str(why_r)), k
+        assert type(mode_c) is type(mode_r) and type(why_c) is type(why_r)
+        state_r, state_c = _selector_state(ref), _selector_state(cmp)
+        assert all(_same(a, b) for a, b in zip(state_r, state_c, strict=True)), (k, state_r, state_c)
+        switches += str(why_r).startswith("switch")
+    assert switches >= (20 if len(modes) > 1 else 0)  # the sequence went through the bands
+
+
+def test_the_compiled_touch_detector_alarms_as_the_reference():
+    rng = random.Random(7)
+    for drift, alarm, single in ((0.5, 8.0, 6.0), (0.0, 3.0, 1e9), (2.0, 1e9, 4.0)):
+        ref, cmp = selector.PyTouchDetector(1e-3, drift, alarm, single), selector.TouchDetector(1e-3, drift, alarm, single)
+        for _ in range(20):
+            v1 = 1.0 + rng.gauss(0.0, 1e-3)
+            ref.learn(v1)
+            cmp.learn(v1)
+        assert cmp.baseline == ref.baseline and cmp._count == ref._count and cmp._sum == ref._sum
+        for k in range(400):
+            v1 = 1.0 - 2e-5 * k + rng.gauss(0.0, 1e-3)  # a slow drift, then touched
+            assert cmp.update(v1) is ref.update(v1)
+            assert (cmp.score, cmp.touched) == (ref.score, ref.touched), k
+            if k == 300:
+                ref.rearm()
+                cmp.rearm()
+                cmp = pickle.loads(pickle.dumps(cmp))
+        assert ref.touched
+    for cls in (selector.PyTouchDetector, selector.TouchDetector):
+        detector = cls(0.0)
+        detector.learn(1.0)
+        with pytest.raises(ZeroDivisionError):
+            detector.update(0.5)
+
+
+def test_the_selector_equivalence_test_can_fail():
+    """A selector with another hysteresis decides otherwise on the same estimates."""
+    tip = Fingertip()
+    ref, other = selector.PyModeSelector(tip, (1, 2, 3, 4)), selector.ModeSelector(tip, (1, 2, 3, 4), hysteresis=0.3)
+    decisions = [(ref.update(e)[0], other.update(e)[0]) for e in selector_estimates(ref.p_max_pa[4], 3000, 0)]
+    assert any(a != b for a, b in decisions)
+
+
+def test_the_compiled_records_are_the_dataclasses():
+    from dataclasses import FrozenInstanceError
+
+    from piezotip.cosim.control import Command, Observation, PadSignal, Phase
+    from piezotip.sensor.channel import Estimate, Reading
+
+    reading = Reading(2, 0.9, 0.91, -0.1, 1.0, 0.2, True, 1e3, 2.0, 0.9 + 0.01j)
+    estimate = Estimate(120.0, 3.0, "ok")
+    pads = {"left_pad": None}
+    made = {
+        "signal": ((reading, estimate), PadSignal, interface.py_make_pad_signal, interface.make_pad_signal),
+        "observation": ((1.5, pads, 0.02, 0.05, 3.0, 2.0, -0.01), Observation, interface.py_make_observation, interface.make_observation),
+        "default velocity": ((1.5, pads, 0.02, 0.05, 3.0, 2.0), Observation, interface.py_make_observation, interface.make_observation),
+        "command": ((0.03, 0.0, 4.0, {"left_pad": 2}, Phase.LIFT, "squeeze"), Command, interface.py_make_command, interface.make_command),
+    }
+    for name, (args, cls, reference, compiled) in made.items():
+        expected = cls(*args)
+        for make in (reference, compiled):
+            record = make(*args)
+            assert type(record) is cls and record == expected, name
+            assert [type(getattr(record, f)) for f in expected.__dataclass_fields__] == [
+                type(getattr(expected, f)) for f in expected.__dataclass_fields__
+            ]
+            with pytest.raises(FrozenInstanceError):
+                record.__setattr__(next(iter(expected.__dataclass_fields__)), 0.0)
+            assert pickle.loads(pickle.dumps(record)) == expected

@@ -13,6 +13,7 @@ from dataclasses import dataclass, field
 from typing import Protocol, runtime_checkable
 
 from piezotip.sensor.channel import Estimate, Reading
+from piezotip.sensor.compiled import twin
 
 from .phases import Phase
 
@@ -171,17 +172,18 @@ class Why:
 _new = object.__new__
 
 
-def make_pad_signal(reading: Reading, estimate: Estimate) -> PadSignal:
+def py_make_pad_signal(reading: Reading, estimate: Estimate) -> PadSignal:
     """``PadSignal(reading, estimate)`` for the per-step path: a frozen dataclass's __init__
     sets each field through object.__setattr__; this fills the instance's dict at once (the
-    result is an ordinary, equal, frozen instance; tests check it)."""
+    result is an ordinary, equal, frozen instance; tests check it).  The reference of the
+    compiled :func:`make_pad_signal` (``cosim/control/_control.pyx``), as are the two below."""
     s = _new(PadSignal)
     s.__dict__.update(reading=reading, estimate=estimate)
     return s
 
 
-def make_observation(time_s, pads, lift_pos_m, opening_m, lift_force_n, grip_force_n, lift_vel_m_s=0.0) -> Observation:
-    """``Observation(...)`` for the per-step path (see :func:`make_pad_signal`)."""
+def py_make_observation(time_s, pads, lift_pos_m, opening_m, lift_force_n, grip_force_n, lift_vel_m_s=0.0) -> Observation:
+    """``Observation(...)`` for the per-step path (see :func:`py_make_pad_signal`)."""
     o = _new(Observation)
     o.__dict__.update(
         time_s=time_s,
@@ -195,8 +197,14 @@ def make_observation(time_s, pads, lift_pos_m, opening_m, lift_force_n, grip_for
     return o
 
 
-def make_command(lift_m, opening_m, grip_force_limit_n, modes, phase, reason) -> Command:
-    """``Command(...)`` for the per-step path (see :func:`make_pad_signal`)."""
+def py_make_command(lift_m, opening_m, grip_force_limit_n, modes, phase, reason) -> Command:
+    """``Command(...)`` for the per-step path (see :func:`py_make_pad_signal`)."""
     c = _new(Command)
     c.__dict__.update(lift_m=lift_m, opening_m=opening_m, grip_force_limit_n=grip_force_limit_n, modes=modes, phase=phase, reason=reason)
     return c
+
+
+#: The compiled twins of the three above where built (the instance's dict set in one C call), else they.
+make_pad_signal, INTERFACE_COMPILED = twin("piezotip.cosim.control._control", "make_pad_signal", py_make_pad_signal)
+make_observation, _ = twin("piezotip.cosim.control._control", "make_observation", py_make_observation)
+make_command, _ = twin("piezotip.cosim.control._control", "make_command", py_make_command)

@@ -55,7 +55,7 @@ from piezotip.sensor import Fingertip
 from piezotip.sensor.cache import disk_cached
 
 from .interface import Command, Event, Observation, RobotLimits, Why, make_command
-from .phases import Phase
+from .phases import FINISHED, Phase
 from .selector import ModeSelector, TouchDetector
 
 
@@ -228,7 +228,7 @@ class MultimodeGrasp:
 
     @property
     def finished(self) -> bool:
-        return self.phase in (Phase.DONE, Phase.FAULT)
+        return self.phase in FINISHED
 
     def _event(self, t: float, kind: str, message: str, pad: str = "") -> None:
         self.events.append(Event(t, pad, kind, message))

@@ -23,6 +23,10 @@ class Phase(IntEnum):
         return self.name.lower()
 
 
+#: The phases a controller has finished in (a tuple: ``phase in FINISHED`` compares by identity
+#: first, where an enum's hash is a Python function).
+FINISHED = (Phase.DONE, Phase.FAULT)
+
 #: Phase names in code order (the recording's ``phase_codes``).
 PHASES: tuple[str, ...] = tuple(p.label for p in Phase)
 

@@ -19,6 +19,12 @@ ramps): a hysteresis band of +-h on single readings then switches at every readi
 :class:`TouchDetector` is a one-sided CUSUM (Page 1954) on the drop of the most sensitive
 mode's reading below its unloaded baseline, in sigmas of the reading, with a Shewhart limit on
 single readings (Lucas 1982).
+
+Both run on every reading of every pad: :class:`PyModeSelector` and :class:`PyTouchDetector` are
+the references, the ones to read; ``cosim/control/_control.pyx`` holds their compiled twins
+(the same decisions, the same reasons, the same floats: tests/test_compiled_twins.py), used
+where built (:mod:`piezotip.sensor.compiled`) under the names :class:`ModeSelector` and
+:class:`TouchDetector`.
 """
 
 from __future__ import annotations
@@ -30,6 +36,7 @@ import numpy as np
 from piezotip.sensor import Fingertip
 from piezotip.sensor.cache import disk_cached
 from piezotip.sensor.cache import enabled as cache_enabled
+from piezotip.sensor.compiled import twin
 
 from .interface import Why
 
@@ -74,8 +81,9 @@ def allowed_ranges(fingertip: Fingertip, modes: tuple[int, ...]) -> tuple[Finger
     return allowed, bands, dict(p_min), dict(p_max)
 
 
-class ModeSelector:
-    """Chooses one fingertip's drive mode from its readout, with hysteresis and settling.
+class PyModeSelector:
+    """Chooses one fingertip's drive mode from its readout, with hysteresis and settling
+    (the reference of the compiled :class:`ModeSelector`).
 
     Parameters
     ----------
@@ -163,10 +171,10 @@ class ModeSelector:
         return self.trusted and self.status == "below_detection" and self.mode == self.modes[0]
 
 
-class TouchDetector:
+class PyTouchDetector:
     """One-sided CUSUM on the drop of a reading below its unloaded baseline (in sigmas), with a
     Shewhart limit on single readings (the combined scheme of Lucas 1982): a slow drift alarms
-    through the CUSUM, a sudden drop at once.
+    through the CUSUM, a sudden drop at once (the reference of the compiled :class:`TouchDetector`).
 
     Parameters
     ----------
@@ -202,3 +210,8 @@ class TouchDetector:
             self.score = max(0.0, self.score + drop - self.drift_sigma)
             self.touched = self.score > self.alarm_sigma or drop > self.single_sigma
         return self.touched
+
+
+#: The compiled twins of :class:`PyModeSelector` and :class:`PyTouchDetector` where built, else they.
+ModeSelector, SELECTOR_COMPILED = twin("piezotip.cosim.control._control", "ModeSelector", PyModeSelector)
+TouchDetector, _ = twin("piezotip.cosim.control._control", "TouchDetector", PyTouchDetector)
