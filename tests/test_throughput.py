@@ -138,3 +138,29 @@ def test_the_baseline_line_gives_its_ratio_against_the_target():
     text = throughput.format_throughput(report)
     assert "at abc1234" in text and "3.00x" in text
     assert text.count("NO") == 1
+
+
+@needs_git
+def test_a_revisions_imports_read_compiled_bytecode(tmp_path):
+    """After compile_bytecode, the revision's imports (through its linked layout, a linked
+    subpackage folder among them) find their bytecode cached and compile nothing, even with
+    PYTHONDONTWRITEBYTECODE set."""
+    run_from, env = throughput.revision_tree("HEAD", tmp_path / "baseline")
+    assert throughput.compile_bytecode(tmp_path / "baseline")
+    code = (
+        "import importlib.util, sys, piezotip.cosim.control.multimode as m, piezotip.sensor.channel as c;"
+        "print(all(importlib.util.cache_from_source(x.__file__) == x.__cached__ for x in (m, c)));"
+        "import os; print(all(os.path.exists(x.__cached__) for x in (m, c)))"
+    )
+    proc = subprocess.run(
+        [sys.executable, "-c", code], cwd=run_from, env={**env, "PYTHONDONTWRITEBYTECODE": "1"}, capture_output=True, text=True, check=True
+    )
+    assert proc.stdout.split() == ["True", "True"]
+
+
+def test_compiling_says_when_a_module_does_not_compile(tmp_path):
+    (tmp_path / "good.py").write_text("x = 1\n")
+    assert throughput.compile_bytecode(tmp_path)
+    (tmp_path / "bad.py").write_text("def broken(:\n")
+    assert not throughput.compile_bytecode(tmp_path)
+    assert (tmp_path / "__pycache__").is_dir()
