@@ -233,9 +233,7 @@ def _cmd_experiment(args: argparse.Namespace) -> int:
     scenarios.get("grasp", list(args.set or ()), args.preset)  # bad overrides stop here, before any run
     _check_workers(args)
     video = _video_options(args)  # one clip per run: runs/NN/run.mp4, NN the row's index in the table
-    result = run_experiment(
-        args.preset, tuple(args.set or ()), out, args.workers, args.scheduler, progress=not args.json, options=video
-    )
+    result = run_experiment(args.preset, tuple(args.set or ()), out, args.workers, args.scheduler, progress=not args.json, options=video)
     rows = result.rows
     files = [str(p) for p in write_outputs(rows, out, plot=not args.no_plot)]
     if args.json:
