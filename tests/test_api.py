@@ -99,6 +99,25 @@ def test_a_figure_is_saved_without_pyplot(tmp_path):
     assert (tmp_path / "f.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
+def test_a_saved_figure_reads_back_as_drawn(tmp_path):
+    """The fast PNG compression loses nothing: the file holds the canvas's pixels exactly."""
+    import numpy as np
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.image import imread
+
+    from piezotip.analysis.plotting import new_figure, save_figure
+
+    fig, axes = new_figure(1, 1, figsize=(3, 2))
+    axes[0][0].plot([0, 1, 2], [2, 0, 1])
+    path = save_figure(fig, tmp_path / "f.png", dpi=100)  # the canvas draws at the figure's 100 dpi
+    canvas = FigureCanvasAgg(fig)
+    canvas.draw()
+    drawn = np.asarray(canvas.buffer_rgba())
+    read = np.round(imread(path) * 255.0).astype(np.uint8)  # imread gives floats in [0, 1]
+    assert read.shape == drawn.shape == (200, 300, 4)
+    assert np.array_equal(read, drawn)
+
+
 @pytest.mark.parametrize("name", ["sensor", "analysis", "cosim", "scenarios", "models", "run_sim"])
 def test_only_piezotip_is_installed_at_the_top_level(name, tmp_path):
     """From a folder outside the checkout, the repository's folders are not importable by
