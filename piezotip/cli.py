@@ -13,7 +13,7 @@
                       [--workers N | --scheduler ADDRESS] [--out DIR] [--json] [--no-plot]
                                                  every grid point on Dask: sweep.csv, sweep.parquet, sweep.png;
                                                  resumable (same --out); exit 1 if a point raised
-    python run_sim.py bench [--json] [--out DIR] [--no-presets]
+    python run_sim.py bench [--json] [--out DIR] [--no-presets] [--throughput [--baseline REV]] [--instructions]
                                                  cost (vs bare mj_step) and each preset's error
     python run_sim.py figures [--out DIR]        the paper's analysis figures + crossovers.json
     python run_sim.py range [--coverage X1_MM X2_MM] [--json] [--out DIR]
@@ -360,6 +360,16 @@ def _cmd_bench(args: argparse.Namespace) -> int:
         except ValueError as err:  # a revision git does not know
             print(f"error: {err}", file=sys.stderr)
             return 2
+    if args.instructions:
+        from piezotip.analysis.instructions import instruction_counts
+
+        if progress is not None:
+            progress("instructions (callgrind)")
+        try:
+            report["instructions"] = instruction_counts(overrides=base)
+        except RuntimeError as err:  # valgrind missing, or a counted run failed
+            print(f"error: {err}", file=sys.stderr)
+            return 1
     files = [str(p) for p in write_report(report, Path(args.out))] if args.out else []
     if args.out and not args.no_presets:
         files.append(str(plot_pareto(fidelity, Path(args.out) / "pareto.png")))
@@ -375,6 +385,11 @@ def _cmd_bench(args: argparse.Namespace) -> int:
 
             print()
             print(format_throughput(report["throughput"]))
+        if args.instructions:
+            from piezotip.analysis.instructions import format_instructions
+
+            print()
+            print(format_instructions(report["instructions"]))
         for f in files:
             print(f"wrote {f}")
     return 0
@@ -468,6 +483,11 @@ def build_parser() -> argparse.ArgumentParser:
         "--baseline",
         metavar="REV",
         help="with --throughput: also time experiment grasp-range as git revision REV of this repository runs it, against now",
+    )
+    p.add_argument(
+        "--instructions",
+        action="store_true",
+        help="also count the loop's instructions per control step inside and outside mj_step (valgrind's callgrind; about 50 s)",
     )
     p.set_defaults(func=_cmd_bench)
     return parser

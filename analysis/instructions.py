@@ -1,0 +1,127 @@
+"""The loop's own cost in instructions: a measure no neighbour on a shared machine disturbs
+(``bench --instructions``).
+
+Timed ratios on a shared VM swing by several percent from one run to the next, more than a
+change to the loop's Python moves them.  Counted instructions do not: valgrind's callgrind
+counts every instruction a process executes, and how many of them ran inside ``mj_step``
+(inclusive of everything it calls).  Two runs of the same scenario, ``warmup_steps`` and
+``warmup_steps + steps`` control steps (the set-up, imports and first steps identical in
+both), differ by ``steps`` control steps of the loop alone:
+
+- ``mj_step_per_step``: instructions inside ``mj_step`` per control step (all its substeps);
+- ``loop_per_step``: instructions outside it per control step (the co-simulation's Python,
+  its compiled parts, the recorder is not run);
+- ``instruction_ratio`` = (loop + mj_step) / mj_step: the overhead ratio's instruction-count
+  counterpart (lower than the timed one: Python's instructions run slower than MuJoCo's, and
+  the cache misses each causes the other are not instructions).
+
+Repeated, the counts agree to about ten thousand instructions a run (a few per step over the
+default 1000 steps): one hash seed and one BLAS thread make the rest the same.
+
+About a minute (valgrind runs Python some 50x slower); needs valgrind on the PATH.  The disk
+cache of set-up tables is filled first by a plain run, so that neither counted run computes
+them, and the project's bytecode compiled, so that neither compiles a module.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import shutil
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+#: The counted runs' script: the scenario's simulation, stepped ``n`` control steps (argv: n,
+#: scenario, overrides...).
+_SCRIPT = (
+    "import sys\n"
+    "from piezotip import scenarios\n"
+    "from piezotip.cosim.loop import CoSimulation\n"
+    "sim = CoSimulation(scenarios.get(sys.argv[2], sys.argv[3:]))\n"
+    "for _ in range(int(sys.argv[1])):\n"
+    "    sim.advance()\n"
+)
+
+_TOTAL = re.compile(r"^\s*([\d,]+)\s.*PROGRAM TOTALS", re.MULTILINE)
+_MJ_STEP = re.compile(r"^\s*([\d,]+)\s.*[:\s]mj_step\s+\[", re.MULTILINE)
+
+
+def parse_annotation(text: str) -> tuple[int, int]:
+    """(all instructions, instructions inside ``mj_step``) from ``callgrind_annotate
+    --inclusive=yes`` output; 0 for ``mj_step`` when it never ran.  Raises ValueError when the
+    text has no program total (not an annotation)."""
+    total = _TOTAL.search(text)
+    if total is None:
+        raise ValueError("no 'PROGRAM TOTALS' line: not callgrind_annotate output")
+    step = _MJ_STEP.search(text)
+    return int(total.group(1).replace(",", "")), int(step.group(1).replace(",", "")) if step else 0
+
+
+def _counted(steps: int, scenario: str, overrides: list[str], work: Path, env: dict[str, str]) -> tuple[int, int]:
+    out = work / f"callgrind.{steps}"
+    cmd = ["valgrind", "--tool=callgrind", f"--callgrind-out-file={out}", sys.executable, "-c", _SCRIPT, str(steps), scenario, *overrides]
+    proc = subprocess.run(cmd, env=env, cwd=work, capture_output=True, text=True)
+    if proc.returncode != 0:
+        raise RuntimeError(f"the counted run of {steps} steps failed ({proc.returncode}): {proc.stderr.strip()[-500:]}")
+    # Every function listed (the default lists only those that make 99 % of the total).
+    annotated = subprocess.run(
+        ["callgrind_annotate", "--inclusive=yes", "--threshold=100", str(out)], capture_output=True, text=True, check=True
+    )
+    return parse_annotation(annotated.stdout)
+
+
+def instruction_counts(scenario: str = "grasp", overrides: list[str] | None = None, steps: int = 1000, warmup_steps: int = 200) -> dict:
+    """Instructions per control step of ``scenario``'s loop, inside and outside ``mj_step``
+    (the module docstring).  Raises RuntimeError naming what is missing when valgrind or
+    callgrind_annotate is not on the PATH, or when a run fails."""
+    if steps < 1 or warmup_steps < 1:
+        raise ValueError(f"steps and warmup_steps must be at least 1, got {steps} and {warmup_steps}")
+    missing = [tool for tool in ("valgrind", "callgrind_annotate") if shutil.which(tool) is None]
+    if missing:
+        raise RuntimeError(f"bench --instructions needs {' and '.join(missing)} on the PATH (valgrind's package)")
+    overrides = list(overrides or [])
+    # One hash seed for both runs: string hashes, and so dict and set probing, differ from
+    # process to process otherwise (a few thousand instructions a step).
+    # One BLAS thread: an idle OpenBLAS thread spins, and what it counts depends on timing.
+    blas = dict.fromkeys(("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"), "1")
+    env = {**os.environ, "MPLBACKEND": "Agg", "PYTHONHASHSEED": "0", **blas}
+    # Bytecode compiled first: a module imported between the two runs' ends would otherwise be
+    # compiled inside the counted steps (under PYTHONDONTWRITEBYTECODE, by every run).
+    from .throughput import REPO, SOURCE_FOLDERS, compile_bytecode
+
+    compile_bytecode(*(REPO / folder for folder in SOURCE_FOLDERS))
+    with tempfile.TemporaryDirectory(prefix="piezotip-instructions-") as tmp:
+        work = Path(tmp)
+        # The set-up tables on disk first: neither counted run computes them.
+        # (Run from the temporary folder: the current one could hold a folder named piezotip.)
+        warm = subprocess.run([sys.executable, "-c", _SCRIPT, "1", scenario, *overrides], env=env, cwd=work, capture_output=True, text=True)
+        if warm.returncode != 0:
+            raise RuntimeError(f"{scenario} with {overrides} does not run: {warm.stderr.strip()[-500:]}")
+        short_total, short_step = _counted(warmup_steps, scenario, overrides, work, env)
+        long_total, long_step = _counted(warmup_steps + steps, scenario, overrides, work, env)
+    mj_step = (long_step - short_step) / steps
+    loop = ((long_total - long_step) - (short_total - short_step)) / steps
+    return {
+        "scenario": scenario,
+        "overrides": overrides,
+        "steps": steps,
+        "warmup_steps": warmup_steps,
+        "mj_step_per_step": mj_step,
+        "loop_per_step": loop,
+        "instruction_ratio": (loop + mj_step) / mj_step if mj_step > 0 else float("nan"),
+    }
+
+
+def format_instructions(report: dict) -> str:
+    """The counts as text."""
+    return "\n".join(
+        [
+            f"instructions per control step ({report['scenario']}, control steps {report['warmup_steps']} to "
+            f"{report['warmup_steps'] + report['steps']}, callgrind):",
+            f"  inside mj_step      {report['mj_step_per_step']:>12,.0f}",
+            f"  the loop's own      {report['loop_per_step']:>12,.0f}",
+            f"  ratio (loop + mj_step) / mj_step  {report['instruction_ratio']:.3f}",
+        ]
+    )
