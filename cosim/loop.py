@@ -272,10 +272,13 @@ class CoSimulation:
         )
         self._pressure_reader.bind(d.qpos)
         self._channel_list = [self.channels[pad] for pad in self.pads]
+        kind = type(self._channel_list[0])  # every pad's channel is of one class (__init__)
+        self._update_trusted, self._estimate = kind.update_trusted, kind.estimate
+        self._dts = (self.dt,) * len(self._channel_list)
         self._qpos, self._actuator_force = memoryview(d.qpos), memoryview(d.actuator_force)
         # Memoryviews: an item is read and set, and a list made, faster than through numpy.
         self._qvel, self._sensordata = memoryview(d.qvel), d.sensordata
-        self._ctrl, self._forcerange = memoryview(d.ctrl), m.actuator_forcerange
+        self._ctrl, self._forcerange = memoryview(d.ctrl), memoryview(m.actuator_forcerange)
         self._warning_number = memoryview(d.warning.number)  # a live view of the warnings' counters
         self._opt = m.opt  # each m.opt builds a new wrapper (0.35 us): the loop sets its flags twice a period
         self._mj_step = mujoco.mj_step  # watch_mj_step puts an instrument in front of it (not copied)
@@ -401,15 +404,14 @@ class CoSimulation:
                 matrix[c, i] = w
         return strips @ matrix.T
 
+    # Per pad, channel.update_trusted(cells, dt) and channel.estimate(reading), through map over
+    # the channels' class's functions: a comprehension costs Python 3.11 a call of its own.
+
     def _sense(self, cells: list[list[float]]) -> list[Reading]:
-        dt = self.dt
-        return [channel.update_trusted(profile, dt) for channel, profile in zip(self._channel_list, cells, strict=True)]
+        return list(map(self._update_trusted, self._channel_list, cells, self._dts))
 
     def _readout(self, readings: list[Reading]) -> dict[str, PadSignal]:
-        return {
-            pad: make_pad_signal(reading, channel.estimate(reading))
-            for pad, channel, reading in zip(self.pads, self._channel_list, readings, strict=True)
-        }
+        return dict(zip(self.pads, map(make_pad_signal, readings, map(self._estimate, self._channel_list, readings)), strict=True))
 
     def _observe(self, signals: dict[str, PadSignal]) -> Observation:
         qpos, force = self._qpos, self._actuator_force

@@ -268,7 +268,8 @@ class SensorChannel:
             self.time_in_mode_s = t = self.time_in_mode_s + dt_s
             self._clock_s += dt_s
             self._dt_s = dt_s
-            reading, self.envelope = sampler.sample(pressure_cells_pa, self.envelope, dt_s, t, self._iq_noise() if self.noise else None)
+            noise = (self._noise.pop() if self._noise else self._iq_noise()) if self.noise else None  # _iq_noise, inlined
+            reading, self.envelope = sampler.sample(pressure_cells_pa, self.envelope, dt_s, t, noise)
             return reading
         omega, sigma, table_at, weights = self._fast[mode]
         c = self._c_f
