@@ -517,17 +517,21 @@ def test_each_value_of_a_row_lands_under_its_column_name():
 # -- the controller's per-reading parts (cosim/control/_control.pyx) ---------------------------
 
 
-def selector_estimates(p_max_pa: float, n: int, seed: int):
+def selector_estimates(p_max_pa: float, n: int, seed: int, edges_pa=()):
     """Estimates a selector meets: pressures over every band (log-uniform from well under the
     lowest mode's detection limit to past the highest's P_max), held, stepped and ramped, with
-    settling, saturated, below-detection and non-finite readings among them."""
+    settling, saturated, below-detection and non-finite readings among them; and a tenth of
+    the time one of ``edges_pa`` (the switch thresholds and their neighbouring floats, where
+    the comparisons' arithmetic decides)."""
     from piezotip.sensor.channel import Estimate
 
     rng = random.Random(seed)
     p = 1.0
     for _ in range(n):
         roll = rng.random()
-        if roll < 0.2:
+        if edges_pa and roll < 0.1:
+            p = rng.choice(edges_pa)
+        elif roll < 0.2:
             p = 10 ** rng.uniform(-2.0, math.log10(3.0 * p_max_pa))  # a step anywhere
         elif roll < 0.8:
             p *= 10 ** rng.uniform(-0.05, 0.08)  # a ramp, mostly up
@@ -578,7 +582,11 @@ def test_the_compiled_selector_decides_as_the_reference(modes, hysteresis, persi
         ref.switch_pa,
     )
     switches = 0
-    for k, estimate in enumerate(selector_estimates(ref.p_max_pa[max(modes)], 3000, seed)):
+    edges = []
+    for s in ref.switch_pa.values():  # each threshold up and down, and the floats either side of it
+        for threshold in (s * (1 + hysteresis), s * (1 - hysteresis)):
+            edges += [math.nextafter(threshold, 0.0), threshold, math.nextafter(threshold, math.inf)]
+    for k, estimate in enumerate(selector_estimates(ref.p_max_pa[max(modes)], 3000, seed, tuple(edges))):
         if k == 1500:
             cmp = copy.deepcopy(cmp)  # a copy goes on as the original
         (mode_r, why_r), (mode_c, why_c) = ref.update(estimate), cmp.update(estimate)
