@@ -47,6 +47,7 @@ from __future__ import annotations
 
 import math
 from enum import Enum
+from operator import attrgetter
 
 import numpy as np
 
@@ -112,6 +113,14 @@ class Stage(Enum):
     TRANSFER = "transfer"
     CHECK = "friction check"
     RAISE = "raise"
+
+
+#: The members the per-step path compares with, as module globals: on Python 3.11 reading a
+#: member through its class passes EnumType's __getattr__ hook (0.1 us, as long as the rest of
+#: a comparison ten times over).
+_FAULT, _LIFT, _RAISE = Phase.FAULT, Phase.LIFT, Stage.RAISE
+
+_EMPTY = attrgetter("empty")  # all(map(_EMPTY, ...)): no generator made and closed each step
 
 
 class MultimodeGrasp:
@@ -258,7 +267,7 @@ class MultimodeGrasp:
         t = obs.time_s
         self.dt_s = dt_s
         modes, reasons = self._read_fingertips(obs, t)
-        if self.phase is Phase.FAULT:
+        if self.phase is _FAULT:
             # Refused or faulted: hold still with the fingers open (nothing was grasped) or
             # as they are, never squeezing.
             return make_command(self.lift_target, self.opening_target, self.opening_force_n, modes, self.phase, self.events[-1].message)
@@ -276,7 +285,7 @@ class MultimodeGrasp:
             sel, low, high = self._reading_bounds[pad]
             reading = sig.reading
             v1 = reading.v1
-            if not (low <= v1 <= high) and self.phase is not Phase.FAULT:
+            if not (low <= v1 <= high) and self.phase is not _FAULT:
                 bound = self.cfg.out_of_range_sigma
                 self._fault(t, pad, "out_of_range", f"{pad}: reading {v1!r} outside [0, 1] by more than {bound:g} sigma")
             mode, why = sel.update(sig.estimate)
@@ -402,7 +411,7 @@ class MultimodeGrasp:
     def _lift(self, obs: Observation, t: float, dt_s: float) -> None:
         if self._carried_checks(obs, t):
             return
-        if self.stage is Stage.RAISE:
+        if self.stage is _RAISE:
             self._raise(obs, t, dt_s)
         else:
             self._transfer(obs, t, dt_s)
@@ -659,7 +668,7 @@ class MultimodeGrasp:
         # fingertips' own loss: a fingertip "settling" (just after a mode switch, or a load
         # step) is not one reading empty, and both can settle at once while a high grip has the
         # fingers a millimetre past that width (seen at 25 N and 62 N); an object gone stays gone.
-        carried = self.phase is not Phase.LIFT or self.stage is Stage.RAISE
+        carried = self.phase is not _LIFT or self.stage is _RAISE
         shut_m = self._width_m - 2.0 * self.robot.pad_travel_m - obs.opening_m
         if carried and shut_m > 0 and not any(sel.trusted and sel.status == "ok" for sel in self.selectors.values()):
             self._shut_s += self.dt_s
@@ -670,14 +679,14 @@ class MultimodeGrasp:
                 return True
         else:
             self._shut_s = 0.0
-        if carried and all(sel.empty for sel in self.selectors.values()):
+        if carried and all(map(_EMPTY, self.selectors.values())):
             self._empty_s += self.dt_s
             if self._lasted_lost_s(self._empty_s):
                 self._give_up(t, "lost", f"both fingertips read no load for {self.cfg.lost_s:g} s during {self.phase.label}", Phase.RELEASE)
                 return True
         else:
             self._empty_s = 0.0
-        if self.phase is Phase.LIFT and self.stage is not Stage.RAISE:
+        if self.phase is _LIFT and self.stage is not _RAISE:
             return False
         for pad, sel in self.selectors.items():
             if not (sel.trusted and sel.status == "ok"):
