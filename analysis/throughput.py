@@ -222,7 +222,12 @@ def revision_tree(rev: str, work: Path, repo: Path = REPO) -> tuple[Path, dict[s
     maps packages to folders (``[tool.setuptools.package-dir]``, e.g. ``piezotip.sensor`` =
     ``sensor/``), a folder of symbolic links lays them out as an install would, and
     ``run_sim.py`` runs from there, so that every import finds the revision's code and none
-    finds this checkout's.  Raises ValueError naming ``rev`` when git cannot produce it.
+    finds this checkout's.  The revision's compiled twins are not built (an archive has their
+    ``.pyx``, no extension): it runs with ``PIEZOTIP_PURE_PYTHON=1``, its Python references,
+    since an import of an extension it lacks would otherwise find this checkout's, built for
+    other code (the editable install's finder maps every ``piezotip.*`` name here).  A revision
+    from before the twins (such as the issue's 2147039) runs as it did.  Raises ValueError
+    naming ``rev`` when git cannot produce it.
     """
     proc = subprocess.run(["git", "-C", str(repo), "archive", "--format=tar", rev], capture_output=True)
     if proc.returncode != 0:
@@ -245,7 +250,13 @@ def revision_tree(rev: str, work: Path, repo: Path = REPO) -> tuple[Path, dict[s
                 if not (target / entry.name).exists():
                     (target / entry.name).symlink_to(entry)
         (run_from / "run_sim.py").symlink_to(tree / "run_sim.py")
-    env = {**os.environ, "PYTHONPATH": str(run_from), "MPLBACKEND": "Agg", "PIEZOTIP_CACHE_DIR": str(work / "cache")}
+    env = {
+        **os.environ,
+        "PYTHONPATH": str(run_from),
+        "MPLBACKEND": "Agg",
+        "PIEZOTIP_CACHE_DIR": str(work / "cache"),
+        "PIEZOTIP_PURE_PYTHON": "1",
+    }
     return run_from, env
 
 

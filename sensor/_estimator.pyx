@@ -14,14 +14,15 @@ read from :mod:`sensor.estimator` when this module is imported.
 from cpython.mem cimport PyMem_Free
 from libc.math cimport INFINITY, NAN, fabs
 
-from _twin_helpers cimport bisect_right, copy_doubles, exp_py, fdiv
+from _twin_helpers cimport bisect_right, copy_doubles, exp_py, fdiv, new_record, put_slot, slot_offsets
 
 from . import estimator as _py
 
 
 cdef double GAIN_FLOOR = _py.GAIN_FLOOR
-cdef object Estimate = _py.Estimate
-cdef object _new = object.__new__
+cdef type Estimate = _py.Estimate
+cdef Py_ssize_t[3] _ESTIMATE_AT  # pressure_pa, uncertainty_pa, status: the fields' order
+slot_offsets(Estimate, _ESTIMATE_AT, 3)
 
 
 cdef inline double interp(double x, const double *xp, const double *fp, Py_ssize_t n) noexcept:
@@ -37,14 +38,12 @@ cdef inline double interp(double x, const double *xp, const double *fp, Py_ssize
     return NAN
 
 
-cdef extern from "Python.h":
-    int PyObject_GenericSetDict(object, object, void *) except -1
-
-
 cdef inline object estimate(double pressure_pa, double uncertainty_pa, str status):
-    """sensor.estimator._estimate: the Estimate's fields set at once (its instance dict)."""
-    e = _new(Estimate)
-    PyObject_GenericSetDict(e, {"pressure_pa": pressure_pa, "uncertainty_pa": uncertainty_pa, "status": status}, NULL)
+    """sensor.estimator._estimate: the Estimate's slots written at once."""
+    e = new_record(Estimate)
+    put_slot(e, _ESTIMATE_AT[0], pressure_pa)
+    put_slot(e, _ESTIMATE_AT[1], uncertainty_pa)
+    put_slot(e, _ESTIMATE_AT[2], status)
     return e
 
 

@@ -28,13 +28,12 @@ from cpython.complex cimport Py_complex
 from cpython.mem cimport PyMem_Free
 from libc.math cimport NAN, atan2, cos, exp, isfinite, isinf, isnan, log, sin
 
-from _twin_helpers cimport bisect_right, copy_doubles, exp_py, fdiv
+from _twin_helpers cimport bisect_right, copy_doubles, exp_py, fdiv, new_record, put_slot, slot_offsets
 
 from . import resonator as _res
 
 
 cdef extern from "Python.h":
-    int PyObject_GenericSetDict(object, object, void *) except -1
     Py_complex PyComplex_AsCComplex(object) except *  # an error is raised, not ignored
     Py_complex _Py_c_sum(Py_complex, Py_complex)
     Py_complex _Py_c_diff(Py_complex, Py_complex)
@@ -45,8 +44,10 @@ cdef extern from "Python.h":
 
 
 cdef double _SETTLE_TAUS = _res._SETTLE_TAUS
-cdef object Reading = _res.Reading
-cdef object _new = object.__new__
+cdef type Reading = _res.Reading
+#: mode, v1, v1_true, phase_rad, time_in_mode_s, tau_s, settled, kappa, gamma, iq: the fields' order
+cdef Py_ssize_t[10] _READING_AT
+slot_offsets(Reading, _READING_AT, 10)
 cdef object _py_cexp = cmath.exp
 cdef object _py_atan2 = math.atan2
 #: Below it CPython's cmath.exp computes exp(x) (cos y, sin y); log(DBL_MAX / 4) is its bound.
@@ -205,21 +206,18 @@ cdef class ModeSampler:
         phase = -atan2_py(env.imag, env.real) if v1_true > 0 else 0.0
         v1 = cabs_py(iq)
         new_envelope = complex(env.real, env.imag)
-        # The Reading's fields set at once (its instance dict, in the dataclass's field order),
-        # as sensor.resonator._reading does, without a keyword dict in between.
-        reading = _new(Reading)
-        PyObject_GenericSetDict(reading, {
-            "mode": self.mode,
-            "v1": v1,
-            "v1_true": v1_true,
-            "phase_rad": phase,
-            "time_in_mode_s": time_in_mode_s,
-            "tau_s": tau,
-            "settled": settled,
-            "kappa": kappa,
-            "gamma": gamma,
-            "iq": complex(iq.real, iq.imag) if noise_iq is not None else new_envelope,
-        }, NULL)
+        # The Reading's slots written at once, as sensor.resonator._reading sets them.
+        reading = new_record(Reading)
+        put_slot(reading, _READING_AT[0], self.mode)
+        put_slot(reading, _READING_AT[1], v1)
+        put_slot(reading, _READING_AT[2], v1_true)
+        put_slot(reading, _READING_AT[3], phase)
+        put_slot(reading, _READING_AT[4], time_in_mode_s)
+        put_slot(reading, _READING_AT[5], tau)
+        put_slot(reading, _READING_AT[6], settled)
+        put_slot(reading, _READING_AT[7], kappa)
+        put_slot(reading, _READING_AT[8], gamma)
+        put_slot(reading, _READING_AT[9], complex(iq.real, iq.imag) if noise_iq is not None else new_envelope)
         return reading, new_envelope
 
     def __reduce__(self):

@@ -4,6 +4,7 @@ C, tables copied into C arrays, and the pads' uniform-grid lookup.  Inline funct
 into each twin that cimports them."""
 
 from cpython.mem cimport PyMem_Free, PyMem_Malloc
+from cpython.ref cimport PyObject, Py_INCREF
 from libc.math cimport NAN, exp, isfinite, isinf
 
 
@@ -107,3 +108,45 @@ cdef inline void uniform_pairs_at(const UniformPairs *t, double x, double *a, do
         a[0], b[0] = t.fa[0], t.fb[0]
     else:
         a[0] = b[0] = NAN
+
+
+# -- the per-step records (frozen slots dataclasses: sensor.compiled.record_maker) -----------
+
+cdef extern from "structmember.h":
+    ctypedef struct PyMemberDef:
+        Py_ssize_t offset
+    ctypedef struct PyMemberDescrObject:
+        PyMemberDef *d_member
+
+
+cdef extern from "Python.h":
+    object PyType_GenericAlloc(type cls, Py_ssize_t nitems)
+
+
+cdef inline int slot_offsets(type cls, Py_ssize_t *out, Py_ssize_t n) except -1:
+    """Each dataclass field's slot offset in ``cls``, in the fields' order, into ``out`` (``n``
+    of them: a record with another number of fields, or a field that is not a slot, raises)."""
+    from dataclasses import fields
+
+    names = [f.name for f in fields(cls)]
+    if len(names) != n:
+        raise TypeError(f"{cls.__name__} has {len(names)} fields, its compiled maker fills {n}")
+    for i, name in enumerate(names):
+        slot = cls.__dict__.get(name)
+        if type(slot).__name__ != "member_descriptor":
+            raise TypeError(f"{cls.__name__}.{name} is not a slot: declare the dataclass with slots=True")
+        out[i] = (<PyMemberDescrObject *> <PyObject *> slot).d_member.offset
+    return 0
+
+
+cdef inline object new_record(type cls):
+    """An instance of ``cls`` with every slot empty: fill each with :func:`put_slot` before any
+    Python code runs (an empty slot reads as AttributeError)."""
+    return PyType_GenericAlloc(cls, 0)
+
+
+cdef inline void put_slot(object record, Py_ssize_t offset, object value) noexcept:
+    """Set an empty slot of a record made by :func:`new_record` (what a slot's descriptor
+    does, less its checks): the record holds a new reference to ``value``."""
+    Py_INCREF(value)
+    (<PyObject **> ((<char *> <PyObject *> record) + offset))[0] = <PyObject *> value

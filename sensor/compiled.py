@@ -23,13 +23,22 @@ variable ``PIEZOTIP_PURE_PYTHON=1``, the reference is, slower and with the same 
   touch detection on every reading, and the records a control step passes between stages.
 
 Their shared C (Python's float division and ``math.exp``, the uniform-grid lookup, bisection,
-tables copied into C arrays) is in ``sensor/_twin_helpers.pxd``, inline.
+tables copied into C arrays, a record's slots filled) is in ``sensor/_twin_helpers.pxd``, inline.
+
+The records a control step passes between stages (:class:`sensor.resonator.Reading`,
+:class:`sensor.estimator.Estimate`, :class:`cosim.control.interface.PadSignal`,
+``Observation``, ``Command``) are frozen dataclasses with ``__slots__``: one allocation each,
+no instance dict.  The per-step path makes them with :func:`record_maker` (the references) or
+by writing their slots in C (the twins), not through the constructor, whose
+``object.__setattr__`` per field would cost more than the stage that fills them.
 """
 
 from __future__ import annotations
 
 import importlib
 import os
+from collections.abc import Callable
+from dataclasses import fields
 
 #: Whether the references are used even where the twins are built (``PIEZOTIP_PURE_PYTHON``).
 PURE_PYTHON = os.environ.get("PIEZOTIP_PURE_PYTHON", "") not in ("", "0")
@@ -45,3 +54,29 @@ def twin(module: str, name: str, reference: type) -> tuple[type, bool]:
     except ImportError:  # not built: the reference, slower
         return reference, False
     return getattr(compiled, name), True
+
+
+def record_maker(cls: type) -> Callable[..., object]:
+    """A function making a frozen slots dataclass ``cls`` from its fields' values, in their
+    order, all given: each is set through its slot's descriptor (where the constructor goes
+    through ``object.__setattr__``).  The result equals the constructor's (tests check it).
+
+    Raises TypeError where a field of ``cls`` is not a slot (a dataclass without ``slots=True``)."""
+    names = [f.name for f in fields(cls)]
+    setters = []
+    for name in names:
+        slot = cls.__dict__.get(name)
+        if type(slot).__name__ != "member_descriptor":
+            raise TypeError(f"{cls.__name__}.{name} is not a slot: declare the dataclass with slots=True")
+        setters.append(slot.__set__)
+    new = object.__new__
+
+    def make(*values):
+        record = new(cls)
+        for put, value in zip(setters, values, strict=True):
+            put(record, value)
+        return record
+
+    make.__qualname__ = make.__name__ = f"make_{cls.__name__}"
+    make.__doc__ = f"{cls.__name__}({', '.join(names)}), every field given in this order (sensor.compiled.record_maker)."
+    return make

@@ -27,7 +27,7 @@ import numpy as np
 
 from .cache import disk_cached
 from .cache import enabled as cache_enabled
-from .compiled import twin
+from .compiled import record_maker, twin
 from .inference import GAIN_FLOOR
 from .lookup import interp, interp_pair
 from .readout import DETECTION_SIGMAS, PressureEstimate
@@ -37,7 +37,6 @@ if TYPE_CHECKING:
 
 #: Pressure table for the fast path, Pa: log-spaced, 60 points per decade.
 _TABLE_P = np.logspace(-3, 7, 601)
-_new = object.__new__
 _log, _exp = math.log, math.exp
 
 
@@ -91,7 +90,7 @@ class FoundationTable:
         return _exp(log_k), _exp(log_c)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, slots=True)
 class Estimate:
     """The readout's pressure estimate from one reading (what a controller may use).
 
@@ -109,11 +108,8 @@ class Estimate:
     status: str
 
 
-def _estimate(pressure_pa: float, uncertainty_pa: float, status: str) -> Estimate:
-    """``Estimate(...)`` for the per-step path (see :func:`_reading`)."""
-    e = _new(Estimate)
-    e.__dict__.update(pressure_pa=pressure_pa, uncertainty_pa=uncertainty_pa, status=status)
-    return e
+#: ``Estimate(...)`` for the per-step path (positional, every field; see sensor.resonator._reading).
+_estimate = record_maker(Estimate)
 
 
 _SETTLING = _estimate(math.nan, math.nan, "settling")

@@ -27,6 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .carrier import CarrierResonator
+from .compiled import record_maker
 from .equations import normalized_response
 
 __all__ = [
@@ -107,7 +108,7 @@ def _step(envelope: complex, steady: complex, dt_s: float, rate: complex) -> com
     return steady + (envelope - steady) * cmath.exp(-rate * dt_s)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, slots=True)
 class Reading:
     """One sample of one channel.
 
@@ -140,24 +141,6 @@ class Reading:
     iq: complex = 0j
 
 
-_new = object.__new__
-
-
-def _reading(mode, v1, v1_true, phase_rad, time_in_mode_s, tau_s, settled, kappa, gamma, iq) -> Reading:
-    """``Reading(...)`` for the per-step path, at half the cost: a frozen dataclass's __init__
-    sets each field through object.__setattr__; this fills the instance's dict at once.  The
-    result is an ordinary, frozen Reading (tests check it equals the constructor's)."""
-    r = _new(Reading)
-    r.__dict__.update(
-        mode=mode,
-        v1=v1,
-        v1_true=v1_true,
-        phase_rad=phase_rad,
-        time_in_mode_s=time_in_mode_s,
-        tau_s=tau_s,
-        settled=settled,
-        kappa=kappa,
-        gamma=gamma,
-        iq=iq,
-    )
-    return r
+#: ``Reading(...)`` for the per-step path (positional, every field): its slots set through
+#: their descriptors, without the constructor's object.__setattr__ per field (sensor.compiled).
+_reading = record_maker(Reading)

@@ -15,6 +15,7 @@ and per-step records (:class:`PyModeSelector`, :class:`PyTouchDetector`, ``py_ma
 from __future__ import annotations
 
 import copy
+import dataclasses
 import math
 import pickle
 import random
@@ -25,7 +26,7 @@ import pytest
 from piezotip.cosim import pad_kernels, rows
 from piezotip.cosim.control import interface, selector
 from piezotip.cosim.pads import PadGeometry, _GelTable
-from piezotip.sensor import Fingertip, GelModel, SensorElement, estimator, inference, lookup, sampler
+from piezotip.sensor import Fingertip, GelModel, SensorElement, estimator, inference, lookup, resonator, sampler
 from piezotip.sensor.channel import SensorChannel
 from piezotip.sensor.compiled import PURE_PYTHON
 from piezotip.sensor.estimator import _TABLE_P, foundation_table
@@ -170,9 +171,14 @@ def _pressures(n: int, seed: int) -> list[float]:
     return [float(p) for p in [*special, *rest, 0.0, 5e5, 5e5, 0.0]]
 
 
+def _items(record) -> tuple:
+    """A record's (field, value) pairs in the fields' order, read from the instance (every slot filled)."""
+    return tuple((f.name, getattr(record, f.name)) for f in dataclasses.fields(record))
+
+
 def _exact(reading, envelope) -> tuple:
     """Every field and the envelope as exact text (a float's repr round-trips; -0.0 and NaN kept)."""
-    return (repr(tuple(reading.__dict__.values())), tuple(reading.__dict__), repr(envelope), type(reading))
+    return (repr(_items(reading)), repr(envelope), type(reading))
 
 
 @pytest.mark.parametrize("envelope", [True, False])
@@ -269,7 +275,7 @@ def test_the_compiled_inverse_returns_the_references_estimates(mode):
     for k, v1 in enumerate(v1s):
         gain = gains[k % len(gains)]
         ref, cmp = reference.inferred(v1, gain), compiled.inferred(v1, gain)
-        assert repr(tuple(cmp.__dict__.items())) == repr(tuple(ref.__dict__.items())), f"V_1 = {v1!r}, gain {gain}"
+        assert repr(_items(cmp)) == repr(_items(ref)), f"V_1 = {v1!r}, gain {gain}"
         assert type(cmp) is type(ref)
     statuses = {reference.inferred(v1, 1.0).status for v1 in v1s}
     assert statuses == {"ok", "below_detection", "saturated"}  # every branch was taken
@@ -631,6 +637,22 @@ def test_the_selector_equivalence_test_can_fail():
     assert any(a != b for a, b in decisions)
 
 
+def test_record_maker_takes_every_field_of_a_slots_dataclass():
+    from piezotip.sensor.channel import Estimate
+    from piezotip.sensor.compiled import record_maker
+
+    @dataclasses.dataclass(frozen=True)
+    class Plain:
+        x: float
+
+    with pytest.raises(TypeError, match=r"Plain\.x is not a slot"):
+        record_maker(Plain)
+    make = record_maker(Estimate)
+    assert make(1.0, 2.0, "ok") == Estimate(1.0, 2.0, "ok")
+    with pytest.raises(ValueError):
+        make(1.0, 2.0)  # a field left out would leave its slot empty
+
+
 def test_the_compiled_records_are_the_dataclasses():
     from dataclasses import FrozenInstanceError
 
@@ -645,12 +667,15 @@ def test_the_compiled_records_are_the_dataclasses():
         "observation": ((1.5, pads, 0.02, 0.05, 3.0, 2.0, -0.01), Observation, interface.py_make_observation, interface.make_observation),
         "default velocity": ((1.5, pads, 0.02, 0.05, 3.0, 2.0), Observation, interface.py_make_observation, interface.make_observation),
         "command": ((0.03, 0.0, 4.0, {"left_pad": 2}, Phase.LIFT, "squeeze"), Command, interface.py_make_command, interface.make_command),
+        "reading": (tuple(getattr(reading, f.name) for f in dataclasses.fields(reading)), Reading, resonator._reading, resonator._reading),
+        "estimate": ((120.0, 3.0, "ok"), Estimate, estimator._estimate, estimator._estimate),
     }
     for name, (args, cls, reference, compiled) in made.items():
         expected = cls(*args)
         for make in (reference, compiled):
             record = make(*args)
             assert type(record) is cls and record == expected, name
+            assert not hasattr(record, "__dict__"), name  # slots: one allocation, no instance dict
             assert [type(getattr(record, f)) for f in expected.__dataclass_fields__] == [
                 type(getattr(expected, f)) for f in expected.__dataclass_fields__
             ]

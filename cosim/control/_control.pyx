@@ -10,17 +10,14 @@ reference's in its order (``1 + h`` as ``1.0 + h``, Python's ``max(0.0, s)`` as
 ``s if s > 0.0 else 0.0``), Python's float division (``cdivision`` off: a zero sigma raises as
 in Python), and the reasons are the same :class:`Why` objects and f-strings.  Copies (a
 CoSimulation is deep-copied whole) use Cython's pickling of the fields.  The records are the
-same frozen dataclass instances, their instance dicts set in one call with the fields in
-their order.
+same frozen slots dataclass instances, every slot written in C in the fields' order.
 """
 
 from libc.math cimport isfinite
 
+from _twin_helpers cimport new_record, put_slot, slot_offsets
+
 from piezotip.cosim.control.interface import Command, Observation, PadSignal, Why
-
-
-cdef extern from "Python.h":
-    int PyObject_GenericSetDict(object, object, void *) except -1
 
 
 cdef object _new = object.__new__
@@ -34,39 +31,45 @@ cdef inline object _why(str template, tuple args):
     return w
 
 
+# Each record's slot offsets, in its fields' order (the makers below fill every one).
+cdef Py_ssize_t[2] _PAD_SIGNAL_AT
+cdef Py_ssize_t[7] _OBSERVATION_AT
+cdef Py_ssize_t[6] _COMMAND_AT
+slot_offsets(PadSignal, _PAD_SIGNAL_AT, 2)
+slot_offsets(Observation, _OBSERVATION_AT, 7)
+slot_offsets(Command, _COMMAND_AT, 6)
+
+
 def make_pad_signal(reading, estimate):
     """The compiled :func:`cosim.control.interface.py_make_pad_signal` (see there)."""
-    s = _new(PadSignal)
-    PyObject_GenericSetDict(s, {"reading": reading, "estimate": estimate}, NULL)
+    s = new_record(PadSignal)
+    put_slot(s, _PAD_SIGNAL_AT[0], reading)
+    put_slot(s, _PAD_SIGNAL_AT[1], estimate)
     return s
 
 
 def make_observation(time_s, pads, lift_pos_m, opening_m, lift_force_n, grip_force_n, lift_vel_m_s=0.0):
     """The compiled :func:`cosim.control.interface.py_make_observation` (see there)."""
-    o = _new(Observation)
-    PyObject_GenericSetDict(o, {
-        "time_s": time_s,
-        "pads": pads,
-        "lift_pos_m": lift_pos_m,
-        "opening_m": opening_m,
-        "lift_force_n": lift_force_n,
-        "grip_force_n": grip_force_n,
-        "lift_vel_m_s": lift_vel_m_s,
-    }, NULL)
+    o = new_record(Observation)
+    put_slot(o, _OBSERVATION_AT[0], time_s)
+    put_slot(o, _OBSERVATION_AT[1], pads)
+    put_slot(o, _OBSERVATION_AT[2], lift_pos_m)
+    put_slot(o, _OBSERVATION_AT[3], opening_m)
+    put_slot(o, _OBSERVATION_AT[4], lift_force_n)
+    put_slot(o, _OBSERVATION_AT[5], grip_force_n)
+    put_slot(o, _OBSERVATION_AT[6], lift_vel_m_s)
     return o
 
 
 def make_command(lift_m, opening_m, grip_force_limit_n, modes, phase, reason):
     """The compiled :func:`cosim.control.interface.py_make_command` (see there)."""
-    c = _new(Command)
-    PyObject_GenericSetDict(c, {
-        "lift_m": lift_m,
-        "opening_m": opening_m,
-        "grip_force_limit_n": grip_force_limit_n,
-        "modes": modes,
-        "phase": phase,
-        "reason": reason,
-    }, NULL)
+    c = new_record(Command)
+    put_slot(c, _COMMAND_AT[0], lift_m)
+    put_slot(c, _COMMAND_AT[1], opening_m)
+    put_slot(c, _COMMAND_AT[2], grip_force_limit_n)
+    put_slot(c, _COMMAND_AT[3], modes)
+    put_slot(c, _COMMAND_AT[4], phase)
+    put_slot(c, _COMMAND_AT[5], reason)
     return c
 
 

@@ -13,12 +13,12 @@ from dataclasses import dataclass, field
 from typing import Protocol, runtime_checkable
 
 from piezotip.sensor.channel import Estimate, Reading
-from piezotip.sensor.compiled import twin
+from piezotip.sensor.compiled import record_maker, twin
 
 from .phases import Phase
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, slots=True)
 class PadSignal:
     """One fingertip as the controller sees it: the raw reading and the readout's estimate."""
 
@@ -26,7 +26,7 @@ class PadSignal:
     estimate: Estimate
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, slots=True)
 class Observation:
     """Everything the controller may use at one control step.
 
@@ -52,7 +52,7 @@ class Observation:
     lift_vel_m_s: float = 0.0
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, slots=True)
 class Command:
     """Actuator targets and fingertip drive modes for the next control period.
 
@@ -169,42 +169,29 @@ class Why:
         return cls(None, *pairs)
 
 
-_new = object.__new__
+#: The records made from every field in order, through their slots (sensor.compiled.record_maker).
+_pad_signal, _observation, _command = record_maker(PadSignal), record_maker(Observation), record_maker(Command)
 
 
 def py_make_pad_signal(reading: Reading, estimate: Estimate) -> PadSignal:
     """``PadSignal(reading, estimate)`` for the per-step path: a frozen dataclass's __init__
-    sets each field through object.__setattr__; this fills the instance's dict at once (the
+    sets each field through object.__setattr__; this sets each slot through its descriptor (the
     result is an ordinary, equal, frozen instance; tests check it).  The reference of the
     compiled :func:`make_pad_signal` (``cosim/control/_control.pyx``), as are the two below."""
-    s = _new(PadSignal)
-    s.__dict__.update(reading=reading, estimate=estimate)
-    return s
+    return _pad_signal(reading, estimate)
 
 
 def py_make_observation(time_s, pads, lift_pos_m, opening_m, lift_force_n, grip_force_n, lift_vel_m_s=0.0) -> Observation:
     """``Observation(...)`` for the per-step path (see :func:`py_make_pad_signal`)."""
-    o = _new(Observation)
-    o.__dict__.update(
-        time_s=time_s,
-        pads=pads,
-        lift_pos_m=lift_pos_m,
-        opening_m=opening_m,
-        lift_force_n=lift_force_n,
-        grip_force_n=grip_force_n,
-        lift_vel_m_s=lift_vel_m_s,
-    )
-    return o
+    return _observation(time_s, pads, lift_pos_m, opening_m, lift_force_n, grip_force_n, lift_vel_m_s)
 
 
 def py_make_command(lift_m, opening_m, grip_force_limit_n, modes, phase, reason) -> Command:
     """``Command(...)`` for the per-step path (see :func:`py_make_pad_signal`)."""
-    c = _new(Command)
-    c.__dict__.update(lift_m=lift_m, opening_m=opening_m, grip_force_limit_n=grip_force_limit_n, modes=modes, phase=phase, reason=reason)
-    return c
+    return _command(lift_m, opening_m, grip_force_limit_n, modes, phase, reason)
 
 
-#: The compiled twins of the three above where built (the instance's dict set in one C call), else they.
+#: The compiled twins of the three above where built (the slots written in C), else they.
 make_pad_signal, INTERFACE_COMPILED = twin("piezotip.cosim.control._control", "make_pad_signal", py_make_pad_signal)
 make_observation, _ = twin("piezotip.cosim.control._control", "make_observation", py_make_observation)
 make_command, _ = twin("piezotip.cosim.control._control", "make_command", py_make_command)
