@@ -125,16 +125,14 @@ cdef extern from "Python.h":
 
 cdef inline int slot_offsets(type cls, Py_ssize_t *out, Py_ssize_t n) except -1:
     """Each dataclass field's slot offset in ``cls``, in the fields' order, into ``out`` (``n``
-    of them: a record with another number of fields, or a field that is not a slot, raises)."""
-    from dataclasses import fields
+    of them: a record with another number of fields, or a field that is not a slot, raises;
+    the descriptors and that check are sensor.compiled.slot_descriptors)."""
+    from piezotip.sensor.compiled import slot_descriptors
 
-    names = [f.name for f in fields(cls)]
-    if len(names) != n:
-        raise TypeError(f"{cls.__name__} has {len(names)} fields, its compiled maker fills {n}")
-    for i, name in enumerate(names):
-        slot = cls.__dict__.get(name)
-        if type(slot).__name__ != "member_descriptor":
-            raise TypeError(f"{cls.__name__}.{name} is not a slot: declare the dataclass with slots=True")
+    slots = slot_descriptors(cls)
+    if len(slots) != n:
+        raise TypeError(f"{cls.__name__} has {len(slots)} fields, its compiled maker fills {n}")
+    for i, slot in enumerate(slots):
         out[i] = (<PyMemberDescrObject *> <PyObject *> slot).d_member.offset
     return 0
 

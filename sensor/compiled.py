@@ -56,19 +56,29 @@ def twin(module: str, name: str, reference: type) -> tuple[type, bool]:
     return getattr(compiled, name), True
 
 
+def slot_descriptors(cls: type) -> list:
+    """The slot descriptor of each field of the dataclass ``cls``, in the fields' order: what
+    :func:`record_maker` sets through, and where the compiled twins read each slot's offset
+    (``_twin_helpers.pxd``: ``slot_offsets``).
+
+    Raises TypeError where a field of ``cls`` is not a slot (a dataclass without ``slots=True``)."""
+    slots = []
+    for f in fields(cls):
+        slot = cls.__dict__.get(f.name)
+        if type(slot).__name__ != "member_descriptor":
+            raise TypeError(f"{cls.__name__}.{f.name} is not a slot: declare the dataclass with slots=True")
+        slots.append(slot)
+    return slots
+
+
 def record_maker(cls: type) -> Callable[..., object]:
     """A function making a frozen slots dataclass ``cls`` from its fields' values, in their
     order, all given: each is set through its slot's descriptor (where the constructor goes
     through ``object.__setattr__``).  The result equals the constructor's (tests check it).
 
-    Raises TypeError where a field of ``cls`` is not a slot (a dataclass without ``slots=True``)."""
+    Raises TypeError where a field of ``cls`` is not a slot (:func:`slot_descriptors`)."""
     names = [f.name for f in fields(cls)]
-    setters = []
-    for name in names:
-        slot = cls.__dict__.get(name)
-        if type(slot).__name__ != "member_descriptor":
-            raise TypeError(f"{cls.__name__}.{name} is not a slot: declare the dataclass with slots=True")
-        setters.append(slot.__set__)
+    setters = [slot.__set__ for slot in slot_descriptors(cls)]
     new = object.__new__
 
     def make(*values):
