@@ -336,6 +336,19 @@ def throughput_report(progress=None, baseline: str | None = None) -> dict:
     return report
 
 
+def _experiment_verdict(report: dict, mark) -> str:
+    """The 4x target is against the code as it was when the target was set ("today"): a serial,
+    uncached run of the present code is no stand-in for it (it runs the present loop, several
+    times faster), so its ratio is a lower bound, judged only when it meets the target; the
+    judged figure is the baseline revision's (``--baseline REV``)."""
+    target = TARGET_EXPERIMENT_SPEEDUP
+    if report["experiment_speedup"] >= target:
+        return f"(target >= {target:g}x)  {mark(True)}"
+    if "baseline_speedup" in report:
+        return f"(the caches' and workers' share; the {target:g}x target: against {report['baseline_rev']} below)"
+    return f"(a lower bound of the speed-up over the code the {target:g}x target was set on: --baseline REV times that)"
+
+
 def format_throughput(report: dict) -> str:
     """The throughput figures as text, each against its target."""
 
@@ -348,8 +361,7 @@ def format_throughput(report: dict) -> str:
         f"  experiment grasp-range, default, cold cache    {report['experiment_default_cold_cache_s']:7.1f} s"
         f"   {report['experiment_speedup_cold_cache']:.2f}x",
         f"  experiment grasp-range, default, warm cache    {report['experiment_default_s']:7.1f} s"
-        f"   {report['experiment_speedup']:.2f}x  (target >= {TARGET_EXPERIMENT_SPEEDUP:g}x)"
-        f"  {mark(report['experiment_speedup'] >= TARGET_EXPERIMENT_SPEEDUP)}",
+        f"   {report['experiment_speedup']:.2f}x  {_experiment_verdict(report, mark)}",
     ]
     for prefix, what in (("small_sweep", "the objects alone"), ("sweep", "objects x controllers x sensor designs")):
         if f"{prefix}_points" not in report:

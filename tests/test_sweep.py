@@ -208,6 +208,27 @@ def _worker_view() -> tuple:
     return os.getpid(), os.getppid(), modules, os.environ.get(sweep._SERVER_FLAG), os.environ.get("OMP_NUM_THREADS")
 
 
+def _periodic_callbacks_ms(dask_worker=None, dask_scheduler=None) -> dict:
+    server = dask_worker if dask_worker is not None else dask_scheduler
+    return {name: pc.callback_time for name, pc in server.periodic_callbacks.items()}
+
+
+def test_the_local_clusters_settings_leave_a_users_own_alone():
+    import dask
+
+    ours = {key: value for key, (_default, value) in sweep_module.LOCAL_CLUSTER_CONFIG.items()}
+    assert sweep_module.local_cluster_config().items() >= ours.items()
+    with dask.config.set({"distributed.admin.tick.interval": "50ms", "distributed.worker.profile.enabled": True}):
+        config = sweep_module.local_cluster_config()
+    # A changed tick is the user's; a profiler left at Dask's default (True) is switched off.
+    assert "distributed.admin.tick.interval" not in config
+    assert config["distributed.worker.profile.enabled"] is False
+    # Each pair's first value is Dask's own default, so the check above compares like with like.
+    defaults = dask.config.merge(*dask.config.defaults)  # the packages' own, without a user's files
+    for key, (default, _ours) in sweep_module.LOCAL_CLUSTER_CONFIG.items():
+        assert dask.config.get(key, config=defaults) == default, key
+
+
 @pytest.mark.slow
 def test_local_workers_are_forked_from_the_worker_server_with_their_imports_done():
     before = dict(os.environ)
@@ -215,7 +236,14 @@ def test_local_workers_are_forked_from_the_worker_server_with_their_imports_done
     assert dict(os.environ) == before  # the server's environment is its own
     with sweep_module._client(2, None) as client:
         seen = list(client.run(_worker_view).values())
+        callbacks = list(client.run(_periodic_callbacks_ms).values())
+        scheduler_callbacks = client.run_on_scheduler(_periodic_callbacks_ms)
     assert len(seen) == 2
+    # The local cluster's settings reached the workers through their nanny, and the scheduler:
+    # no profiler, the loop's lag and the system monitor read seldom.
+    for found in [*callbacks, scheduler_callbacks]:
+        assert not {"profile", "profile-cycle"} & set(found)
+        assert found["tick"] == 1000 and found["monitor"] == 5000
     for _pid, parent, modules, flag, omp in seen:
         assert parent != os.getpid()  # forked by the server, not spawned by this process
         assert modules == list(sweep_module.WORKER_MODULES)

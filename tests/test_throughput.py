@@ -41,7 +41,10 @@ def test_the_text_gives_each_ratio_against_its_target():
     text = throughput.format_throughput(_report())
     assert "4.00x" in text and "1.82x" in text and "ratio 0.97" in text and "ratio 0.96" in text
     assert text.count("  ok") == 3 and "NO" not in text
-    assert throughput.format_throughput(_report(experiment_speedup=2.0)).count("NO") == 1
+    # Against a serial, uncached run of the present code the ratio is a lower bound of the
+    # speed-up over the code the target was set on: met if it meets it, not judged below it.
+    below = throughput.format_throughput(_report(experiment_speedup=2.0))
+    assert "NO" not in below and "2.00x  (a lower bound" in below and below.count("  ok") == 2
     # The long-run target is judged on the hold against the hold, not on the whole runs.
     assert throughput.format_throughput(_report(hold_rt_ratio=0.8)).count("NO") == 1
     assert "NO" not in throughput.format_throughput(_report(long_run_rt_ratio=0.8))
@@ -164,6 +167,9 @@ def test_the_baseline_line_gives_its_ratio_against_the_target():
     text = throughput.format_throughput(report)
     assert "at abc1234" in text and "3.00x" in text
     assert text.count("NO") == 1
+    # The judged figure is the revision's: the serial ratio below 4x says what it measures.
+    text = throughput.format_throughput({**report, "experiment_speedup": 1.8, "baseline_speedup": 4.2})
+    assert "NO" not in text and "1.80x  (the caches' and workers' share; the 4x target: against abc1234 below)" in text
 
 
 @needs_git
