@@ -378,9 +378,11 @@ def format_throughput(report: dict) -> str:
             f"{name + ', 2 workers':<49}{report[f'{prefix}_2_workers_s']:7.1f} s   {ratio:.2f}x  {verdict}",
         ]
         speedups = report.get(f"{prefix}_speedups") or []
-        pairs = zip(report.get(f"{prefix}_1_worker_runs_s", []), report.get(f"{prefix}_2_workers_runs_s", []), speedups, strict=True)
-        median = f"; the median of {len(speedups)} pairs of runs: " if len(speedups) > 1 else ""
-        lines.append(f"    ({what}{median}" + ", ".join(f"{one:.1f} s / {two:.1f} s = {x:.2f}x" for one, two, x in pairs if median) + ")")
+        if len(speedups) > 1:
+            pairs = zip(report[f"{prefix}_1_worker_runs_s"], report[f"{prefix}_2_workers_runs_s"], speedups, strict=True)
+            runs = ", ".join(f"{one:.1f} s / {two:.1f} s = {x:.2f}x" for one, two, x in pairs)
+            what += f"; the median of {len(speedups)} pairs of runs: {runs}"
+        lines.append(f"    ({what})")
     lines += [
         f"  real-time factor, {report['short_run_sim_s']:.0f} s run                     {report['short_run_rt_factor']:7.1f}x",
         f"  real-time factor, {report['long_run_sim_s']:.0f} s run                    {report['long_run_rt_factor']:7.1f}x"
