@@ -23,6 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from .plotting import new_figure, save_figure
+from .referee import needed_grip_n
 from .runner import json_safe
 from .sweep import OUTCOME_COLOUR, SweepRun
 
@@ -68,6 +69,10 @@ COLUMNS = (
     "touch_latency_s",
     "mode_switches",
     "peak_grip_force_n",
+    "hold_grip_n",
+    "needed_grip_n",
+    "grip_margin",
+    "peak_contact_n",
     "outside_model",
 )
 
@@ -91,7 +96,7 @@ def feasible(obj, finger_force_limit_n: float | None = None, gravity_m_s2: float
         limit_n, g = gripper()
         finger_force_limit_n = limit_n if finger_force_limit_n is None else finger_force_limit_n
         gravity_m_s2 = g if gravity_m_s2 is None else gravity_m_s2
-    need = obj.mass_kg * gravity_m_s2 / (2.0 * obj.friction)
+    need = needed_grip_n(obj.mass_kg, obj.friction, gravity_m_s2)
     limit = min(finger_force_limit_n, obj.crush_force_n if obj.crush_force_n is not None else math.inf)
     if need <= limit:
         return True, ""
@@ -138,6 +143,7 @@ def experiment_row(row: dict) -> dict:
         "touch_latency_s": row["touch_latency_s"],
         "mode_switches": row["mode_switches"],
         "peak_grip_force_n": row["peak_grip_force_n"],
+        **{key: row.get(key, math.nan) for key in ("hold_grip_n", "needed_grip_n", "grip_margin", "peak_contact_n")},
         "outside_model": row["outside_model"],
     }
 
@@ -167,14 +173,18 @@ def run_experiment(
 
 def format_table(rows: list[dict]) -> str:
     """The experiment's table as text."""
-    head = f"{'object':<16} {'controller':<12} {'outcome':<12} {'peak P [Pa]':>11} {'grip [N]':>8} {'touch [ms]':>10} {'sw':>3}  reason"
+    head = (
+        f"{'object':<16} {'controller':<12} {'outcome':<12} {'peak P [Pa]':>11} {'held [N]':>8} {'needs [N]':>9} {'margin':>6}"
+        f" {'peak [N]':>8} {'touch [ms]':>10} {'sw':>3}  reason"
+    )
     lines = [head, "-" * len(head)]
     for r in rows:
         touch = 1e3 * r["touch_latency_s"] if math.isfinite(r["touch_latency_s"]) else math.nan
         flag = " [outside model]" if r["outside_model"] else ""
         lines.append(
-            f"{r['object']:<16} {r['controller']:<12} {r['outcome']:<12} {r['peak_pressure_pa']:>11.3g} {r['peak_grip_force_n']:>8.3g}"
-            f" {touch:>10.1f} {r['mode_switches']:>3}  {r['reason']}{flag}"
+            f"{r['object']:<16} {r['controller']:<12} {r['outcome']:<12} {r['peak_pressure_pa']:>11.3g} {r['hold_grip_n']:>8.3g}"
+            f" {r['needed_grip_n']:>9.3g} {r['grip_margin']:>6.2f} {r['peak_contact_n']:>8.3g} {touch:>10.1f}"
+            f" {r['mode_switches']:>3}  {r['reason']}{flag}"
         )
     return "\n".join(lines)
 
@@ -190,7 +200,16 @@ def write_outputs(rows: list[dict], out_dir: Path, plot: bool = True) -> list[Pa
         writer.writeheader()
         writer.writerows(rows)
     json_path = out_dir / "grasp_range.json"
-    units = {"peak_pressure_pa": "Pa", "held_pressure_pa": "Pa", "touch_latency_s": "s", "peak_grip_force_n": "N"}
+    units = {
+        "peak_pressure_pa": "Pa",
+        "held_pressure_pa": "Pa",
+        "touch_latency_s": "s",
+        "peak_grip_force_n": "N",
+        "hold_grip_n": "N",
+        "needed_grip_n": "N",
+        "grip_margin": "hold_grip_n / needed_grip_n",
+        "peak_contact_n": "N",
+    }
     json_path.write_text(json.dumps(json_safe({"units": units, "rows": rows}), indent=2) + "\n")
     if not plot:
         return [csv_path, json_path]

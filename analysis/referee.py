@@ -29,6 +29,8 @@ model's valid range (the outcome stands; the flag says how far to trust it).
 
 from __future__ import annotations
 
+import dataclasses
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -61,7 +63,15 @@ class Criteria:
 
 @dataclass(frozen=True)
 class Verdict:
-    """The referee's judgement of one run (lengths m, speeds m/s, forces N, times s)."""
+    """The referee's judgement of one run (lengths m, speeds m/s, forces N, times s).
+
+    Grip economy, from the truth: ``hold_grip_n`` is the fingers' true force on the object (the
+    mean of the two fingers, N) as a median over the samples in which the object was carried
+    clear of the table (NaN if it never was); ``needed_grip_n`` the least grip that holds it
+    (:func:`needed_grip_n`); ``grip_margin`` their ratio (1 holds it exactly; people keep 1.1-1.4);
+    ``peak_contact_n`` the largest true force of either finger at any time (touch, lift, touchdown
+    and release included; over every physics step where the record has the peaks), N.
+    """
 
     outcome: str
     reason: str
@@ -78,6 +88,10 @@ class Verdict:
     landing_speed_m_s: float
     held_s: float
     peak_grip_force_n: float
+    hold_grip_n: float = math.nan
+    needed_grip_n: float = math.nan
+    grip_margin: float = math.nan
+    peak_contact_n: float = math.nan
 
     @property
     def success(self) -> bool:
@@ -87,6 +101,20 @@ class Verdict:
         d = {k: getattr(self, k) for k in self.__dataclass_fields__}
         d["success"] = self.success
         return d
+
+
+def needed_grip_n(mass_kg: float, friction: float, gravity_m_s2: float = 9.81, fingers: int = 2) -> float:
+    """The least normal force per finger that holds an object against gravity by friction, N.
+
+    Coulomb friction on ``fingers`` parallel contacts, each carrying at most ``friction`` times
+    its normal force ``G``: the object is held while ``fingers * friction * G >= m g``, so
+    ``G = m g / (fingers * friction)`` (m g / (2 mu) for a two-finger grip).  ``mass_kg`` in kg,
+    ``friction`` the pad-object coefficient (dimensionless), ``gravity_m_s2`` in m/s^2.
+    """
+    if not (mass_kg > 0 and friction > 0 and gravity_m_s2 > 0 and fingers > 0):
+        got = f"{mass_kg!r} kg, friction {friction!r}, {gravity_m_s2!r} m/s^2, {fingers!r} fingers"
+        raise ValueError(f"needed_grip_n needs positive mass, friction, gravity and fingers, got {got}")
+    return mass_kg * gravity_m_s2 / (fingers * friction)
 
 
 def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
@@ -117,6 +145,7 @@ def judge(
     finished: bool = True,
     error: str | None = None,
     criteria: Criteria = Criteria(),
+    needed_grip: float | None = None,
 ) -> Verdict:
     """Judge one recorded run.
 
@@ -133,11 +162,14 @@ def judge(
     events : the controller's events (dicts with ``kind``, ``message``, ``time_s``).
     finished : whether the controller finished before the time ran out.
     error : the message of an error that stopped the run (a divergence), or None.
+    needed_grip : the least grip that holds the object, N per finger (:func:`needed_grip_n`
+        of its simulated mass and friction); None leaves ``needed_grip_n`` and ``grip_margin`` NaN.
     """
     c = criteria
     t = np.asarray(data.get("time_s", ()), float)
     if t.size == 0:
-        return Verdict("fault", error or "nothing was recorded", *([False] * 6), *([float("nan")] * 2), 0.0, 0.0, 0.0, 0.0, 0.0)
+        nothing = Verdict("fault", error or "nothing was recorded", *([False] * 6), *([math.nan] * 2), 0.0, 0.0, 0.0, 0.0, 0.0)
+        return dataclasses.replace(nothing, needed_grip_n=math.nan if needed_grip is None else float(needed_grip))
     z = data["object_height_m"]
     z0 = float(z[0])
     rise = z - z0
@@ -176,6 +208,9 @@ def judge(
     # limit: cosim.loop.PEAK_COLUMNS), else their force at each control period.
     grip = np.maximum(data.get("left_finger_peak_force_n", left), data.get("right_finger_peak_force_n", right))
     peak_grip = float(grip.max())
+    clear = gripped & off_table & ~on_table
+    hold_grip = float(np.median(0.5 * (left + right)[clear])) if clear.any() else math.nan
+    needed = math.nan if needed_grip is None else float(needed_grip)
     crushed = crush_force_n is not None and peak_grip > crush_force_n
 
     kinds = {e["kind"]: e for e in events}
@@ -238,6 +273,10 @@ def judge(
         landing_speed_m_s=landing,
         held_s=held_s,
         peak_grip_force_n=peak_grip,
+        hold_grip_n=hold_grip,
+        needed_grip_n=needed,
+        grip_margin=hold_grip / needed if needed > 0 else math.nan,
+        peak_contact_n=peak_grip,
     )
 
 

@@ -12,7 +12,7 @@ from piezotip.scenarios.config import ObjectConfig, ScenarioConfig
 from piezotip.sensor import Fingertip
 
 from .plotting import new_figure, save_figure
-from .referee import judge, outside_model
+from .referee import judge, needed_grip_n, outside_model
 
 
 def _finite_max(values: np.ndarray) -> float:
@@ -24,6 +24,16 @@ def describe_object(obj: ObjectConfig) -> str:
     """The object as simulated, in words: '100 g box, 40 mm, friction 1' (+ crush limit)."""
     text = f"{1e3 * obj.mass_kg:.4g} g {obj.shape}, {1e3 * obj.size_m:.4g} mm, friction {obj.friction:g}"
     return text + (f", crushes above {obj.crush_force_n:g} N" if obj.crush_force_n is not None else "")
+
+
+def object_needed_grip_n(model) -> float:
+    """The least grip that holds the scene's object, N per finger, from the compiled model's truth
+    (the object body's mass, the pad-object friction, which the pads' geoms carry, and gravity):
+    :func:`~analysis.referee.needed_grip_n`, m g / (2 mu)."""
+    from piezotip.cosim.scene import gravity_m_s2
+
+    pad = model.geom("left_pad_seg0_geom").id
+    return needed_grip_n(float(model.body("object").mass[0]), float(model.geom_friction[pad, 0]), gravity_m_s2(model))
 
 
 def mode_changes(data: dict[str, np.ndarray], pads: tuple[str, ...]) -> tuple[int, list[int]]:
@@ -44,8 +54,12 @@ def summary(
     error: str | None,
     events: list[dict] | None = None,
     finished: bool = True,
+    needed_grip: float | None = None,
 ) -> dict:
-    """The run's JSON summary: scenario, times, steps, pressures, modes, the referee's outcome, files."""
+    """The run's JSON summary: scenario, times, steps, pressures, modes, the referee's outcome, files.
+
+    ``needed_grip``: the least grip that holds the object, N per finger (:func:`object_needed_grip_n`
+    of the simulated model); None computes it from the config's object at standard gravity."""
     pads = tuple(config.sensor.pads)
     sim_time = float(data["time_s"][-1]) if data else 0.0
     switches, used = mode_changes(data, pads) if data else (0, [])
@@ -72,7 +86,9 @@ def summary(
         "error": error,
     }
     c = config.controller
-    verdict = judge(data, c.lift_height_m, c.hold_s, config.object.crush_force_n, events or [], finished, error)
+    if needed_grip is None:
+        needed_grip = needed_grip_n(config.object.mass_kg, config.object.friction)
+    verdict = judge(data, c.lift_height_m, c.hold_s, config.object.crush_force_n, events or [], finished, error, needed_grip=needed_grip)
     result.update(verdict.as_dict())
     result["limits"] = model_limits(config, result["max_pressure_pa"], data, pads)
     result["outside_model"] = outside_model(result["limits"])
@@ -103,6 +119,14 @@ def model_limits(config: ScenarioConfig, max_pressure_pa: float, data: dict[str,
     }
 
 
+def _grip_economy(s: dict) -> str:
+    """The grip against what the object needs, in words (the summary's grip-economy keys)."""
+    held, need, margin = (s.get(k) for k in ("hold_grip_n", "needed_grip_n", "grip_margin"))
+    ok = all(isinstance(v, float) and math.isfinite(v) for v in (held, need, margin))
+    text = f"held {held:.3g} N where {need:.3g} N holds it ({margin:.2f}x)" if ok else "never carried clear of the table"
+    return text + f"; peak contact {s['peak_contact_n']:.3g} N"
+
+
 def format_summary(s: dict) -> str:
     """A readable block of the summary."""
     lines = [
@@ -111,7 +135,8 @@ def format_summary(s: dict) -> str:
         f"  simulated {s['sim_time_s']:.2f} s in {s['wall_time_s']:.2f} s wall ({s['realtime_factor']:.1f}x real time, {s['steps']} steps)",
         f"  object rose {1e3 * s['max_rise_m']:.1f} mm, moved {1e3 * s['max_slip_m']:.1f} mm in the fingers, held {s['held_s']:.2f} s,"
         f" ended {1e3 * (s['object_final_height_m'] - s['object_start_height_m']):+.1f} mm from its start"
-        f" (landing {s['landing_speed_m_s']:.3f} m/s); peak grip {s['peak_grip_force_n']:.3g} N",
+        f" (landing {s['landing_speed_m_s']:.3f} m/s)",
+        f"  grip {_grip_economy(s)}",
         f"  max pad pressure {s['max_pressure_pa']:.4g} Pa (true), {s['max_estimate_pa']:.4g} Pa (largest estimate)",
         f"  modes used {s['modes_used']}, {s['mode_switches']} switches",
     ]

@@ -74,7 +74,7 @@ def run_scenario(
     from piezotip.cosim.loop import CoSimulation
     from piezotip.cosim.recorder import Recorder
 
-    from .run_report import plot_run, summary
+    from .run_report import object_needed_grip_n, plot_run, summary
 
     config = scenarios.get(name, overrides, preset)
     out = check_out_dir(Path(out))
@@ -115,7 +115,8 @@ def run_scenario(
     data = recorder.data()
     files = [str(f) for f in result.files]
     events = [asdict(e) for e in sim.controller.events]
-    report = summary(config, data, result.wall_time_s, files, result.error, events, sim.controller.finished)
+    needed = object_needed_grip_n(sim.model)
+    report = summary(config, data, result.wall_time_s, files, result.error, events, sim.controller.finished, needed)
     if data and plot:
         files.append(str(plot_run(config, sim.fingertip, data, out, report)))
     if strip is not None and strip.images:

@@ -51,10 +51,17 @@ EXTRA_COLUMNS = (
     "touch_latency_s",
     "mode_switches",
     "peak_grip_force_n",
+    "hold_grip_n",
+    "needed_grip_n",
+    "grip_margin",
+    "peak_contact_n",
     "outside_model",
     "sim_time_s",
     "error",
 )
+
+#: The referee's grip economy (analysis.referee.Verdict): grip held, needed, their ratio, peak contact.
+GRIP_ECONOMY_COLUMNS = ("hold_grip_n", "needed_grip_n", "grip_margin", "peak_contact_n")
 
 #: The outcome of a point whose run raised.
 ERROR_OUTCOME = "error"
@@ -173,6 +180,7 @@ def point_row(summary: Mapping, data: Mapping[str, np.ndarray]) -> dict:
         "touch_latency_s": touch_t - contact_t if math.isfinite(touch_t) and math.isfinite(contact_t) else math.nan,
         "mode_switches": summary["mode_switches"],
         "peak_grip_force_n": summary["peak_grip_force_n"],
+        **{key: summary.get(key, math.nan) for key in GRIP_ECONOMY_COLUMNS},
         "outside_model": "; ".join(summary.get("outside_model", [])),
         "sim_time_s": summary["sim_time_s"],
         "error": summary.get("error") or "",
@@ -226,6 +234,10 @@ _NUMBER_COLUMNS = (
     "touch_latency_s",
     "mode_switches",
     "peak_grip_force_n",
+    "hold_grip_n",
+    "needed_grip_n",
+    "grip_margin",
+    "peak_contact_n",
     "sim_time_s",
 )
 
@@ -237,8 +249,8 @@ def _normalized(row: dict) -> dict:
 
     row = json.loads(json.dumps(json_safe(row)))
     for key in _NUMBER_COLUMNS:
-        if key in row and row[key] is None:
-            row[key] = math.nan
+        if row.get(key, None) is None and (key in row or key in GRIP_ECONOMY_COLUMNS):
+            row[key] = math.nan  # null, or a journal written before the grip-economy columns
     return row
 
 
@@ -691,10 +703,12 @@ def _label(value) -> str:
 
 def format_rows(rows: list[dict], grid_keys: Sequence[str]) -> str:
     """The sweep's rows as a text table."""
-    head = [*grid_keys, "outcome", "peak P [Pa]", "held P [Pa]", "modes", "wall [s]"]
+    head = [*grid_keys, "outcome", "peak P [Pa]", "held P [Pa]", "grip margin", "modes", "wall [s]"]
     lines = []
     for r in rows:
-        numbers = [f"{r['max_pressure_pa']:.3g}", f"{r['held_pressure_pa']:.3g}", r["modes_used"], f"{r['wall_time_s']:.2f}"]
+        margin = r.get("grip_margin", math.nan)
+        pressures = [f"{r['max_pressure_pa']:.3g}", f"{r['held_pressure_pa']:.3g}"]
+        numbers = [*pressures, f"{margin:.2f}", r["modes_used"], f"{r['wall_time_s']:.2f}"]
         lines.append([*(_label(r[k]) for k in grid_keys), r["outcome"], *numbers])
     widths = [max(len(h), *(len(line[i]) for line in lines)) if lines else len(h) for i, h in enumerate(head)]
     text = ["  ".join(h.ljust(w) for h, w in zip(head, widths, strict=True))]

@@ -95,6 +95,13 @@ class Result:
         """Whether the grasp was a success as someone watching would judge it."""
         return bool(self.summary["success"])
 
+    @property
+    def grip_margin(self) -> float:
+        """The grip held over the least grip that holds the object (``hold_grip_n / needed_grip_n``,
+        from the simulator's truth; NaN if the object was never carried clear of the table)."""
+        value = self.summary.get("grip_margin")
+        return float("nan") if value is None else float(value)
+
 
 def run(
     scenario: str = "grasp",

@@ -437,8 +437,12 @@ class GraspEnv(gym.Env):
 
     def verdict(self):
         """The referee's :class:`~piezotip.analysis.referee.Verdict` of the episode so far (as finished)."""
-        c = self.config.controller
-        return judge(self.recording(), c.lift_height_m, c.hold_s, self.config.object.crush_force_n, finished=True, error=self._error)
+        from piezotip.analysis.run_report import object_needed_grip_n
+
+        c, needed = self.config.controller, None if self.sim is None else object_needed_grip_n(self.sim.model)
+        record = self.recording()
+        crush = self.config.object.crush_force_n
+        return judge(record, c.lift_height_m, c.hold_s, crush, finished=True, error=self._error, needed_grip=needed)
 
     # -- internals ------------------------------------------------------------------------
 

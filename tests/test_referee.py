@@ -147,3 +147,47 @@ def test_outside_model_names_each_limit():
     flags = outside_model(limits)
     assert len(flags) == 3 and "60 %" in flags[0] and "backstop" in flags[2]
     assert outside_model({}) == []
+
+
+# -- grip economy ---------------------------------------------------------------------------
+
+
+def test_needed_grip_is_the_coulomb_limit_of_two_fingers():
+    from piezotip.analysis.referee import needed_grip_n
+
+    # m g / (2 mu): 50 g at mu 0.5 under 9.81 m/s^2 is 0.4905 N per finger (hand-computed).
+    assert needed_grip_n(0.05, 0.5, 9.81) == pytest.approx(0.4905, rel=1e-12)
+    # Three fingers share it three ways; twice the friction halves it.
+    assert needed_grip_n(0.05, 0.5, 9.81, fingers=3) == pytest.approx(0.4905 * 2 / 3)
+    assert needed_grip_n(0.05, 1.0, 9.81) == pytest.approx(0.4905 / 2)
+    for bad in ((0.0, 0.5), (0.05, -1.0), (float("nan"), 0.5)):
+        with pytest.raises(ValueError, match="needed_grip_n"):
+            needed_grip_n(*bad)
+
+
+def test_hold_grip_is_the_median_while_carried_clear_of_the_table():
+    d = clean_record()
+    carried = d["table_force_n"] == 0.0
+    # A grip spike at touch (on the table) and a 3x grip over a short stretch of the carry: the
+    # median over the carry is the steady 1 N, the peak contact the spike.
+    d["left_finger_force_n"][100] = d["right_finger_force_n"][100] = 7.0
+    burst = np.flatnonzero(carried)[:20]
+    d["left_finger_force_n"][burst] = d["right_finger_force_n"][burst] = 3.0
+    # The two fingers unequal: the grip is their mean.
+    d["left_finger_force_n"][carried] *= 1.2
+    d["right_finger_force_n"][carried] *= 0.8
+    v = verdict(d, needed_grip=0.8)
+    assert v.hold_grip_n == pytest.approx(1.0)
+    assert v.needed_grip_n == 0.8
+    assert v.grip_margin == pytest.approx(1.25)
+    assert v.peak_contact_n == pytest.approx(7.0)
+    assert {"hold_grip_n", "needed_grip_n", "grip_margin", "peak_contact_n"} <= set(v.as_dict())
+
+
+def test_grip_economy_is_nan_where_nothing_was_carried_or_needed_unknown():
+    d = clean_record()
+    d["object_height_m"] = np.full_like(d["time_s"], Z0)  # never left the table
+    v = verdict(d, needed_grip=0.5)
+    assert np.isnan(v.hold_grip_n) and np.isnan(v.grip_margin) and v.needed_grip_n == 0.5
+    v = verdict(clean_record())
+    assert np.isnan(v.needed_grip_n) and np.isnan(v.grip_margin) and v.hold_grip_n == pytest.approx(1.0)
