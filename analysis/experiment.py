@@ -6,8 +6,9 @@ single-mode baseline (``controller.modes=[n]``), with the same controller code a
 (never tuned per object).  The user's ``--set`` overrides apply to every run, after the
 object's and the controller's.  Each run is judged by the referee (:mod:`analysis.referee`);
 the table says, per object and controller: the outcome and its reason, peak and held pressure,
-the time from first contact to detected touch, mode switches, the peak grip, whether the run
-left the model's valid range, and whether the gripper could physically do it at all.
+the time from first contact to detected touch and which sense felt it (the fingertips or the
+finger joints), mode switches, the peak grip, whether the run left the model's valid range,
+and whether the gripper could physically do it at all.
 """
 
 from __future__ import annotations
@@ -22,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .plotting import new_figure, save_figure
+from .plotting import save_figure
 from .referee import needed_grip_n
 from .runner import json_safe
 from .sweep import OUTCOME_COLOUR, SweepRun
@@ -67,6 +68,7 @@ COLUMNS = (
     "peak_pressure_pa",
     "held_pressure_pa",
     "touch_latency_s",
+    "touch_sense",
     "mode_switches",
     "peak_grip_force_n",
     "hold_grip_n",
@@ -141,6 +143,7 @@ def experiment_row(row: dict) -> dict:
         "peak_pressure_pa": row["max_pressure_pa"],
         "held_pressure_pa": row["held_pressure_pa"],
         "touch_latency_s": row["touch_latency_s"],
+        "touch_sense": row.get("touch_sense") or "",
         "mode_switches": row["mode_switches"],
         "peak_grip_force_n": row["peak_grip_force_n"],
         **{key: row.get(key, math.nan) for key in ("hold_grip_n", "needed_grip_n", "grip_margin", "peak_contact_n")},
@@ -175,7 +178,7 @@ def format_table(rows: list[dict]) -> str:
     """The experiment's table as text."""
     head = (
         f"{'object':<16} {'controller':<12} {'outcome':<12} {'peak P [Pa]':>11} {'held [N]':>8} {'needs [N]':>9} {'margin':>6}"
-        f" {'peak [N]':>8} {'touch [ms]':>10} {'sw':>3}  reason"
+        f" {'peak [N]':>8} {'touch [ms]':>10} {'by':<9} {'sw':>3}  reason"
     )
     lines = [head, "-" * len(head)]
     for r in rows:
@@ -184,7 +187,7 @@ def format_table(rows: list[dict]) -> str:
         lines.append(
             f"{r['object']:<16} {r['controller']:<12} {r['outcome']:<12} {r['peak_pressure_pa']:>11.3g} {r['hold_grip_n']:>8.3g}"
             f" {r['needed_grip_n']:>9.3g} {r['grip_margin']:>6.2f} {r['peak_contact_n']:>8.3g} {touch:>10.1f}"
-            f" {r['mode_switches']:>3}  {r['reason']}{flag}"
+            f" {r.get('touch_sense') or '-':<9} {r['mode_switches']:>3}  {r['reason']}{flag}"
         )
     return "\n".join(lines)
 
@@ -204,6 +207,7 @@ def write_outputs(rows: list[dict], out_dir: Path, plot: bool = True) -> list[Pa
         "peak_pressure_pa": "Pa",
         "held_pressure_pa": "Pa",
         "touch_latency_s": "s",
+        "touch_sense": "which sense felt the touch: fingertip, joints, or empty (no touch)",
         "peak_grip_force_n": "N",
         "hold_grip_n": "N",
         "needed_grip_n": "N",
@@ -213,14 +217,45 @@ def write_outputs(rows: list[dict], out_dir: Path, plot: bool = True) -> list[Pa
     json_path.write_text(json.dumps(json_safe({"units": units, "rows": rows}), indent=2) + "\n")
     if not plot:
         return [csv_path, json_path]
+    png = save_figure(experiment_figure(rows), out_dir / "grasp_range.png")
+    return [csv_path, json_path, png]
+
+
+#: The grip margin the issue asks for (hold grip over the grip that holds the object), drawn on the plot.
+TARGET_MARGIN = 1.5
+
+
+def _grid(rows: list[dict], key: str) -> tuple[list[str], list[str], np.ndarray]:
+    """(objects, controllers, the rows' ``key`` as an objects x controllers array, NaN where missing)."""
     objects = list(dict.fromkeys(r["object"] for r in rows))
     controllers = list(dict.fromkeys(r["controller"] for r in rows))
-    peak = np.full((len(objects), len(controllers)), np.nan)
-    fig, axes = new_figure(1, 2, figsize=(15, 6.5))
-    ax, ax_p = axes[0]
+    values = np.full((len(objects), len(controllers)), np.nan)
+    for r in rows:
+        v = r.get(key)
+        values[objects.index(r["object"]), controllers.index(r["controller"])] = np.nan if v is None else float(v)
+    return objects, controllers, values
+
+
+def experiment_figure(rows: list[dict]):
+    """The experiment's figure: the referee's outcome matrix (left); per object, a group of bars,
+    one per controller, of the grip margin (log axis, lines at 1 and :data:`TARGET_MARGIN`;
+    a run that never carried the object is an empty hatched bar named by its outcome) and the
+    peak pressure of each run as a point above its bar (nothing joins different objects)."""
+    from matplotlib.figure import Figure
+    from matplotlib.patches import Patch
+
+    objects, controllers, margin = _grid(rows, "grip_margin")
+    peak = _grid(rows, "peak_pressure_pa")[2]
+    outcome = {(r["object"], r["controller"]): r["outcome"] for r in rows}
+    fig = Figure(figsize=(21, 9.5))
+    grid = fig.add_gridspec(2, 2, width_ratios=(1.0, 1.75), height_ratios=(1.6, 1.0))
+    ax = fig.add_subplot(grid[:, 0])
+    ax_g = fig.add_subplot(grid[0, 1])
+    ax_p = fig.add_subplot(grid[1, 1], sharex=ax_g)
+
+    # the referee's outcome per object and controller
     for r in rows:
         i, j = objects.index(r["object"]), controllers.index(r["controller"])
-        peak[i, j] = r["peak_pressure_pa"]
         ax.add_patch(_cell(j, i, OUTCOME_COLOUR.get(r["outcome"], "white")))
         label = r["outcome"].replace("_", " ") + ("\n(outside model)" if r["outside_model"] else "")
         ax.text(j, i, label, ha="center", va="center", fontsize=7)
@@ -230,14 +265,54 @@ def write_outputs(rows: list[dict], out_dir: Path, plot: bool = True) -> list[Pa
     infeasible = {r["object"] for r in rows if not r["feasible"]}
     ax.set_yticks(range(len(objects)), [f"{o} (infeasible)" if o in infeasible else o for o in objects])
     ax.set_title("referee's outcome per object and controller (green: success)")
-    for j, c in enumerate(controllers):
-        ax_p.semilogy(range(len(objects)), peak[:, j], "o-", label=c)
-    ax_p.set_xticks(range(len(objects)), objects, rotation=40, ha="right")
-    ax_p.set(ylabel="peak pressure on the element [Pa]", title="peak pressure per object")
-    ax_p.grid(True, which="both", alpha=0.3)
-    ax_p.legend(fontsize=8)
-    png = save_figure(fig, out_dir / "grasp_range.png")
-    return [csv_path, json_path, png]
+
+    # grip margin: grouped bars, objects on x, one bar per controller
+    width = 0.8 / max(len(controllers), 1)
+    offsets = (np.arange(len(controllers)) - 0.5 * (len(controllers) - 1)) * width
+    x = np.arange(len(objects))
+    finite = margin[np.isfinite(margin) & (margin > 0)]
+    lo = min(0.5, 0.5 * float(finite.min())) if finite.size else 0.5
+    hi = max(2.0 * TARGET_MARGIN, 3.0 * float(finite.max())) if finite.size else 10.0
+    colours = [f"C{j}" for j in range(len(controllers))]
+    for j, (name, colour) in enumerate(zip(controllers, colours, strict=True)):
+        carried = np.isfinite(margin[:, j])
+        heights = np.where(carried, margin[:, j] - lo, hi - lo)
+        bars = ax_g.bar(x + offsets[j], heights, width, bottom=lo, color=colour, edgecolor=colour, label=name)
+        for i, bar in enumerate(bars.patches):
+            words = outcome.get((objects[i], name), "").replace("_", " ") or "no run"
+            if carried[i]:
+                if words != "success":  # carried, and still not a success: say why above the bar
+                    ax_g.text(x[i] + offsets[j], margin[i, j] * 1.08, words, rotation=90, ha="center", va="bottom", fontsize=7)
+                continue
+            bar.set(facecolor="none", hatch="///", alpha=0.45, lw=0.6)
+            box = {"facecolor": "white", "edgecolor": "none", "alpha": 0.8, "pad": 1.0}
+            ax_g.text(x[i] + offsets[j], math.sqrt(lo * hi), words, rotation=90, ha="center", va="center", fontsize=7, bbox=box)
+    ax_g.axhline(1.0, color="k", lw=1.2, label="1: holds it exactly")
+    ax_g.axhline(TARGET_MARGIN, color="k", ls="--", lw=1.2, label=f"{TARGET_MARGIN:g}: the target")
+    ax_g.set_yscale("log")
+    ax_g.set_ylim(lo, hi)
+    ax_g.set(ylabel="grip margin [-]\n(hold grip / grip that holds it)")
+    ax_g.set_title("grip margin per object and controller (hatched: never carried clear of the table)")
+    ax_g.grid(True, axis="y", which="both", alpha=0.3)
+    hatched = Patch(facecolor="none", edgecolor="0.4", hatch="///", label="never carried (no margin)")
+    handles, _ = ax_g.get_legend_handles_labels()
+    ax_g.legend(handles=[*handles, hatched], fontsize=8, loc="upper left", bbox_to_anchor=(1.005, 1.0))
+
+    # peak pressure: a point per run, at its bar's place
+    for j, (name, colour) in enumerate(zip(controllers, colours, strict=True)):
+        ax_p.scatter(x + offsets[j], peak[:, j], s=18, color=colour, edgecolor="k", linewidth=0.3, label=name, zorder=3)
+    ax_p.set_yscale("log")
+    ax_p.set(ylabel="peak pressure on the element [Pa]")
+    ax_p.set_title("peak pressure per run", fontsize=10)
+    ax_p.grid(True, axis="y", which="both", alpha=0.3)
+    ax_p.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.005, 1.0))
+    for ax_b in (ax_g, ax_p):
+        for edge in np.arange(len(objects) + 1) - 0.5:  # the objects' groups, apart
+            ax_b.axvline(edge, color="0.85", lw=0.8, zorder=0)
+    ax_p.set_xlim(-0.5, len(objects) - 0.5)
+    ax_p.set_xticks(x, objects, rotation=30, ha="right")
+    ax_g.tick_params(labelbottom=False)
+    return fig
 
 
 def _cell(x: float, y: float, colour: str):

@@ -11,7 +11,7 @@ from piezotip.cosim.loop import coverage_cells
 from piezotip.scenarios.config import ObjectConfig, ScenarioConfig
 from piezotip.sensor import Fingertip
 
-from .plotting import new_figure, save_figure
+from .plotting import save_figure
 from .referee import judge, needed_grip_n, outside_model
 
 
@@ -185,51 +185,172 @@ def per_mode_outputs(fingertip: Fingertip, data: dict[str, np.ndarray], side: st
     return out
 
 
-def plot_run(config: ScenarioConfig, fingertip: Fingertip, data: dict[str, np.ndarray], out_dir: Path, report: dict | None = None) -> Path:
-    """One PNG: pressure (true, estimated), per-mode outputs, active mode, grip force, object height.
+#: How each readout status is drawn on the run plot's status strip (``{side}_status`` codes index
+#: :data:`~piezotip.cosim.rows.STATUS_CODES`): only "ok" readings are drawn as estimates.
+_STATUS_STYLE = {
+    "ok": ("tab:green", 0.8, "ok (drawn as an estimate)"),
+    "below_detection": ("0.7", 0.5, "below detection"),
+    "saturated": ("tab:red", 0.8, "saturated"),
+    "settling": ("gold", 0.6, "settling"),
+}
 
-    The title names the object as simulated and the referee's outcome (``report``); the phases
-    are shaded on every panel, so the place, release and what followed can be seen."""
+#: The lowest pressure the run plot shows, Pa (the log axis's floor; a band reaching zero runs off it).
+_PRESSURE_FLOOR_PA = 0.1
+
+
+def estimate_readings(data: dict[str, np.ndarray], side: str) -> dict[str, np.ndarray]:
+    """What the run plot draws of ``side``'s estimates: the record's arrays, NaN where the
+    readout's status is not "ok" (below detection, saturated, settling: no estimate to draw).
+
+    Keys: ``ok`` (bool per step), ``estimate``, ``low`` and ``high`` (the estimate -+ 3 sigma, its
+    ``uncertainty_pa``; ``low`` not below zero), Pa."""
+    from piezotip.cosim.rows import STATUS_CODES
+
+    est = np.asarray(data[f"{side}_estimate_pa"], dtype=float)
+    sigma = np.asarray(data.get(f"{side}_uncertainty_pa", np.zeros_like(est)), dtype=float)
+    ok = (np.asarray(data[f"{side}_status"]) == STATUS_CODES.index("ok")) & np.isfinite(est)
+    sigma = np.where(np.isfinite(sigma), sigma, 0.0)
+    return {
+        "ok": ok,
+        "estimate": np.where(ok, est, np.nan),
+        "low": np.where(ok, np.maximum(est - 3.0 * sigma, 0.0), np.nan),
+        "high": np.where(ok, est + 3.0 * sigma, np.nan),
+    }
+
+
+def _status_runs(status: np.ndarray) -> dict[int, list[tuple[int, int]]]:
+    """Per status code, its runs as (first, stop) sample indices."""
+    changes = np.flatnonzero(np.diff(status)) + 1
+    starts = np.concatenate([[0], changes])
+    stops = np.concatenate([changes, [status.size]])
+    runs: dict[int, list[tuple[int, int]]] = {}
+    for a, b in zip(starts, stops, strict=True):
+        runs.setdefault(int(status[a]), []).append((int(a), int(b)))
+    return runs
+
+
+def _grip_words(report: dict | None) -> str:
+    """'hold grip 1.11 N = 2.25x the 0.491 N needed per finger', or why there is none."""
+    if report is None:
+        return ""
+    held, need, margin = (report.get(k, math.nan) for k in ("hold_grip_n", "needed_grip_n", "grip_margin"))
+    if all(isinstance(v, (int, float)) and math.isfinite(v) for v in (held, need, margin)):
+        return f"grip margin {margin:.2f}x: held {held:.3g} N per finger where {need:.3g} N holds it"
+    return "grip margin: none (never carried clear of the table)"
+
+
+def run_figure(config: ScenarioConfig, fingertip: Fingertip, data: dict[str, np.ndarray], report: dict | None = None):
+    """The run plot's figure (:func:`plot_run`); its axes in order: pressure, readout status,
+    per-mode outputs, driven mode, force, height."""
+    from matplotlib.figure import Figure
+    from matplotlib.patches import Patch
+
+    from piezotip.cosim.rows import STATUS_CODES
+
     t = data["time_s"]
-    fig, axes = new_figure(5, 1, figsize=(10, 13), sharex=True)
-    ax_p, ax_v, ax_m, ax_f, ax_h = (row[0] for row in axes)
-    for side, color in zip(config.sensor.pads, ("tab:blue", "tab:orange"), strict=False):
-        ax_p.semilogy(t, np.maximum(data[f"{side}_true_pressure_pa"], 1e-3), color=color, label=f"{side}: true (pad over the element)")
+    sides = [s for s in config.sensor.pads if f"{s}_estimate_pa" in data]
+    fig = Figure(figsize=(12, 14))
+    ratios = (3.2, 0.25 * max(len(sides), 1) + 0.2, 2.2, 1.2, 2.6, 1.8)
+    axes = fig.subplots(len(ratios), 1, sharex=True, gridspec_kw={"height_ratios": ratios})
+    ax_p, ax_s, ax_v, ax_m, ax_f, ax_h = axes
+    colors = dict(zip(sides, ("tab:blue", "tab:orange", "tab:purple", "tab:brown"), strict=False))
+    dark = dict(zip(sides, ("navy", "saddlebrown", "indigo", "black"), strict=False))
+
+    # pressure: the truth as lines, the "ok" estimates as points with their 3-sigma band
+    top = _PRESSURE_FLOOR_PA
+    for side in sides:
+        color = colors[side]
+        true_p = data[f"{side}_true_pressure_pa"]
+        top = max(top, _finite_max(true_p))
+        ax_p.plot(t, np.where(true_p > 0, true_p, np.nan), color=color, lw=3, alpha=0.4, label=f"{side}: true (pad over the element)")
         if f"{side}_coverage_pressure_pa" in data:  # what the gel brings to the element's coverage
-            covered = np.maximum(data[f"{side}_coverage_pressure_pa"], 1e-3)
-            ax_p.semilogy(t, covered, "--", lw=1, color=color, label=f"{side}: on the gel coverage")
-        est = data[f"{side}_estimate_pa"]
-        ax_p.semilogy(t, np.where(est > 0, est, np.nan), ".", ms=2, color=color, alpha=0.6, label=f"{side}: estimated")
-        ax_m.step(t, data[f"{side}_mode"], where="post", color=color, label=side)
+            covered = data[f"{side}_coverage_pressure_pa"]
+            ax_p.plot(t, np.where(covered > 0, covered, np.nan), "--", lw=0.8, color=color, label=f"{side}: true, on the gel coverage")
+        r = estimate_readings(data, side)
+        top = max(top, _finite_max(r["high"]))
+        low = np.maximum(np.nan_to_num(r["low"]), 0.5 * _PRESSURE_FLOOR_PA)
+        band = f"{side}: estimate $\\pm 3\\sigma$"
+        ax_p.fill_between(t, low, np.nan_to_num(r["high"]), where=r["ok"], color=color, alpha=0.3, lw=0, zorder=3, label=band)
+        ax_p.plot(t, r["estimate"], ".", ms=2.5, color=dark[side], zorder=4, label=f"{side}: estimate (status ok)")
+    ax_p.set_yscale("log")
+    ax_p.set_ylim(_PRESSURE_FLOOR_PA, 2.0 * top)
+    ax_p.set(ylabel="pressure on element [Pa]")
+
+    # the readout's status: one strip per pad, faint where there is no estimate
+    for row, side in enumerate(sides):
+        for code, runs in _status_runs(np.asarray(data[f"{side}_status"]).astype(int)).items():
+            name = STATUS_CODES[code] if 0 <= code < len(STATUS_CODES) else "?"
+            color, alpha, _ = _STATUS_STYLE.get(name, ("k", 0.5, name))
+            spans = [(t[a], t[min(b, t.size - 1)] - t[a]) for a, b in runs]
+            ax_s.broken_barh(spans, (row - 0.35, 0.7), facecolors=color, alpha=alpha, lw=0)
+    ax_s.set_ylim(len(sides) - 0.5, -0.5)
+    ax_s.set_yticks(range(len(sides)), sides)
+    ax_s.set_ylabel("readout\nstatus", fontsize=8)
+    ax_s.tick_params(axis="y", labelsize=7)
+    ax_s.legend(
+        handles=[Patch(facecolor=c, alpha=a, label=lab) for c, a, lab in _STATUS_STYLE.values()],
+        fontsize=7,
+        loc="upper left",
+        bbox_to_anchor=(1.005, 1.3),
+    )
+
+    # per-mode outputs and the driven one
     side = config.sensor.pads[0]
     for m, v in per_mode_outputs(fingertip, data, side).items():
         ax_v.plot(t, v, lw=1, label=f"mode {m} (steady, {fingertip.freq_hz(m) / 1e3:.1f} kHz)")
     ax_v.plot(t, data[f"{side}_v1"], "k.", ms=1.5, alpha=0.5, label=f"{side}: measured, driven mode")
-    ax_f.plot(t, data["grip_force_n"], label="grip (fingers actuator)")
-    if f"{side}_contact_force_n" in data:
-        ax_f.plot(t, data[f"{side}_contact_force_n"], "--", label=f"{side} finger contact (true)")
+    ax_v.set(ylabel="normalized output $V_1$ [-]")
+    for side in sides:
+        ax_m.step(t, data[f"{side}_mode"], where="post", color=colors[side], label=side)
+    ax_m.set(ylabel="driven mode")
+    ax_m.set_yticks(sorted(config.sensor.modes))
+
+    # force: the truth on the object, what holds it, what crushes it
+    for finger, color in (("left", "tab:blue"), ("right", "tab:orange")):
+        ax_f.plot(t, data[f"{finger}_finger_force_n"], color=color, lw=1.2, label=f"{finger} finger on the object (true)")
+    peaks = [data[k] for k in ("left_finger_peak_force_n", "right_finger_peak_force_n") if k in data]
+    if peaks:  # the crush test's force: a peak between two samples
+        ax_f.plot(t, np.max(peaks, axis=0), color="0.4", lw=0.6, alpha=0.7, label="largest finger force within each step (true)")
+    touching = np.maximum(data["left_finger_force_n"], data["right_finger_force_n"]) > 0
+    drive = np.where(touching, data["grip_force_n"], np.nan)
+    ax_f.plot(t, drive, ":", color="tab:purple", lw=1, label="commanded drive force (while touching)")
+    if report is not None and math.isfinite(report.get("needed_grip_n", math.nan)):
+        margin = report.get("grip_margin", math.nan)
+        how = f"; hold margin {margin:.2f}x" if math.isfinite(margin) else "; never carried"
+        label = f"needed grip {report['needed_grip_n']:.3g} N per finger{how}"
+        ax_f.axhline(report["needed_grip_n"], color="tab:green", ls="--", lw=1.2, label=label)
     if config.object.crush_force_n is not None:
-        ax_f.axhline(config.object.crush_force_n, color="red", ls=":", label="crush limit")
-    ax_f.plot(t, np.maximum(data["left_finger_force_n"], data["right_finger_force_n"]), ":", color="k", lw=1, label="grip on object (true)")
+        ax_f.axhline(config.object.crush_force_n, color="red", ls="-.", lw=1.2, label=f"crush limit {config.object.crush_force_n:.3g} N")
+    ax_f.set(ylabel="force on the object [N]")
+    ax_f.set_ylim(bottom=0.0)
+
     ax_h.plot(t, 1e3 * (data["object_height_m"] - data["object_height_m"][0]), label="object")
     ax_h.plot(t, 1e3 * (data["lift_m"] - data["lift_m"][0]), "--", label="gripper")
+    ax_h.set(ylabel="height change [mm]", xlabel="time [s]")
+
     title = f"{config.name}: {describe_object(config.object)}"
     if report is not None:
-        title += f"\n{report['outcome'].upper()}: {report['reason']}"
+        title += f"\n{report['outcome'].upper()}: {report['reason']}\n{_grip_words(report)}"
         if report.get("outside_model"):
             title += f"\noutside the model: {'; '.join(report['outside_model'])}"
-    ax_p.set_title(title, fontsize=9, color="tab:green" if report is not None and report["success"] else "black")
-    ax_p.set(ylabel="pressure on element [Pa]")
+    ax_p.set_title(title, fontsize=9, color="tab:green" if report is not None and report["success"] else "black", pad=14)
     _shade_phases(t, data["phase"], (ax_p, ax_v, ax_m, ax_f, ax_h))
-    ax_v.set(ylabel="normalized output $V_1$ [-]")
-    ax_m.set(ylabel="driven mode [-]")
-    ax_m.set_yticks(sorted(config.sensor.modes))
-    ax_f.set(ylabel="force [N]")
-    ax_h.set(ylabel="height change [mm]", xlabel="time [s]")
     for ax in (ax_p, ax_v, ax_m, ax_f, ax_h):
         ax.grid(True, alpha=0.3)
-        ax.legend(fontsize=7, loc="best")
-    return save_figure(fig, Path(out_dir) / "run.png")
+        ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.005, 1.0))
+    ax_p.grid(True, which="minor", alpha=0.1)
+    return fig
+
+
+def plot_run(config: ScenarioConfig, fingertip: Fingertip, data: dict[str, np.ndarray], out_dir: Path, report: dict | None = None) -> Path:
+    """One PNG, ``run.png``: pressure (true; the "ok" estimates with their 3-sigma band), each
+    pad's readout status, per-mode outputs, driven mode, the true force on the object against
+    the grip it needs and its crush limit, object height.
+
+    The title names the object as simulated, the referee's outcome and the grip margin
+    (``report``); the phases are shaded on every panel, so the place, release and what followed
+    can be seen."""
+    return save_figure(run_figure(config, fingertip, data, report), Path(out_dir) / "run.png")
 
 
 def _shade_phases(t: np.ndarray, phase: np.ndarray, axes) -> None:

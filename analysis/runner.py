@@ -109,6 +109,9 @@ def run_scenario(
     try:
         with tqdm(total=total, desc=name, unit="step", disable=quiet, leave=False) as bar:
             result = sim.run(recorder, progress=bar, on_step=on_step)
+            if not result.interrupted and result.error is None:  # ended (early, once at rest): done
+                bar.total = bar.n
+                bar.refresh()
     finally:
         if movie is not None:
             movie.close()

@@ -49,6 +49,7 @@ EXTRA_COLUMNS = (
     "slipped",
     "lifted",
     "touch_latency_s",
+    "touch_sense",
     "mode_switches",
     "peak_grip_force_n",
     "hold_grip_n",
@@ -149,6 +150,19 @@ def grid_points(grid: Mapping[str, Sequence[object]], base_overrides: Sequence[s
     return points
 
 
+def touch_sense(events: Sequence[Mapping]) -> str:
+    """Which sense felt the touch the squeeze began on: "fingertip" (every fingertip's touch
+    detector: "squeeze: touch on left, right (CUSUM)"), "joints" (the finger drive met a
+    resistance first: "squeeze: touch felt by the joints (...)"), or "" with no touch.  The
+    last squeeze counts (a false touch is closed on from, and the touch time is the last one's)."""
+    sense = ""
+    for event in events:
+        message = event.get("message", "")
+        if event.get("kind") == "phase" and message.startswith("squeeze: touch"):
+            sense = "joints" if message.startswith("squeeze: touch felt by the joints") else "fingertip"
+    return sense
+
+
 def point_row(summary: Mapping, data: Mapping[str, np.ndarray]) -> dict:
     """A finished run's row: the result columns and the extras, from its summary and record."""
     import numpy as np
@@ -178,6 +192,7 @@ def point_row(summary: Mapping, data: Mapping[str, np.ndarray]) -> dict:
         "slipped": summary["slipped"],
         "lifted": summary["lifted"],
         "touch_latency_s": touch_t - contact_t if math.isfinite(touch_t) and math.isfinite(contact_t) else math.nan,
+        "touch_sense": touch_sense(summary.get("events") or []),
         "mode_switches": summary["mode_switches"],
         "peak_grip_force_n": summary["peak_grip_force_n"],
         **{key: summary.get(key, math.nan) for key in GRIP_ECONOMY_COLUMNS},
@@ -192,7 +207,7 @@ def error_row(message: str) -> dict:
     """The row of a point whose run raised: its error, NaN numbers, ``success`` False."""
     row = {c: math.nan for c in (*RESULT_COLUMNS, *EXTRA_COLUMNS)}
     row.update(outcome=ERROR_OUTCOME, reason=message, success=False, modes_used="", outside_model="", error=message)
-    row.update(crushed=False, slipped=False, lifted=False, object_config=None)
+    row.update(crushed=False, slipped=False, lifted=False, touch_sense="", object_config=None)
     return row
 
 
