@@ -46,9 +46,11 @@ def _objects() -> tuple[TestObject, ...]:
 #: The catalogue's objects, as overrides.
 OBJECTS: tuple[TestObject, ...] = _objects()
 
-#: The controllers compared: the multimode one and each mode alone.
+#: The controllers compared: the multimode one, the gentle one (the multimode controller with
+#: the friction probe: cosim/control/gentle.py) and each mode alone.
 CONTROLLERS: tuple[tuple[str, tuple[str, ...]], ...] = (
     ("multimode", ("controller.modes=[1, 2, 3, 4]",)),
+    ("gentle", ("controller.kind=gentle", "controller.modes=[1, 2, 3, 4]")),
     ("mode 1 only", ("controller.modes=[1]",)),
     ("mode 2 only", ("controller.modes=[2]",)),
     ("mode 3 only", ("controller.modes=[3]",)),

@@ -76,7 +76,7 @@ def make_controller(config: ScenarioConfig, robot: RobotLimits, fingertip: Finge
         return ScriptedGrasp(c, robot, pads)
     from piezotip.sensor.selftest import damaged, self_test
 
-    from .control import MultimodeGrasp
+    from .control import GentleGrasp, MultimodeGrasp
 
     s = config.sensor
     unit = make_unit(config)  # the element as built (and as warm as it is), not the model
@@ -84,7 +84,8 @@ def make_controller(config: ScenarioConfig, robot: RobotLimits, fingertip: Finge
     physical = damaged(element, s.damage_stiffness, s.damage_coupling, s.damage_damping)
     report = self_test(physical, healthy=fingertip.element, modes=c.modes, noise=fingertip.noise, rng=np.random.default_rng(s.seed))
     message = None if report.passed else report.message
-    return MultimodeGrasp(c, robot, pads, fingertip, message, config.physics.control_period_s)
+    kind = GentleGrasp if c.kind == "gentle" else MultimodeGrasp
+    return kind(c, robot, pads, fingertip, message, config.physics.control_period_s)
 
 
 #: After the controller finishes, the recording goes on at least this long, s, and until the

@@ -21,7 +21,7 @@ INTEGRATORS = ("discrete", "implicitfast", "implicit", "Euler", "RK4")
 SENSOR_DYNAMICS = ("steady", "envelope", "carrier")
 LOAD_SPREADS = ("layer", "none")
 """sensor.load_spread: the gel layer spreads a face pressure over the element (sensor/spread.py), or not."""
-CONTROLLERS = ("scripted", "multimode")
+CONTROLLERS = ("scripted", "multimode", "gentle")
 #: The physics timesteps tested stable with the discrete integrator (tests/test_extremes.py): 0.1 ms
 #: (smaller only costs time) to 20 ms (the pads' contact time constant, 2 steps, is then 40 ms).
 MIN_TIMESTEP_S = 1e-5
@@ -222,8 +222,10 @@ class ControllerConfig:
 
     Attributes
     ----------
-    kind : "scripted" (fixed approach, close, lift, hold, place) or "multimode" (reads the
-        sensors, switches mode by pressure range).
+    kind : "scripted" (fixed approach, close, lift, hold, place), "multimode" (reads the
+        sensors, switches mode by pressure range) or "gentle" (the multimode controller that
+        finds the grip that holds with a friction probe instead of assuming the friction:
+        cosim/control/gentle.py).
     modes : the modes the controller may drive (a subset of sensor.modes); ``[1]`` alone
         makes a single-mode baseline.
     lift_height_m : how far to lift the object, m.
@@ -294,6 +296,16 @@ class ControllerConfig:
         enough for the readout to say whether the pads feel the grip floor.
     measurable_share : the share of the highest mode's P_max the grip may use, -: 0.9, inside
         the range where the mode still resolves 10 % of the pressure.
+    friction_max : (``gentle``) the highest pad-object friction the probe expects, -: 1.5, rubber
+        on the pads' silicone film (the rating's top, models/gripper.xml).  The gentle probe
+        starts from the grip floor and measures the friction while the pads slide; until its
+        first measurement this sets how fast the lift's goal rises while the grip grows (the
+        sag 2 mu G / kp that a sliding grip adds), so the lift keeps rising on any friction
+        below it.
+    probe_speed_m_s : (``gentle``) the lift's pace while the probe finds the grip, m/s: 0.001.
+        The pads slide up the object meanwhile; the probe lasts ln(grip / floor) / growth rate
+        (one to three seconds from milli-newtons to tens of newtons), so they slide a
+        millimetre or two, well inside the 7.5 mm element under the contact.
     sliding_pace : a lift keeping this share of its goal's pace runs free (the pads slide or the
         object is carried), -: 0.9; between 0.5 and this the pads creep (MuJoCo's soft friction
         at a light grip) and the load-to-grip ratio says nothing of the friction.
@@ -314,6 +326,8 @@ class ControllerConfig:
     touchdown_speed_m_s: float = 0.02
     touchdown_margin_m: float = 0.005
     friction_assumed: float = 0.8
+    friction_max: float = 1.5
+    probe_speed_m_s: float = 0.001
     grip_safety: float = 1.25
     grip_floor_n: float | None = None
     max_grip_n: float | None = None
@@ -348,6 +362,8 @@ class ControllerConfig:
             "touchdown_speed_m_s",
             "touchdown_margin_m",
             "friction_assumed",
+            "friction_max",
+            "probe_speed_m_s",
             "load_filter_s",
             "lost_s",
             "cusum_drift_sigma",

@@ -1,4 +1,4 @@
-"""Grasp controllers: the interface the loop calls, the phases, and the two controllers.
+"""Grasp controllers: the interface the loop calls, the phases, and the controllers.
 
 - :mod:`.interface`: :class:`Observation` (what a controller may see), :class:`Command`,
   :class:`Event`, :class:`RobotLimits` (the gripper's own design) and the :class:`Controller`
@@ -7,8 +7,11 @@
 - :mod:`.selector`: the per-fingertip mode selector and touch detector.
 - :mod:`.scripted`: :class:`ScriptedGrasp`, fixed targets, no sensing.
 - :mod:`.multimode`: :class:`MultimodeGrasp`, the fingertip-driven controller.
+- :mod:`.gentle`: :class:`GentleGrasp`, the multimode controller finding the grip that holds
+  with a friction probe instead of assuming the friction.
 """
 
+from .gentle import GentleGrasp
 from .interface import Command, Controller, Event, Observation, PadSignal, RobotLimits, Why, make_command, make_observation, make_pad_signal
 from .multimode import MultimodeGrasp, grip_floor_n
 from .phases import PHASES, Phase, phase_index
@@ -20,6 +23,7 @@ __all__ = [
     "Command",
     "Controller",
     "Event",
+    "GentleGrasp",
     "ModeSelector",
     "MultimodeGrasp",
     "Observation",

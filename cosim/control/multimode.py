@@ -137,6 +137,11 @@ class MultimodeGrasp:
     dt_s : the control period, s.
     """
 
+    #: Whether the fingers shut past the object's width count as a loss during the transfer too
+    #: (not only once carried): the gentle probe grows the grip while the lift rises, which
+    #: closes fingers that hold nothing.
+    shut_check_in_transfer = False
+
     def __init__(
         self,
         config: ControllerConfig,
@@ -230,6 +235,7 @@ class MultimodeGrasp:
         self._saturated_logged: set[str] = set()
         self._unfelt_opening_m: float | None = None  # the opening at the last false touch felt by no fingertip
         self._last_opening_m = math.inf  # the fingers' opening at the last closing step, m
+        self._slip_watch_from_s = 0.0  # the fingertips' slip check starts then (gentle.py delays it)
         if self_test_message is not None:
             self._fault(0.0, "", "self_test", self_test_message)
 
@@ -406,7 +412,11 @@ class MultimodeGrasp:
         self._baseline_n = self._raw_load_n + self._baseline_n  # what the lift carries before lifting
         self._load_n = self._raw_load_n = 0.0
         self._goal = self.lift_target
-        self._enter(Phase.LIFT, t, f"grip {self.grip_n:.3g} N, assumed friction {self.friction:g}")
+        self._enter(Phase.LIFT, t, self._lift_message())
+
+    def _lift_message(self) -> str:
+        """What the lift phase's event says it starts from."""
+        return f"grip {self.grip_n:.3g} N, assumed friction {self.friction:g}"
 
     def _lift(self, obs: Observation, t: float, dt_s: float) -> None:
         if self._carried_checks(obs, t):
@@ -670,7 +680,8 @@ class MultimodeGrasp:
         # fingers a millimetre past that width (seen at 25 N and 62 N); an object gone stays gone.
         carried = self.phase is not _LIFT or self.stage is _RAISE
         shut_m = self._width_m - 2.0 * self.robot.pad_travel_m - obs.opening_m
-        if carried and shut_m > 0 and not any(sel.trusted and sel.status == "ok" for sel in self.selectors.values()):
+        watched = carried or self.shut_check_in_transfer
+        if watched and shut_m > 0 and not any(sel.trusted and sel.status == "ok" for sel in self.selectors.values()):
             self._shut_s += self.dt_s
             if self._lasted_lost_s(self._shut_s):
                 shut = 1e3 * shut_m
@@ -687,6 +698,11 @@ class MultimodeGrasp:
         else:
             self._empty_s = 0.0
         if self.phase is _LIFT and self.stage is not _RAISE:
+            return False
+        if t < self._slip_watch_from_s:
+            # The grip is still settling on the pads (a subclass lowers it as the raise begins):
+            # the pressures it brings are no slip's reference yet.
+            self._reference_pa = {}
             return False
         for pad, sel in self.selectors.items():
             if not (sel.trusted and sel.status == "ok"):

@@ -1,0 +1,229 @@
+"""The gentle grasp: the multimode controller, finding the grip that holds instead of assuming a
+friction (``controller.kind=gentle``).
+
+:class:`GentleGrasp` is :class:`~.multimode.MultimodeGrasp` (the same touch, squeeze, mode
+switching, hold, place and release) with another lift.  The multimode controller grips at
+``grip_safety`` x load / (2 x ``friction_assumed``) and raises the grip by the safety factor at
+every friction check that reads "still on the table": it holds an object of friction 1 with
+1.6x the grip it needs, and 2-7x where its checks misread MuJoCo's creep.  The gentle one knows
+neither mass nor friction and measures both:
+
+- *the probe* (:meth:`GentleGrasp._transfer`): from the grip floor, the lift's goal rises at
+  ``probe_speed_m_s``; while the lift follows it (the pads slide up the object, or the object is
+  off the table) the grip grows exponentially, by ``grip_safety`` per plateau window; while the
+  pads hold the object on the table the grip waits and the load grows.  Over each span in which
+  the grip grew by ``grip_safety`` (:func:`probe_verdict`), a load that grew with the grip is
+  the pads' friction limit 2 mu G (the friction is measured there), and a load that stayed, and
+  is steady (:func:`load_is_steady`), is the weight: the object is *carried*;
+- the grip then drops to ``grip_safety`` x weight / (2 mu), the least that holds with the
+  margin people keep (10-40 %, Johansson and Westling 1984), and is raised only on evidence of
+  a slip (the multimode controller's slip checks, from the fingertips and the lift's load).
+
+Its price: the pads slide up the object while the probe measures the friction (1-3 mm), and
+sliding pads chatter in MuJoCo's contacts (the finger force swings by 25-30 % at a 1 ms step),
+faster than the fingertip's resonator follows, so "ok" readings taken during the probe can miss
+the pressure of the instant (README, Limits).
+"""
+
+from __future__ import annotations
+
+import math
+
+from .interface import Observation
+from .multimode import MultimodeGrasp, Stage
+from .phases import Phase
+
+
+def probe_verdict(span: list[tuple[float, float]], safety: float) -> tuple[float, float, float, float]:
+    """(elasticity d ln L / d ln G, its standard error, mean grip, mean load) of a probe's span of
+    (grip applied, load) samples, N, from the means of its first and last thirds.
+
+    While the pads slide the load is their friction limit 2 mu G, proportional to the grip
+    (elasticity 1); once the object is off the table it is the weight, whatever the grip
+    (elasticity 0).  The grip grows exponentially, so a load lagging it by a constant time is a
+    constant factor of it and the ratio of the thirds' means is free of the lag.  The error comes
+    from the scatter of the loads within each third (stick-slip at milli-newton grips): infinite
+    until the grip has grown by ``safety`` over the span (too short to tell)."""
+    n = len(span) // 3
+    if n < 2:
+        return 0.0, math.inf, 0.0, 0.0
+    first, last = span[:n], span[-n:]
+    g1, g3 = (sum(g for g, _ in part) / n for part in (first, last))
+    l1, l3 = (sum(load for _, load in part) / n for part in (first, last))
+    g_mean = sum(g for g, _ in span) / len(span)
+    l_mean = sum(load for _, load in span) / len(span)
+    if g1 <= 0.0 or g3 < safety * g1 or l1 <= 0.0 or l3 <= 0.0:
+        return 0.0, math.inf, g_mean, l_mean
+    growth = math.log(g3 / g1)
+    var1 = sum((load - l1) ** 2 for _, load in first) / (n - 1)
+    var3 = sum((load - l3) ** 2 for _, load in last) / (n - 1)
+    error = math.sqrt(var1 / (n * l1 * l1) + var3 / (n * l3 * l3)) / growth
+    return math.log(l3 / l1) / growth, error, g_mean, l_mean
+
+
+def load_is_steady(loads: list[float], fraction: float) -> bool:
+    """Whether ``loads`` (N) scatter about their mean by at most ``fraction`` of it (their
+    population standard deviation): a carried object's load changes only with the lift's
+    acceleration, m a = (L / g) a."""
+    n = len(loads)
+    mean = sum(loads) / n if n else 0.0
+    if n < 2 or mean <= 0.0:
+        return False
+    return math.sqrt(sum((x - mean) ** 2 for x in loads) / n) <= fraction * mean
+
+
+class GentleGrasp(MultimodeGrasp):
+    """The multimode controller with the friction probe (the module docstring); the same
+    parameters (its config's ``friction_max`` and ``probe_speed_m_s`` are the probe's)."""
+
+    shut_check_in_transfer = True
+
+    def __init__(self, *args, **kwargs) -> None:
+        super().__init__(*args, **kwargs)
+        c, robot, dt_s = self.cfg, self.robot, self.dt_s
+        #: The pad-object friction: measured while the pads slide in the probe (_transfer); until
+        #: then the highest expected, so the first grip is the gentlest.
+        self.friction = c.friction_max
+        self._slid = False  # the probe has seen the pads slide (self.friction is measured)
+        self._span: list[tuple[float, float]] = []  # (grip applied, raw load) since the last verdict
+        self._weight_n = 0.0  # the object's weight, N: the load the probe found carried
+        #: The grip's growth rate while the pads may slide, 1/s: by the safety factor in one
+        #: plateau window, the time the load takes to show it (so the grip overshoots the one
+        #: that holds by at most that factor before the probe sees the load stay).
+        self.grip_growth_per_s = math.log(c.grip_safety) / (self.plateau_steps * dt_s)
+        #: The load lags the grip by the lift servo's time constant kv / kp: while the grip grows
+        #: as e^(r t), a sliding load is 2 mu G e^(-r kv / kp).
+        self._probe_lag = math.exp(-self.grip_growth_per_s * robot.lift_kv_n_s_m / robot.lift_kp_n_m)
+        #: The share of a carried object's load that the lift's own acceleration during the probe
+        #: can change, -: the goal's speed grows with the sag 2 mu_max G / kp that the grip's
+        #: growth adds, at most at 2 mu_max r (grip rate) / kp per second, over g.  A load that
+        #: scatters more is pads sticking and slipping, not a weight (load_is_steady).
+        self.steady_load_fraction = (
+            2.0 * c.friction_max * self.grip_growth_per_s * self.grip_rate_n_s / (robot.lift_kp_n_m * robot.gravity_m_s2)
+        )
+        # The probe gives up after twice the time the grip needs to grow from the floor to its
+        # cap (exponentially, then at the grip rate) and the goal to rise by the lift height.
+        knee_n = min(self.grip_cap_n, max(self.grip_floor_n, self.grip_rate_n_s / self.grip_growth_per_s))
+        ramp_s = math.log(knee_n / self.grip_floor_n) / self.grip_growth_per_s + (self.grip_cap_n - knee_n) / self.grip_rate_n_s
+        self.transfer_timeout_s = 2.0 * (ramp_s + c.lift_height_m / c.lift_speed_m_s)
+
+    def _lift_message(self) -> str:
+        return f"grip {self.grip_n:.3g} N: probing for the grip that holds"
+
+    def _transfer(self, obs: Observation, t: float, dt_s: float) -> None:
+        """Find the grip that holds, then hand the weight to it (the module docstring's probe).
+
+        Each period, over the plateau window: if the lift rises (its pads slide up the object,
+        or the object is off the table), the grip grows by ``grip_growth_per_s`` and the
+        verdict below runs; if it does not (the pads hold the object on the table), the grip
+        holds and the load grows with the goal until the pads slide or the object leaves."""
+        c = self.cfg
+        if t - self._t_phase > self.transfer_timeout_s:
+            self._give_up(t, "never_lifted", f"the load transfer did not finish in {self.transfer_timeout_s:.2g} s", Phase.PLACE)
+            return
+        applied = max(obs.grip_force_n, 0.0)
+        self._track.append((applied, obs.lift_pos_m, self._raw_load_n))
+        if len(self._track) > self.plateau_steps:
+            self._track.pop(0)
+        n = len(self._track)
+        rising = n == self.plateau_steps and self._track[-1][1] - self._track[0][1] >= 0.5 * c.probe_speed_m_s * (n - 1) * dt_s
+        growth_n_s = 0.0
+        if rising:
+            if self.grip_n >= self.grip_cap_n:
+                self._pads_slide_at_cap(t)
+                return
+            growth_n_s = min(self.grip_growth_per_s * self.grip_n, self.grip_rate_n_s)
+            self.grip_n = min(self.grip_cap_n, self.grip_n + growth_n_s * dt_s)
+        # The goal rises at the probe's pace, plus the sag that the grip's growth adds to a lift
+        # whose pads slide (2 mu G / kp), at the friction measured so far (the highest expected
+        # until then): the lift keeps rising while the pads slide, and the pads slide up the
+        # object at about the probe's pace, not faster.
+        speed = c.probe_speed_m_s + 2.0 * self.friction * growth_n_s / self.robot.lift_kp_n_m
+        self._goal = min(self.top_m, self._goal + speed * dt_s)
+        self.lift_target = self._goal
+        if not rising:
+            self._span = []  # held on the table: the load grows, the grip waits
+            return
+        self._span.append((applied, self._raw_load_n))
+        elasticity, error, grip_n, load_n = probe_verdict(self._span, c.grip_safety)
+        if math.isinf(error):
+            return  # the grip has not grown enough over the span to tell
+        if load_n <= self.robot.min_load_n:
+            self._span = self._span[-1:]
+            return  # nothing carried yet: no evidence either way
+        # Decided when the elasticity's 2-sigma interval lies on one side of 1/2 (the load's
+        # stick-slip scatter at milli-newton grips needs a longer span than a clean slide), or
+        # once the span has grown the grip by the safety factor three times over.
+        if abs(elasticity - 0.5) < 2.0 * error and applied < c.grip_safety**3 * self._span[0][0]:
+            return
+        carried_from_n = self._span[0][0]
+        last = [load for _, load in self._span[-(len(self._span) // 3) :]]
+        self._span = [self._span[-1]]
+        if elasticity >= 0.5:
+            # The load grew with the grip: the pads slide at their friction limit, 2 mu G, the
+            # load lagging the grip by the lift servo's time constant (a factor e^(-r kv/kp)).
+            self.friction, self._slid = load_n / (2.0 * grip_n * self._probe_lag), True
+            return
+        if not load_is_steady(last, self.steady_load_fraction):
+            # The load did not follow the grip, but it is not a weight either: it scatters as
+            # pads that stick and slip do (at milli-newton grips they chatter on the object,
+            # and the friction follows the touches, not the drive).  Still sliding.
+            return
+        self._carry(obs, t, sum(e[2] for e in self._track) / n, carried_from_n)
+
+    def _carry(self, obs: Observation, t: float, weight_n: float, carried_from_n: float) -> None:
+        """The load stayed while the grip grew: the object is off the table, its weight the load
+        (the last window's).  The grip that holds it is the weight over the friction measured
+        while the pads slid; never seen sliding, it was carried at the span's first grip (its
+        friction at least load / 2 G there)."""
+        c = self.cfg
+        if not self._slid:
+            self.friction = weight_n / (2.0 * carried_from_n)
+        held_n = max(self.grip_floor_n, c.grip_safety * weight_n / (2.0 * self.friction))
+        if self._over_cap(t, held_n, weight_n, carried=True):
+            return
+        self.grip_n = min(held_n, self.grip_cap_n)
+        self._goal = obs.lift_pos_m  # the raise feeds the sag forward from where the lift is
+        self._load_n = self._weight_n = weight_n
+        self.stage = Stage.RAISE
+        self._start_carry(obs)
+        how = f"friction {self.friction:.3g} measured while the pads slid" if self._slid else f"friction at least {self.friction:.3g}"
+        self._event(t, "carried", f"load {weight_n:.3g} N stayed while the grip grew: carried; {how}; grip {self.grip_n:.3g} N")
+
+    def _pads_slide_at_cap(self, t: float) -> None:
+        blind = self.measurable_grip_n < self.max_grip_n
+        limit = "what the fingertip measures" if blind else "the gripper's limit"
+        load = self._raw_load_n
+        self._give_up(
+            t,
+            "blind" if blind else "never_lifted",
+            f"the pads slide at {load:.3g} N of load with the grip at {limit}, {self.grip_cap_n:.3g} N",
+            Phase.PLACE,
+        )
+
+    def _start_carry(self, obs: Observation) -> None:
+        """The raise begins.  The fingertips' slip references are taken once the grip the probe
+        has just set has settled on the pads, six load-filter time constants on (the settling
+        the hold gives the lift's load): a grip lowered to the one that holds is not a slip."""
+        self._speed = 0.0
+        self._slip_watch_from_s = obs.time_s + 6.0 * self.cfg.load_filter_s
+        self._reference_pa = {}
+
+    def _raise(self, obs: Observation, t: float, dt_s: float) -> None:
+        c = self.cfg
+        self._speed = self._profile(self.top_m - self._goal, c.lift_speed_m_s, 0.0, dt_s)
+        self._goal = min(self.top_m, self._goal + self._speed * dt_s)
+        # The grip stays where the probe set it (raised only by a slip): the load the lift reads
+        # while it speeds up and brakes is mostly the gripper's own inertia, not the object's.
+        self.lift_target = self._servo_target(self._weight_n, self._speed)
+        moving = abs(obs.lift_vel_m_s) > 1e-3
+        if self._goal >= self.top_m and abs(obs.lift_pos_m - self.top_m) < 0.002 and not moving:
+            self._held_load_n = self._weight_n
+            self._enter(Phase.HOLD, t, f"carrying {self._weight_n:.3g} N with {self.grip_n:.3g} N of grip")
+
+    def _follow_load(self, t: float, dt_s: float) -> None:
+        """Never: the grip is the probe's, raised only by a slip (the hold's load, while the lift
+        brakes and settles, is the gripper's inertia as much as the object's weight)."""
+
+
+__all__ = ["GentleGrasp", "load_is_steady", "probe_verdict"]

@@ -1,0 +1,163 @@
+"""Grip economy (issue 29): the gentle controller (``controller.kind=gentle``) finds the grip that
+holds from what the fingertips and joints feel (the probe: the grip grows while the pads slide,
+the friction is measured there, the weight is the load that stays), and holds objects no test
+tunes it on with at most 1.5x the grip they need, without crushing the fragile ones."""
+
+import dataclasses
+import math
+import re
+
+import pytest
+
+from piezotip import api, scenarios
+from piezotip.analysis.referee import judge
+from piezotip.cosim.control.gentle import load_is_steady, probe_verdict
+from piezotip.cosim.loop import CoSimulation
+
+SAFETY = 1.25
+
+
+def _ramp(n=30, g0=0.01, rate=1.02):
+    return [g0 * rate**k for k in range(n)]
+
+
+def test_probe_verdict_reads_sliding_pads_as_load_proportional_to_grip():
+    grips = _ramp()
+    lag = 0.9  # a load lagging an exponential grip by a constant time is a constant factor of it
+    e, err, _, load = probe_verdict([(gi, 2 * 0.8 * gi * lag) for gi in grips], SAFETY)
+    # The thirds' means: exact proportionality gives exactly 1; the scatter about each third's mean
+    # (the ramp within it) is the error, a few hundredths here.
+    assert e == pytest.approx(1.0, abs=1e-12) and 0.0 < err < 0.1
+    assert load == pytest.approx(2 * 0.8 * lag * sum(grips) / len(grips))
+
+
+def test_probe_verdict_reads_a_carried_weight_as_a_load_that_does_not_follow_the_grip():
+    e, _, _, load = probe_verdict([(gi, 0.98) for gi in _ramp()], SAFETY)
+    assert e == pytest.approx(0.0, abs=1e-12) and load == pytest.approx(0.98)
+
+
+def test_probe_verdict_waits_until_the_grip_has_grown_by_the_safety_factor():
+    short = _ramp(n=9, rate=1.01)  # the thirds' grips 1.03x apart: too close to tell
+    assert math.isinf(probe_verdict([(gi, gi) for gi in short], SAFETY)[1])
+    assert math.isinf(probe_verdict([(0.01, 0.01)] * 3, SAFETY)[1])
+
+
+def test_probe_verdict_error_grows_with_the_loads_scatter():
+    grips = _ramp()
+    clean = probe_verdict([(gi, 1.0) for gi in grips], SAFETY)[1]
+    noisy = probe_verdict([(gi, 1.0 + (0.2 if k % 2 else -0.2)) for k, gi in enumerate(grips)], SAFETY)[1]
+    assert clean == 0.0 and noisy > 0.1
+
+
+def test_load_is_steady_only_within_the_fraction():
+    assert load_is_steady([0.98] * 10, 0.0057)
+    chatter = [0.012 * (1 + (0.03 if k % 2 else -0.03)) for k in range(10)]  # pads sticking and slipping
+    assert not load_is_steady(chatter, 0.0057)
+    assert load_is_steady(chatter, 0.05)
+    assert not load_is_steady([0.0, 0.0], 0.5) and not load_is_steady([1.0], 0.5)
+
+
+#: Objects no other test names, across the rating, with the fragile ones of issue 29's table
+#: (each was crushed, or held at 4-7x its need, by the controller before the probe).
+HOLDOUT = {
+    "sphere-50g-crush-2n": {"shape": "sphere", "mass_kg": 0.05, "friction": 0.5, "crush_force_n": 2.0, "size_m": 0.05},
+    "egg-60g-crush-3n": {"shape": "egg", "mass_kg": 0.06, "friction": 0.6, "crush_force_n": 3.0},
+    "sphere-25g-crush-0.8n": {"shape": "sphere", "mass_kg": 0.025, "friction": 0.5, "crush_force_n": 0.8, "size_m": 0.04},
+    "sphere-40g-crush-1.2n": {"shape": "sphere", "mass_kg": 0.04, "friction": 0.7, "crush_force_n": 1.2, "size_m": 0.045},
+    "sphere-3g-crush-0.1n": {"shape": "sphere", "mass_kg": 0.003, "friction": 1.0, "crush_force_n": 0.1, "size_m": 0.03},
+    "box-150g": {"shape": "box", "mass_kg": 0.15, "friction": 0.8, "size_m": 0.05},
+    "cylinder-500g-mu-0.2": {"shape": "cylinder", "mass_kg": 0.5, "friction": 0.2, "size_m": 0.06},
+    "cylinder-8kg": {"shape": "cylinder", "mass_kg": 8.0, "friction": 1.2, "size_m": 0.07},
+}
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", sorted(HOLDOUT))
+def test_holdout_objects_are_held_with_at_most_1_5x_their_grip_and_never_crushed(name):
+    obj = HOLDOUT[name]
+    result = api.run("grasp", overrides={"controller.kind": "gentle", **{f"object.{k}": v for k, v in obj.items()}}, plot=False)
+    s = result.summary
+    assert s["outcome"] == "success", s["reason"]
+    assert 1.0 <= s["grip_margin"] <= 1.5, (s["hold_grip_n"], s["needed_grip_n"])
+    crush = obj.get("crush_force_n")
+    if crush is not None and crush >= 1.5 * s["needed_grip_n"]:
+        assert s["peak_contact_n"] < crush
+
+
+def _measured_friction(events) -> float:
+    """The friction the probe measured, from its "carried" event ("... friction 0.383 measured ...")."""
+    carried = [e for e in events if (e["kind"] if isinstance(e, dict) else e.kind) == "carried"]
+    assert len(carried) == 1, carried
+    message = carried[0]["message"] if isinstance(carried[0], dict) else carried[0].message
+    found = re.search(r"friction ([0-9.eE+-]+) measured while the pads slid", message)
+    assert found, message
+    return float(found.group(1))
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(
+    "overrides, friction",
+    [
+        # A 1 kg cylinder at friction 0.4 (the multimode controller assumes 0.8) ...
+        ({"object.mass_kg": 1.0, "object.shape": "cylinder", "object.size_m": 0.07, "object.friction": 0.4}, 0.4),
+        # ... and a 0.2 kg egg at 0.6.
+        ({"object.mass_kg": 0.2, "object.shape": "egg", "object.size_m": 0.044, "object.friction": 0.6}, 0.6),
+    ],
+)
+def test_the_probe_measures_the_friction_of_slippery_objects_and_carries_them(overrides, friction):
+    s = api.run("grasp", overrides={"controller.kind": "gentle", **overrides}, plot=False).summary
+    assert s["outcome"] == "success", s["reason"]
+    assert _measured_friction(s["events"]) == pytest.approx(friction, rel=0.15)
+    assert s["grip_margin"] <= 1.5
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", ["tissue-box-1g", "paper-ball-2g", "cube-3g", "box-100g", "can-500g"])
+def test_the_probe_says_carried_only_of_an_object_off_the_table(tmp_path, name):
+    """The probe calls an object carried when the load stayed, and steady, while the grip grew
+    (:func:`probe_verdict`, :func:`load_is_steady`).  At milli-newton grips the pads chatter on a
+    100 g box and the load stays for the chatter's sake: the steady test keeps that from being
+    called a weight (it was, and the box was left on the table).  Ground truth: at the verdict
+    the table no longer touches the object, and the friction the probe measured while the pads
+    slid is the object's within 15 %."""
+    from piezotip.cosim.recorder import Recorder, read_recording
+
+    config = scenarios.get("grasp", [*scenarios.object_overrides(name), "controller.kind=gentle"])
+    sim = CoSimulation(config)
+    c = sim.controller
+    table = sim._table_i + 2
+    verdicts, seen = [], [0]
+
+    def watch(sim) -> None:
+        if any(e.kind == "carried" for e in c.events[seen[0] :]):
+            verdicts.append(abs(float(sim.data.sensordata[table])))
+        seen[0] = len(c.events)
+
+    result = sim.run(Recorder(tmp_path / "run"), on_step=watch)
+    assert verdicts == [0.0], f"carried said with the table pressing the object by {verdicts} N"
+    assert _measured_friction(c.events) == pytest.approx(config.object.friction, rel=0.15)
+    data, _ = read_recording(result.files[0])
+    ctrl = config.controller
+    verdict = judge(data, ctrl.lift_height_m, ctrl.hold_s, config.object.crush_force_n, [dataclasses.asdict(e) for e in c.events], True)
+    assert verdict.outcome == "success", verdict.reason
+
+
+@pytest.mark.slow
+def test_the_gentle_grasp_gives_up_when_the_fingers_close_on_nothing(tmp_path):
+    """At a 20 ms step the fingers' servo is not resolved and its jitter reads as a touch far
+    from the object: the probe then grows the grip on fingers that close on air.  The fingers
+    shut past the object's width end it as a loss (never lifted), not a drop from a grip that
+    finally caught the object's edge."""
+    s = api.run("grasp", overrides={"controller.kind": "gentle", "physics.timestep_s": 0.02, "physics.control_period_s": 0.02}, plot=False)
+    assert s.summary["outcome"] == "never_lifted", s.summary["reason"]
+    assert "past the object's width" in s.summary["reason"]
+
+
+@pytest.mark.slow
+def test_the_gentle_grasp_holds_the_catalogue_gentler_than_the_multimode_one():
+    """On the default grasp (100 g box, friction 1) the multimode controller holds 2.25x what it
+    needs (assumed friction 0.8, a friction check's raise); the gentle one within 1.5x."""
+    multimode = api.run("grasp", plot=False).summary
+    gentle = api.run("grasp", overrides={"controller.kind": "gentle"}, plot=False).summary
+    assert multimode["success"] and gentle["success"]
+    assert gentle["grip_margin"] <= 1.5 < multimode["grip_margin"]
