@@ -30,6 +30,7 @@ cdef double _RAMP_CHI2 = _py._RAMP_CHI2
 cdef double _MIN_LOAD = _py._MIN_LOAD
 cdef double CHANGE_STAT = _py.CHANGE_STAT
 cdef double SUSPECT_STAT = _py.SUSPECT_STAT
+cdef double RAMP_SUSPECT_CHI2 = _py.RAMP_SUSPECT_CHI2
 cdef double _SUSPECT_STAT_LONGEST = _py._SUSPECT_STAT_LONGEST
 cdef int _LONGEST = max(_py._SCALES)
 cdef double _INTEGRATED_NOISE = _py._INTEGRATED_NOISE
@@ -385,6 +386,8 @@ cdef class SteadyInference:
         self._append_fit(&f.record)
         if not f.record.valid:
             return complex(NAN, NAN), INFINITY, False
+        if f.ramp_chi2 > RAMP_SUSPECT_CHI2:
+            trusted = False  # the load changes under this reading (RAMP_SUSPECT_CHI2)
         if f.ramp_chi2 > _RAMP_CHI2:
             load = abs(f.mu - 1.0)
             wr = RAMP_WINDOW_FRACTION * (load if load > _MIN_LOAD else _MIN_LOAD) / sqrt(f.b2_sq)

@@ -47,6 +47,15 @@ RAMP_WINDOW_FRACTION = 0.1
 #: A ramp is significant at this chi-square (2 degrees of freedom: exceeded by chance 4e-6 of the
 #: time, about 5 sigma; a looser test shortens the window of a held load by chance).
 _RAMP_CHI2 = 25.0
+#: A reading taken while the window's ramp passes this chi-square is reported "settling": the
+#: load is changing under it, and the linear-in-time model's steady reading is then no better
+#: than the load's change over the readout's detection horizon, which the uncertainty does not
+#: carry (issue 29: "a reading taken across a load change is settling, not ok").  12 with 2
+#: degrees of freedom is exceeded by chance e^-6 = 0.25 % of the time, the change test's own
+#: SUSPECT_STAT rate: a held load still reads "ok" 99 % of the time.  Over the scenario library
+#: the 3-sigma coverage of "ok" readings, load changes included, went from 98.9 % to 99.3 %;
+#: over the hold-out grasps (analysis/coverage.py) from 99.15 % to 99.5 %.
+RAMP_SUSPECT_CHI2 = 12.0
 #: ...and its relative rate is taken against a modal load of at least this (|mu - 1| of a load
 #: about ten times the noise: a ramp from unloaded does not shrink the window to nothing).
 _MIN_LOAD = 0.01
@@ -129,8 +138,9 @@ class PySteadyInference:
     change (the last m readings); past SUSPECT_STAT this reading is reported "settling".
 
     :meth:`step` returns (a_ss, gain, trusted): ``trusted`` is False while the window is too
-    young for a fit, the last readings suggest a change, or mu is known to worse than
-    _MAX_REL; the caller also requires gain <= MAX_GAIN.
+    young for a fit, the last readings suggest a change, the load ramps under the reading
+    (RAMP_SUSPECT_CHI2), or mu is known to worse than _MAX_REL; the caller also requires
+    gain <= MAX_GAIN.
 
     Settling time (the contract's, in code): after a load change, the time from the change
     until this inference is trusted again with gain <= MAX_GAIN, i.e. until it has detected the
@@ -374,6 +384,8 @@ class PySteadyInference:
         fits.append(record)
         if record is None:
             return _NAN_ENVELOPE, math.inf, False
+        if ramp_chi2 > RAMP_SUSPECT_CHI2:
+            trusted = False  # the load changes under this reading (RAMP_SUSPECT_CHI2)
         # Shorten the window while the load ramps (see RAMP_WINDOW_FRACTION).
         if ramp_chi2 > _RAMP_CHI2:
             load = abs(mu - 1.0)

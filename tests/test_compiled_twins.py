@@ -100,9 +100,11 @@ def test_the_compiled_inference_returns_the_references_numbers(dt_s, ring_up):
     differing = [k for k, (x, y) in enumerate(zip(reference, compiled, strict=True)) if not same(x, y)]
     first = differing[0] if differing else None
     assert not differing, f"{len(differing)} readings differ, first at {first}: {reference[first]} != {compiled[first]}"
-    # The sequence exercised what it was meant to: restarts (untrusted) and trusted fits.
+    # The sequence exercised what it was meant to: restarts and ramps (untrusted: since
+    # RAMP_SUSPECT_CHI2 a reading under a ramp is, a fifth to two fifths of these) and trusted
+    # fits, most of them.
     trusted = sum(1 for _, _, ok in reference if ok)
-    assert 0 < n - trusted < n // 10 < trusted
+    assert 0 < n - trusted < n // 2 < trusted
 
 
 def test_a_pickled_compiled_inference_goes_on_as_the_original():

@@ -1,0 +1,98 @@
+"""A reading taken while the load changes under it is "settling", not "ok" (issue 29, item 5):
+:data:`sensor.inference.RAMP_SUSPECT_CHI2`, in the reference and its compiled twin alike, and the
+3-sigma coverage of "ok" readings over whole grasps, load changes included (analysis/coverage.py)."""
+
+import math
+import random
+
+import numpy as np
+import pytest
+
+from piezotip.analysis import coverage
+from piezotip.sensor import inference
+
+TAU0_S = 0.66  # Table I's unloaded envelope time constant, s
+SIGMA = 1e-3  # one reading's noise, V_1 units
+DT_S = 0.005
+
+
+def ramp_load(t: float) -> complex:
+    """A modal load mu(t) growing e-fold per second from 2 (a grip growing as steadily)."""
+    return 1.0 + 2.0 * math.exp(t) - 0.5j
+
+
+def trusted_share(cls, mu_of_t, seconds: float, seed: int = 7) -> tuple[float, float]:
+    """Feed ``cls`` the noisy envelope of tau0 a' = 1 - mu(t) a (physics.md section 6), started
+    settled at mu(0); the share of its readings trusted over the last half (the first half lets
+    a window fill)."""
+    rng = random.Random(seed)
+    inf = cls(TAU0_S, SIGMA)
+    a = 1.0 / mu_of_t(0.0)
+    inf.seed(a, 0.0, DT_S)
+    n = round(seconds / DT_S)
+    sub = 20  # the envelope integrated at 20 substeps a reading
+    flags = []
+    for k in range(1, n + 1):
+        for j in range(sub):
+            t = (k - 1 + j / sub) * DT_S
+            a += (1.0 - mu_of_t(t) * a) / TAU0_S * (DT_S / sub)
+        _, gain, ok = inf.step(k * DT_S, a + complex(rng.gauss(0.0, SIGMA), rng.gauss(0.0, SIGMA)))
+        flags.append(bool(ok) and gain <= inference.MAX_GAIN)
+    tail = flags[n // 2 :]
+    return sum(tail) / len(tail), n
+
+
+@pytest.mark.parametrize("cls", [inference.PySteadyInference, inference.SteadyInference])
+def test_a_held_load_reads_trusted_and_a_ramping_one_settling(cls):
+    held, _ = trusted_share(cls, lambda t: 3.0 - 1.0j, 2.0)
+    ramp, _ = trusted_share(cls, ramp_load, 2.0)
+    assert held >= 0.97  # the rule's false alarms: 0.25 % by design, the change test's 1 % besides
+    assert ramp < 0.5  # 0.36: the rest are readings whose window is too short to show the ramp
+
+
+def test_the_rule_is_what_makes_a_ramping_reading_settling(monkeypatch):
+    """Without RAMP_SUSPECT_CHI2 (set out of reach) the same ramp reads mostly trusted: the test
+    above fails against the readout before the rule."""
+    monkeypatch.setattr(inference, "RAMP_SUSPECT_CHI2", math.inf)
+    ramp, _ = trusted_share(inference.PySteadyInference, ramp_load, 2.0)
+    assert ramp > 0.95
+
+
+def _synthetic(n: int, ok_every: int, miss_at: tuple[int, ...], sigmas_off: float) -> dict[str, np.ndarray]:
+    from piezotip.cosim.rows import STATUS_CODES
+
+    truth = np.full(n, 100.0)
+    est = truth.copy()
+    est[list(miss_at)] += sigmas_off * 2.0
+    status = np.where(np.arange(n) % ok_every == 0, STATUS_CODES.index("ok"), STATUS_CODES.index("settling"))
+    data = {"time_s": np.arange(n) * DT_S, "phase": np.full(n, 4)}
+    for side in ("left", "right"):
+        data |= {
+            f"{side}_status": status,
+            f"{side}_estimate_pa": est,
+            f"{side}_uncertainty_pa": np.full(n, 2.0),
+            f"{side}_coverage_pressure_pa": truth,
+            f"{side}_mode": np.ones(n),
+        }
+    return data
+
+
+def test_estimate_coverage_counts_ok_readings_only_and_finds_the_worst_miss():
+    data = _synthetic(100, ok_every=2, miss_at=(10, 11, 40), sigmas_off=12.0)  # 11 is not "ok"
+    report = coverage.estimate_coverage({"run": data})
+    assert report["readings"] == 200 and report["ok"] == 100
+    assert report["misses"] == 4 and report["gross"] == 4  # readings 10 and 40, both sides
+    assert report["share"] == pytest.approx(96 / 100)
+    assert report["worst"]["sigmas"] == pytest.approx(12.0) and report["worst"]["time_s"] in (10 * DT_S, 40 * DT_S)
+    assert report["by_phase"]["hold"]["ok"] == 100
+
+
+@pytest.mark.slow
+def test_hold_out_grasps_hold_the_truth_within_3_sigma_99_percent_of_ok_readings():
+    """Sixteen objects no test names, at three presets and a soft PZT, twice each with their own
+    readout noise: at least 99 % of the "ok" readings hold the coverage pressure within 3 sigma,
+    load changes included (99.15 % before RAMP_SUSPECT_CHI2, 99.5 % with it)."""
+    report = coverage.holdout_coverage(workers=2)
+    assert report["ok"] > 20000
+    assert report["share"] >= coverage.TARGET, coverage.format_report(report)
+    assert "fault" not in report["outcomes"].values(), report["outcomes"]
