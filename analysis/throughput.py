@@ -250,6 +250,25 @@ def long_run_times(work: Path, long_hold_s: float = 300.0, short_hold_s: float =
 REPO = Path(__file__).resolve().parents[1]
 
 
+def resolve_revision(rev: str, repo: Path = REPO) -> str:
+    """The full commit id of revision ``rev`` of the git repository ``repo``; ValueError naming
+    ``rev`` when it is not one.  A revision is never handed to git where it could be read as an
+    option (``--output=F`` would make ``git archive`` write a file): one that starts with "-" is
+    refused, and the rest are resolved after ``--end-of-options`` to a commit id, which is what
+    the other git commands get."""
+    if not rev or rev.startswith("-") or any(ch in rev for ch in "\0\n"):
+        raise ValueError(f"--baseline {rev!r}: not a revision (a revision does not start with '-')")
+    proc = subprocess.run(
+        ["git", "-C", str(repo), "rev-parse", "--verify", "--quiet", "--end-of-options", f"{rev}^{{commit}}"],
+        capture_output=True,
+        text=True,
+    )
+    commit = proc.stdout.strip()
+    if proc.returncode != 0 or len(commit) < 40:
+        raise ValueError(f"--baseline {rev}: not a revision of the git repository at {repo}")
+    return commit
+
+
 def revision_tree(rev: str, work: Path, repo: Path = REPO) -> tuple[Path, dict[str, str]]:
     """Revision ``rev`` of the git repository ``repo``, ready to run: (the folder to run its
     ``run_sim.py`` from, the environment variables to run it with).
@@ -265,9 +284,10 @@ def revision_tree(rev: str, work: Path, repo: Path = REPO) -> tuple[Path, dict[s
     from before the twins (such as the issue's 2147039) runs as it did.  Raises ValueError
     naming ``rev`` when git cannot produce it.
     """
-    proc = subprocess.run(["git", "-C", str(repo), "archive", "--format=tar", rev], capture_output=True)
+    commit = resolve_revision(rev, repo)
+    proc = subprocess.run(["git", "-C", str(repo), "archive", "--format=tar", commit], capture_output=True)
     if proc.returncode != 0:
-        raise ValueError(f"--baseline {rev}: not a revision of the git repository at {repo} ({proc.stderr.decode().strip()})")
+        raise ValueError(f"--baseline {rev}: git could not archive it from the repository at {repo} ({proc.stderr.decode().strip()})")
     tree = work / f"rev-{rev.replace('/', '_')}"
     tree.mkdir(parents=True)
     with tarfile.open(fileobj=io.BytesIO(proc.stdout)) as tar:
@@ -325,6 +345,7 @@ def throughput_report(progress=None, baseline: str | None = None) -> dict:
     report = {}
     measures = [("experiment", experiment_times), ("sweep", sweep_times), ("long run", long_run_times)]
     if baseline is not None:
+        resolve_revision(baseline)  # a bad revision fails before minutes of measuring, not after
         measures.append((f"experiment at {baseline}", lambda work: baseline_times(baseline, work)))
     compile_bytecode(*(REPO / folder for folder in SOURCE_FOLDERS))
     with tempfile.TemporaryDirectory(prefix="piezotip-throughput-") as tmp:

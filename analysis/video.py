@@ -351,7 +351,8 @@ class VideoWriter:
         self._frame = np.full((self.height, self.width, 3), 255, np.uint8)
         self.path.parent.mkdir(parents=True, exist_ok=True)
         self._writer = imageio_ffmpeg.write_frames(
-            str(self.path),
+            # Absolute: a relative path such as "-x/run.mp4" would reach ffmpeg as an option.
+            str(self.path.resolve()),
             (self.width, self.height),
             fps=Fraction(self.fps).limit_denominator(1000),
             codec="libx264",

@@ -196,3 +196,20 @@ def test_compiling_says_when_a_module_does_not_compile(tmp_path):
     (tmp_path / "bad.py").write_text("def broken(:\n")
     assert not throughput.compile_bytecode(tmp_path)
     assert (tmp_path / "__pycache__").is_dir()
+
+
+@pytest.mark.parametrize("rev", ["--output=F", "-h", "", "HEAD\n--output=F"])
+def test_a_revision_that_reads_as_an_option_is_refused_before_git_sees_it(tmp_path, rev):
+    """``bench --baseline=--output=F`` used to reach ``git archive`` as an option (which wrote F)."""
+    with pytest.raises(ValueError, match="--baseline"):
+        throughput.revision_tree(rev, tmp_path)
+    assert not (Path.cwd() / "F").exists() and list(tmp_path.iterdir()) == []
+
+
+def test_a_revision_resolves_to_its_commit():
+    head = throughput.resolve_revision("HEAD")
+    assert len(head) == 40 and throughput.resolve_revision(head[:12]) == head
+    with pytest.raises(ValueError, match="no-such-revision"):
+        throughput.resolve_revision("no-such-revision")
+    with pytest.raises(ValueError, match="--baseline"):
+        throughput.throughput_report(baseline="--output=F")

@@ -241,3 +241,20 @@ def test_live_strip_draws_a_long_run_as_all_its_points_do_with_bounded_points():
     for i in range(0, 48000, 7):
         s.extend({c: v[i : i + 7] for c, v in longer.items()})
     assert max(len(line.get_xdata()) for _, line in s.lines) <= 4 * pixels + 300
+
+
+def test_an_out_folder_that_reads_as_an_option_is_a_folder_to_ffmpeg(tmp_path):
+    """``--video --out=-x`` used to hand ffmpeg "-x/run.mp4", which it reads as an option: the
+    writer hands it the absolute path, and the video lands in the folder named "-x"."""
+    args = ["run", "grasp", "--preset", "fast", "--set", "duration_s=0.3", "--no-plot", "--json", "--video", "--video-size", "320x240"]
+    base = {k: v for k, v in os.environ.items() if k != "MUJOCO_GL"}
+    result = subprocess.run(
+        [sys.executable, str(ROOT / "run_sim.py"), *args, "--out=-x"], cwd=tmp_path, capture_output=True, text=True, timeout=300, env=base
+    )
+    if result.returncode == 2 and "MUJOCO_GL" in result.stderr:
+        pytest.skip(f"no OpenGL for MuJoCo here: {result.stderr.strip()}")
+    assert result.returncode in (0, 1), result.stderr
+    mp4 = tmp_path / "-x" / "run.mp4"
+    assert mp4.stat().st_size > 0
+    meta = next(imageio_ffmpeg.read_frames(str(mp4)))
+    assert meta["size"] == (320, 240)
