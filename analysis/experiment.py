@@ -216,7 +216,9 @@ def write_outputs(rows: list[dict], out_dir: Path, plot: bool = True) -> list[Pa
         "grip_margin": "hold_grip_n / needed_grip_n",
         "peak_contact_n": "N",
     }
-    json_path.write_text(json.dumps(json_safe({"units": units, "rows": rows}), indent=2) + "\n")
+    from piezotip.provenance import versions
+
+    json_path.write_text(json.dumps(json_safe({"units": units, "versions": versions(), "rows": rows}), indent=2) + "\n")
     if not plot:
         return [csv_path, json_path]
     png = save_figure(experiment_figure(rows), out_dir / "grasp_range.png")

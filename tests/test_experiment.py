@@ -69,8 +69,12 @@ def test_table_files_have_units_and_the_plot(table):
     with (out / "grasp_range.csv").open() as fh:
         header = next(csv.reader(fh))
     assert tuple(header) == COLUMNS
-    units = json.loads((out / "grasp_range.json").read_text())["units"]
+    written = json.loads((out / "grasp_range.json").read_text())
+    units = written["units"]
     assert units["peak_pressure_pa"] == "Pa" and units["touch_latency_s"] == "s"
+    # What made it: the versions, and the commit when run from a checkout (this one is).
+    assert {"piezotip", "mujoco", "numpy", "python", "git_commit"} <= set(written["versions"])
+    assert written["versions"]["mujoco"] and written["versions"]["python"]
     assert (out / "grasp_range.png").stat().st_size > 10_000
 
 
