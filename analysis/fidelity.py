@@ -4,7 +4,8 @@ Runs (``run_sim.py bench``).  For every standard scene every preset (scenarios/p
 is run with its recorder, as ``run_sim.py run`` does, twice:
 
 - with the multimode controller: its cost (wall time per simulated second), whether its
-  referee outcome agrees with the reference's, and when it felt the touch;
+  referee outcome agrees with the reference's, when it felt the touch, and the grip it chose
+  (the referee's hold grip and peak contact force: what decides an outcome, issue 29);
 - at a fixed grip (:func:`scripted_overrides`): the scripted controller squeezes at twice the
   grip the object's weight needs and drives the one mode that resolves that grip's pressure
   best.  The pressures are compared here, not in the multimode runs: the multimode
@@ -21,6 +22,8 @@ after the lift has settled at the top), the worst pad:
 - ``true_pressure``: the same for the true pad pressure (the physics' share of the error);
 - ``output_v1``: absolute difference of the measured output V_1, V (same mode in both);
 - ``touch_time_s``: the difference in the time touch was detected (multimode runs), s;
+- ``hold_grip``, ``peak_contact``: relative difference of the referee's hold grip (the true
+  finger force while carried) and peak contact force (multimode runs);
 - ``outcome``: whether the multimode runs' referee outcome agrees with the reference's.
 
 The reference's own convergence.  The fixed-grip run is repeated with every resolution step
@@ -58,7 +61,9 @@ STANDARD_SCENES = ("grasp", "grasp-10kg")
 LIFT, HOLD = 3.0, 4.0
 #: The issue's targets: fast within 5 % of reference, accurate within 1 %.
 FAST_TARGET, ACCURATE_TARGET = 0.05, 0.01
-ERROR_KINDS = ("pressure_estimate", "true_pressure", "output_v1", "touch_time_s")
+ERROR_KINDS = ("pressure_estimate", "true_pressure", "output_v1", "touch_time_s", "hold_grip", "peak_contact")
+#: The multimode runs' grip quantities compared (the summary's keys), by error kind.
+GRIP_KINDS = {"hold_grip": "hold_grip_n", "peak_contact": "peak_contact_n"}
 
 #: The held window: this long, from when the lift has settled within LIFT_SETTLED_M of where
 #: it holds.  The scripted controller's hold lasts 1 s; a lift that sags more than the
@@ -235,10 +240,13 @@ def _worst(values) -> float:
     return max(finite) if finite else math.nan
 
 
-def errors(run: dict, ref: dict, outcome: bool = True, touch_s: tuple[float, float] = (math.nan, math.nan)) -> dict:
+def errors(
+    run: dict, ref: dict, outcome: bool = True, touch_s: tuple[float, float] = (math.nan, math.nan), grips: dict | None = None
+) -> dict:
     """The errors of the module docstring, of the held quantities ``run`` against ``ref``
     (:func:`held_quantities`); ``outcome`` whether the multimode runs' outcomes agree,
-    ``touch_s`` their touch times (the run's, the reference's)."""
+    ``touch_s`` their touch times (the run's, the reference's), ``grips`` per grip kind
+    (:data:`GRIP_KINDS`) the multimode runs' (run's, reference's) values, N."""
     pads = list(ref["estimate_pa"])
     same_mode = {p: run["mode"][p] == ref["mode"][p] for p in pads}
     t_run, t_ref = touch_s
@@ -247,15 +255,17 @@ def errors(run: dict, ref: dict, outcome: bool = True, touch_s: tuple[float, flo
         "true_pressure": _worst(_rel(run["true_pressure_pa"][p], ref["true_pressure_pa"][p]) for p in pads),
         "output_v1": _worst(abs(run["v1"][p] - ref["v1"][p]) if same_mode[p] else math.nan for p in pads),
         "touch_time_s": abs(t_run - t_ref) if math.isfinite(t_run) and math.isfinite(t_ref) else math.nan,
+        **{kind: _rel(*(grips or {}).get(kind, (math.nan, math.nan))) for kind in GRIP_KINDS},
         "outcome": outcome,
     }
 
 
-def reference_convergence(ladder: list[dict], touch_s: tuple[float, float], outcome_same: bool) -> dict:
+def reference_convergence(ladder: list[dict], touch_s: tuple[float, float], outcome_same: bool, grips: dict | None = None) -> dict:
     """The reference's convergence on one scene, per error kind: from the held quantities of
-    the fixed-grip ladder (:data:`LADDER_HALVINGS`) and the multimode touch times at the
-    reference's steps and at half of them.  Per kind: the worst pad's numbers (the pad of
-    the largest uncertainty) and every pad's in ``pads``."""
+    the fixed-grip ladder (:data:`LADDER_HALVINGS`) and the multimode touch times and grips
+    (``grips``: per grip kind, the (reference's, halved reference's) values, N) at the
+    reference's steps and at half of them.  Per kind: the worst pad's numbers (the pad of the
+    largest uncertainty) and every pad's in ``pads``."""
     out = {}
     for kind, column, relative in (
         ("pressure_estimate", "estimate_pa", True),
@@ -290,6 +300,19 @@ def reference_convergence(ladder: list[dict], touch_s: tuple[float, float], outc
         "asymptotic": False,
         "relative": False,
     }
+    # The grip the multimode controller chose: one halving too (relative changes).
+    for kind in GRIP_KINDS:
+        q_ref, q_half = (grips or {}).get(kind, (math.nan, math.nan))
+        change = _rel(q_half, q_ref)
+        out[kind] = {
+            "uncertainty": SAFETY_NOT_ASYMPTOTIC * change,
+            "halving_change": change,
+            "finest_change": math.nan,
+            "observed_order": math.nan,
+            "extrapolated": math.nan,
+            "asymptotic": False,
+            "relative": True,
+        }
     out["outcome_same_when_halved"] = bool(outcome_same)
     return out
 
@@ -367,7 +390,10 @@ def fidelity_report(scenes=STANDARD_SCENES, presets=tuple(PRESETS), progress=Non
         held[(scene, "reference-halved")] = ladder[1]
         ref_m, half_m = multimode[(scene, "reference")][0], multimode[(scene, "reference-halved")][0]
         ladders[scene] = reference_convergence(
-            ladder, (ref_m["touch_time_s"], half_m["touch_time_s"]), half_m["outcome"] == ref_m["outcome"]
+            ladder,
+            (ref_m["touch_time_s"], half_m["touch_time_s"]),
+            half_m["outcome"] == ref_m["outcome"],
+            {kind: (ref_m.get(key, math.nan), half_m.get(key, math.nan)) for kind, key in GRIP_KINDS.items()},
         )
 
     entries = []
@@ -380,7 +406,8 @@ def fidelity_report(scenes=STANDARD_SCENES, presets=tuple(PRESETS), progress=Non
             # The touch comes before any decision of the controller's can differ: compared on
             # the multimode runs.
             same_outcome = s["outcome"] == ref["outcome"]
-            found = errors(held[(scene, name)], held[(scene, "reference")], same_outcome, (s["touch_time_s"], ref["touch_time_s"]))
+            grips = {kind: (s.get(key, math.nan), ref.get(key, math.nan)) for kind, key in GRIP_KINDS.items()}
+            found = errors(held[(scene, name)], held[(scene, "reference")], same_outcome, (s["touch_time_s"], ref["touch_time_s"]), grips)
             per_scene[scene] = found | {
                 "outcome_name": s["outcome"],
                 "sim_time_s": s["sim_time_s"],
@@ -514,7 +541,7 @@ def format_fidelity(report: dict) -> str:
     """The price list as text, then the reference's convergence per scene."""
     head = (
         f"{'preset':<17} {'wall s/sim s':>12} {'RT factor':>9} {'P est err':>10} {'P true err':>10} {'V1 err V':>9}"
-        f" {'touch dt ms':>11}  outcome"
+        f" {'touch dt ms':>11} {'hold err':>9} {'peak err':>9}  outcome"
     )
     lines = [
         f"fidelity presets on {', '.join(report['scenes'])} (errors: worst over scenes, against reference, "
@@ -529,6 +556,8 @@ def format_fidelity(report: dict) -> str:
                 format(err["true_pressure"], ".2e"),
                 format(err["output_v1"], ".1e"),
                 format(1e3 * err["touch_time_s"], ".1f"),
+                format(err["hold_grip"], ".2e"),
+                format(err["peak_contact"], ".2e"),
             ]
         else:
             ref = e["name"] == "reference"
@@ -538,10 +567,12 @@ def format_fidelity(report: dict) -> str:
                 _cell(b["true_pressure"], err["true_pressure"], ".2e", ref),
                 _cell(b["output_v1"], err["output_v1"], ".1e", ref),
                 _cell(touch, 1e3 * err["touch_time_s"], ".1f", ref),
+                _cell(b["hold_grip"], err["hold_grip"], ".2e", ref),
+                _cell(b["peak_contact"], err["peak_contact"], ".2e", ref),
             ]
         lines.append(
             f"{e['name']:<17} {e['wall_s_per_sim_s']:>12.4f} {e['realtime_factor']:>9.2f} {cells[0]:>10} {cells[1]:>10} {cells[2]:>9}"
-            f" {cells[3]:>11}  {'same' if err['outcome'] else 'DIFFERS'}"
+            f" {cells[3]:>11} {cells[4]:>9} {cells[5]:>9}  {'same' if err['outcome'] else 'DIFFERS'}"
         )
     ladder = report["convergence"].get("ladder")
     if ladder:
@@ -582,6 +613,10 @@ def format_fidelity(report: dict) -> str:
             t = found["touch_time_s"]
             touch_ms = (1e3 * t["halving_change"], 1e3 * t["uncertainty"])
             lines.append(f"{scene:<12} {'touch':<18} {touch_ms[0]:>9.1f} {'':>9} {'n/a':>6} {'':>7} {'':>13} {touch_ms[1]:>9.1f}")
+            for kind, label in (("hold_grip", "hold grip"), ("peak_contact", "peak contact")):
+                g = found[kind]
+                change, u = g["halving_change"], g["uncertainty"]
+                lines.append(f"{scene:<12} {label:<18} {change:>9.1e} {'':>9} {'n/a':>6} {'':>7} {'':>13} {u:>9.1e}")
     c = report["checks"]
     orders = ", ".join(
         f"{s} {p:.2f}" + ("" if c["reference_asymptotic"][s] else ", not asymptotic") for s, p in c["reference_observed_order"].items()

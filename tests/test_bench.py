@@ -96,6 +96,7 @@ def test_fidelity_presets_report_cost_and_errors_against_reference():
 # ---------------------------------------------------------------------------------------
 
 HELD_PA, HELD_V1 = 2000.0, 0.1
+HOLD_N = 0.5  # the stand-in's hold grip at no step, N
 SENSOR_BIAS = {"steady": 1e-2, "envelope": 1e-5, "carrier": 0.0}  # the estimate's, relative
 
 
@@ -117,6 +118,8 @@ def _stand_in_run(scene, overrides, preset):
         data |= {f"{pad}_v1": np.full(t.size, v1), f"{pad}_mode": np.full(t.size, 2.0)}
     touch_s = 0.5 + (0.01 if config.sensor.dynamics == "steady" else 0.0)
     summary = {"outcome": "success", "touch_time_s": touch_s, "sim_time_s": float(t[-1]), "wall_time_s": 0.01 * dt_ms**-1}
+    # The grip the multimode controller chose, converging with the step (first order).
+    summary |= {"hold_grip_n": HOLD_N * (1 + 0.01 * dt_ms), "peak_contact_n": 1.5 * HOLD_N * (1 + 0.02 * dt_ms)}
     return summary, data, summary["wall_time_s"]
 
 
@@ -165,7 +168,7 @@ def test_a_presets_cost_is_its_fastest_of_repeated_runs(monkeypatch):
 
 def test_bench_json_carries_the_reference_convergence(preset_report):
     data, _ = preset_report
-    kinds = {"pressure_estimate", "true_pressure", "output_v1", "touch_time_s"}
+    kinds = {"pressure_estimate", "true_pressure", "output_v1", "touch_time_s", "hold_grip", "peak_contact"}
     assert [e["name"] for e in data["presets"]] == ["fast", "balanced", "accurate", "reference"]
     for e in data["presets"]:
         assert set(e["error_bounds"]) == kinds and set(e["reference_convergence"]) == kinds
@@ -207,3 +210,23 @@ def test_the_table_prints_an_error_below_the_uncertainty_as_a_bound(preset_repor
     accurate = next(line for line in text.splitlines() if line.startswith("accurate "))
     assert "<3.1e-05" in accurate
     assert "reference convergence" in text and "±" in next(line for line in text.splitlines() if line.startswith("reference "))
+
+
+def test_each_preset_is_priced_on_the_grip_its_controller_chose(preset_report):
+    """Issue 29: beside the fixed-grip pressure error, the multimode grasp's hold grip and peak
+    contact against the reference's, with the reference's own uncertainty from its halving."""
+    from piezotip.analysis.fidelity import SAFETY_NOT_ASYMPTOTIC
+
+    data, text = preset_report
+    by_name = {e["name"]: e for e in data["presets"]}
+
+    def hold(dt_ms):
+        return HOLD_N * (1 + 0.01 * dt_ms)
+
+    fast_dt_ms = 5.0 / 3.0
+    assert by_name["fast"]["errors"]["hold_grip"] == pytest.approx(hold(fast_dt_ms) / hold(0.25) - 1, rel=1e-9)
+    assert by_name["fast"]["errors"]["peak_contact"] == pytest.approx((1 + 0.02 * fast_dt_ms) / (1 + 0.02 * 0.25) - 1, rel=1e-9)
+    u = data["convergence"]["ladder"]["scenes"]["grasp"]["hold_grip"]["uncertainty"]
+    assert u == pytest.approx(SAFETY_NOT_ASYMPTOTIC * abs(hold(0.125) / hold(0.25) - 1), rel=1e-9)
+    assert by_name["fast"]["error_bounds"]["hold_grip"]["certified"]  # 1.4e-2 >= 3 u = 3.7e-3
+    assert "hold err" in text and "peak err" in text and "hold grip" in text
