@@ -1,14 +1,17 @@
 """The on-disk cache of derived tables: keyed by every parameter and by the code, safe to share."""
 
 import dataclasses
+import importlib.machinery
+import importlib.util
 import subprocess
 import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 from piezotip.cosim.control import selector
-from piezotip.sensor import Fingertip, GelModel, GelParams, NoiseParams, SensorElement
+from piezotip.sensor import Fingertip, GelModel, GelParams, NoiseParams, SensorElement, compiled
 from piezotip.sensor import cache as cache_module
 from piezotip.sensor.cache import disk_cached, entry_key
 from piezotip.sensor.element import ElementParams
@@ -68,13 +71,76 @@ def test_the_key_changes_with_every_parameter_the_tables_depend_on():
     assert entry_key("allowed-ranges", (Fingertip().config_key(), (1, 2, 3, 4))) == base  # and it is stable
 
 
-def test_the_key_changes_with_the_code(tmp_path):
+def _forget_the_code():
+    """What a new process sees: the fingerprints are computed once per process."""
+    cache_module._FINGERPRINTS.clear()
+    cache_module._DIGESTS.clear()
+
+
+@pytest.fixture
+def forget_the_code():
+    _forget_the_code()
+    yield
+    _forget_the_code()
+
+
+def test_the_key_changes_with_the_code(tmp_path, forget_the_code):
     module = tmp_path / "tables.py"
     module.write_text("A = 1\n")
     before = entry_key("x", 1, [module])
     module.write_text("A = 2\n")
-    cache_module._FINGERPRINTS.clear()
+    _forget_the_code()
     assert entry_key("x", 1, [module]) != before
+
+
+EXTENSION = importlib.machinery.EXTENSION_SUFFIXES[0]
+
+
+@pytest.mark.parametrize("changed", ["_tables.pyx", "_helpers.pxd", f"_tables{EXTENSION}"])
+def test_the_key_changes_with_a_compiled_source_or_the_built_module(tmp_path, forget_the_code, changed):
+    """The Cython sources beside a module the key names, and the extension module built from
+    them (what runs: an edited .pyx not rebuilt is not), are part of the key."""
+    module = tmp_path / "tables.py"
+    module.write_text("A = 1\n")
+    for name in ("_tables.pyx", "_helpers.pxd", f"_tables{EXTENSION}"):
+        (tmp_path / name).write_bytes(b"one")
+    before = entry_key("x", 1, [module])
+    (tmp_path / changed).write_bytes(b"two")
+    _forget_the_code()
+    assert entry_key("x", 1, [module]) != before
+
+
+def test_an_extension_another_interpreter_imports_is_not_part_of_the_key(tmp_path, forget_the_code):
+    module = tmp_path / "tables.py"
+    module.write_text("A = 1\n")
+    before = entry_key("x", 1, [module])
+    (tmp_path / "_tables.cpython-39-x86_64-linux-gnu.so").write_bytes(b"not ours")  # another Python's build
+    (tmp_path / "notes.txt").write_text("")
+    _forget_the_code()
+    assert entry_key("x", 1, [module]) == before
+
+
+def test_the_key_covers_the_project_s_compiled_twins_as_they_are_imported(forget_the_code, monkeypatch):
+    """Every Cython source of the sensor and of the controller's modules, and the very files the
+    twins are imported from (the references alone with PIEZOTIP_PURE_PYTHON)."""
+    sensor = Path(cache_module.__file__).parent
+    control = Path(selector.__file__).parent
+    files = set(cache_module.code_files([selector.__file__]))
+    sources = set(sensor.glob("_*.pyx")) | set(sensor.glob("*.pxd")) | set(control.glob("_*.pyx"))
+    assert len(sources) >= 6 and sources <= files
+    for name in ("piezotip.sensor._inference", "piezotip.sensor._lookup", "piezotip.sensor._sampler", "piezotip.sensor._estimator"):
+        spec = importlib.util.find_spec(name)
+        if spec is not None:  # built
+            assert Path(spec.origin) in files
+            assert Path(spec.origin) in set(cache_module.code_files())
+    spec = importlib.util.find_spec("piezotip.cosim.control._control")
+    if spec is not None:
+        assert Path(spec.origin) in files
+    compiled_key = entry_key("x", 1, [selector.__file__])
+    monkeypatch.setattr(compiled, "PURE_PYTHON", True)
+    _forget_the_code()
+    assert not any(p.name.endswith(tuple(importlib.machinery.EXTENSION_SUFFIXES)) for p in cache_module.code_files([selector.__file__]))
+    assert entry_key("x", 1, [selector.__file__]) != compiled_key
 
 
 def test_a_stored_entry_is_read_back_exactly_and_computed_once(cache_dir):
