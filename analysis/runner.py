@@ -1,14 +1,101 @@
-"""Running one scenario headless: the recording, the plot, the frames and the summary."""
+"""Running one scenario headless: the recording, the plot, the frames and the summary.
+
+A run's folder holds one run.  ``summary.json`` is the mark of a finished one: a run removes it
+before it writes anything else, and writes it last (beside, then renamed), so a folder whose run
+was killed has no summary, never an old one beside a new recording.  A rerun removes the files a
+run writes, by name (:data:`RUN_FILES` and the recording's own, :mod:`piezotip.cosim.recorder`),
+whether or not it will write them again; anything else in the folder stays, and a
+``run.chunks/`` holding files no recording wrote stops the run before it removes anything.
+
+Signals: during a run (in the main thread) SIGINT and SIGTERM both end it as Ctrl-C does: the
+first stops the loop, the recording so far is kept, the plot and a summary marked
+``"interrupted": true`` are written, its ``"signal"`` naming which (:class:`_Signals`).  Signals
+that come after the first (a second Ctrl-C) are held until the summary is written: they do not
+cut the close of the recording or the summary short.  The exit status (130 for SIGINT, 143 for
+SIGTERM, :func:`exit_status`) is the command line's to return.
+"""
 
 from __future__ import annotations
 
 import hashlib
 import json
 import math
+import os
+import signal
+import threading
+from collections.abc import Mapping
 from dataclasses import asdict
 from pathlib import Path
 
 import numpy as np
+
+#: The files a run writes in its folder besides the recording (``run.npz``, ``run.csv``,
+#: ``run.chunks/``): a rerun removes them, ``summary.json`` first (and its temporary).
+RUN_FILES = ("summary.json", "summary.json.tmp", "run.png", "frames.png", "run.mp4")
+
+#: The signals that end a run as Ctrl-C does, each with the handler Python starts with (a
+#: handler a program set itself is left alone).
+_RUN_SIGNALS = ((signal.SIGINT, signal.default_int_handler), (signal.SIGTERM, signal.SIG_DFL))
+
+
+class RunInterrupted(KeyboardInterrupt):
+    """A signal stopped the run: ``signum`` (SIGINT or SIGTERM).  A KeyboardInterrupt, so whatever
+    catches Ctrl-C (the loop, the command line) catches it; raised out of :func:`run_scenario`
+    only when the signal comes before the loop starts (no summary then, as for Ctrl-C)."""
+
+    def __init__(self, signum: int) -> None:
+        super().__init__(signal.Signals(signum).name)
+        self.signum = int(signum)
+
+    def __reduce__(self):
+        return type(self), (self.signum,)
+
+    @property
+    def exit_status(self) -> int:
+        """The process's exit status by the shell's convention: 128 + the signal's number."""
+        return 128 + self.signum
+
+
+def exit_status(report: dict) -> int | None:
+    """The exit status of an interrupted run's command (130 after SIGINT, 143 after SIGTERM: 128 +
+    the signal's number, from the summary's ``"signal"``), or None when it was not interrupted."""
+    if not report.get("interrupted"):
+        return None
+    return 128 + signal.Signals[report.get("signal") or "SIGINT"]
+
+
+class _Signals:
+    """SIGINT and SIGTERM during a run (main thread only; elsewhere nothing changes).
+
+    The first signal is remembered (``signum``) and, while ``armed`` and the recorder (when
+    given) has not begun closing, raised as :class:`RunInterrupted` (the loop catches it as
+    Ctrl-C); any later signal, or one that comes once disarmed, is held (remembered if first,
+    never raised).  The handlers Python started with come back on leaving."""
+
+    def __init__(self) -> None:
+        self.signum: int | None = None
+        self.armed = True
+        self.recorder = None
+        self._previous: dict[int, object] = {}
+
+    def __enter__(self) -> _Signals:
+        if threading.current_thread() is threading.main_thread():
+            for signum, default in _RUN_SIGNALS:
+                if signal.getsignal(signum) is default:
+                    self._previous[signum] = signal.signal(signum, self._handle)
+        return self
+
+    def _handle(self, signum, frame) -> None:
+        if self.signum is None:
+            self.signum = signum
+            if self.armed and not (self.recorder is not None and self.recorder.closing):
+                self.armed = False
+                raise RunInterrupted(signum)
+
+    def __exit__(self, *exc) -> None:
+        for signum, previous in self._previous.items():
+            signal.signal(signum, previous)
+        self._previous.clear()
 
 
 def json_safe(value):
@@ -61,23 +148,45 @@ def run_scenario(
     video: bool = False,
     video_fps: float | None = None,
     video_size: tuple[int, int] | None = None,
-) -> tuple[dict, dict[str, np.ndarray]]:
+) -> tuple[dict, Mapping[str, np.ndarray]]:
     """Run scenario ``name`` with ``overrides``; write into ``out``; return (summary, recorded data).
 
     Files: ``run.npz`` (every control step, units in the column names), ``run.csv`` with
     ``csv``, ``run.png`` with ``plot``, ``frames.png`` with ``render``, ``run.mp4`` with
     ``video`` (``video_fps`` frames per simulated second, ``video_size`` (width, height):
-    analysis.video's defaults when None), ``summary.json``.
+    analysis.video's defaults when None), ``summary.json`` (last: see the module's notes).
     A divergence stops the run with the recording kept; the summary's ``error`` says why.
+    SIGINT (Ctrl-C) or SIGTERM stops it too, the summary then ``"interrupted": true`` with the
+    signal's name in ``"signal"``; one before the loop starts raises :class:`RunInterrupted`.
+
+    The recorded data is ``run.npz``'s columns, each read from the file when asked for
+    (:class:`piezotip.cosim.recorder.Columns`: a long run's recording is never in memory whole;
+    ``dict(data)`` loads it), readable after ``out`` is removed.
     """
+    with _Signals() as signals:
+        return _run(name, overrides, out, csv, render, plot, quiet, preset, video, video_fps, video_size, signals)
+
+
+def _start_folder(out: Path) -> None:
+    """Mark ``out`` as holding a run in progress: no summary (removed first), no file of an old run
+    (removed by name); a ``run.chunks/`` with files no recording wrote stops here, before any removal."""
+    from piezotip.cosim.recorder import check_replaceable
+
+    check_replaceable(out / "run")
+    for name in RUN_FILES:
+        (out / name).unlink(missing_ok=True)
+
+
+def _run(name, overrides, out, csv, render, plot, quiet, preset, video, video_fps, video_size, signals: _Signals):
     from piezotip import scenarios
-    from piezotip.cosim.loop import CoSimulation
+    from piezotip.cosim.loop import CoSimulation, RunResult
     from piezotip.cosim.recorder import Recorder
 
     from .run_report import object_needed_grip_n, plot_run, summary
 
     config = scenarios.get(name, overrides, preset)
     out = check_out_dir(Path(out))
+    _start_folder(out)
     sim = CoSimulation(config)
     from piezotip.cosim.control import PHASES
     from piezotip.cosim.loop import STATUS_CODES
@@ -91,6 +200,7 @@ def run_scenario(
         "status_codes": list(STATUS_CODES),
     }
     recorder = Recorder(out / "run", csv=csv, metadata=meta)
+    signals.recorder = recorder  # a signal once the recorder closes is held, not raised into its close
     total = math.ceil(config.duration_s / config.physics.control_period_s - 1e-9)
     strip = None
     if render:
@@ -108,11 +218,17 @@ def run_scenario(
 
     try:
         with tqdm(total=total, desc=name, unit="step", disable=quiet, leave=False) as bar:
-            result = sim.run(recorder, progress=bar, on_step=on_step)
+            try:
+                result = sim.run(recorder, progress=bar, on_step=on_step)
+            except RunInterrupted:  # the signal came between the loop's own catch and the recorder's close
+                signals.armed = False
+                result = RunResult(sim.steps, sim.time_s, math.nan, recorder.close(), None, True)
+            signals.armed = False  # from here on every signal is held until the summary is written
             if not result.interrupted and result.error is None:  # ended (early, once at rest): done
                 bar.total = bar.n
                 bar.refresh()
     finally:
+        signals.armed = False
         if movie is not None:
             movie.close()
     data = recorder.data()
@@ -127,13 +243,18 @@ def run_scenario(
     if movie is not None and movie.frames:
         files.append(str(movie.path))
     report["events"] = events
-    report["interrupted"] = result.interrupted
-    if result.interrupted:
-        report["reason"] = f"interrupted (Ctrl-C) at t = {result.sim_time_s:.2f} s; {report['reason']}"
+    interrupted = result.interrupted or signals.signum is not None
+    report["interrupted"] = interrupted
+    report["signal"] = signal.Signals(signals.signum or signal.SIGINT).name if interrupted else None
+    if interrupted:
+        how = "Ctrl-C" if report["signal"] == "SIGINT" else report["signal"]
+        report["reason"] = f"interrupted ({how}) at t = {result.sim_time_s:.2f} s; {report['reason']}"
     report["touch_time_s"] = getattr(sim.controller, "touch_time_s", math.nan)
     report["overrides"] = list(overrides)
     report["preset"] = preset
     summary_path = out / "summary.json"
     report["files"].append(str(summary_path))
-    summary_path.write_text(json.dumps(json_safe(report), indent=2) + "\n")
+    tmp = summary_path.with_name(summary_path.name + ".tmp")
+    tmp.write_text(json.dumps(json_safe(report), indent=2) + "\n")
+    os.replace(tmp, summary_path)
     return report, data

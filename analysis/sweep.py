@@ -9,8 +9,11 @@ each machine with piezotip installed).  ``workers=0`` runs in this process, one 
 other (no Dask), which is what the tests compare the parallel rows against.
 
 Resume: each finished point's row is appended at once to ``points.jsonl`` in the output
-folder, keyed by the scenario, preset and the point's overrides; a sweep run again with the
-same folder skips the points already there (a point that raised is run again).  A point that
+folder, keyed by the scenario, preset and the point's overrides, on a line of its own (after a
+newline when a kill tore the last line); a sweep run again with the same folder skips the
+points already there (a point that raised is run again).  A line that is not a row (torn,
+garbage, not UTF-8) is skipped with a warning naming the file and line, and its point runs
+again: a resumed sweep has the rows an uninterrupted one has.  A point that
 raises is recorded with its error (``outcome`` ``error``) and the sweep goes on.
 
 Worker processes keep their caches (mode bands, gel tables) across the points they run, and
@@ -26,8 +29,10 @@ import atexit
 import csv
 import itertools
 import json
+import logging
 import math
 import os
+import signal
 import sys
 import time
 import traceback
@@ -69,6 +74,8 @@ ERROR_OUTCOME = "error"
 
 #: The phase code of holding in the record (cosim.control.Phase.HOLD).
 _HOLD_PHASE = 4.0
+
+log = logging.getLogger(__name__)
 
 
 @dataclass(frozen=True)
@@ -219,11 +226,14 @@ def run_point(
     ``run_dir``: where the run's own files go (``run.npz``, ``summary.json``), or None to keep
     the recording in memory only.  ``options``: more keywords of ``run_scenario`` (e.g. video).
     The row's ``wall_time_s`` is the whole point (set-up, loop, summary), as the user waits.
+    A run a signal interrupted (Ctrl-C or SIGTERM in this process's main thread: the sweep run
+    one point after the other) raises :class:`~piezotip.analysis.runner.RunInterrupted`: the
+    point is not done, nothing is journaled for it, and the sweep stops.
     """
     options = dict(options or {})
     import tempfile
 
-    from .runner import run_scenario
+    from .runner import RunInterrupted, run_scenario
 
     start = time.perf_counter()
     try:
@@ -232,6 +242,8 @@ def run_point(
                 summary, data = run_scenario(scenario, list(overrides), Path(tmp), plot=False, quiet=True, preset=preset, **options)
         else:
             summary, data = run_scenario(scenario, list(overrides), Path(run_dir), plot=False, quiet=True, preset=preset, **options)
+        if summary.get("interrupted"):  # Ctrl-C or SIGTERM cut the run short: not a row to journal, the sweep stops
+            raise RunInterrupted(signal.Signals[summary.get("signal") or "SIGINT"])
         row = point_row(summary, data)
     except Exception as err:  # recorded, and the sweep goes on
         last = traceback.extract_tb(err.__traceback__)[-1]
@@ -270,18 +282,50 @@ def _normalized(row: dict) -> dict:
 
 
 def _load_done(path: Path) -> dict[str, dict]:
-    """The rows already in ``points.jsonl`` by key (a torn last line from a kill is skipped)."""
+    """The rows already in ``points.jsonl`` by key, the last one of a key winning (a point that
+    raised is not done).
+
+    A line that is not a row (not UTF-8, not JSON, JSON that is not ``{"key": str, "row": {...}}``,
+    a torn line a kill left) is skipped with a warning naming the file and the line number, on
+    the ``piezotip.analysis.sweep`` logger; its point, if any, runs again."""
     done: dict[str, dict] = {}
     if not path.exists():
         return done
-    for line in path.read_text().splitlines():
-        try:
-            entry = json.loads(line)
-        except json.JSONDecodeError:
+    text = path.read_bytes()
+    lines = text.split(b"\n")
+    if lines[-1] == b"":
+        lines.pop()  # the newline that ends the last line
+    for number, raw in enumerate(lines, 1):
+        if not raw.strip():
             continue
-        if entry.get("row", {}).get("outcome") != ERROR_OUTCOME:
+        problem, entry = None, None
+        try:
+            entry = json.loads(raw.decode("utf-8"))
+        except UnicodeDecodeError:
+            problem = "not UTF-8"
+        except ValueError:
+            problem = "not JSON (torn: the file ends inside it)" if number == len(lines) and not text.endswith(b"\n") else "not JSON"
+        if problem is None and not (isinstance(entry, dict) and isinstance(entry.get("key"), str) and isinstance(entry.get("row"), dict)):
+            problem = 'not a row ({"key": ..., "row": {...}})'
+        if problem is not None:
+            log.warning("%s:%d: skipped a line that is %s", path, number, problem)
+            continue
+        if entry["row"].get("outcome") != ERROR_OUTCOME:
             done[entry["key"]] = _normalized(entry["row"])
     return done
+
+
+def _append_line(path: Path, line: str) -> None:
+    """Append ``line`` (and a newline) to the journal as one write, on a line of its own: a file
+    that does not end with a newline (a line torn by a kill or a full disk) gets one first, so
+    the torn fragment stays a line of its own (skipped on reading) and this row is whole."""
+    with path.open("a+b") as fh:
+        size = fh.seek(0, os.SEEK_END)
+        lead = b""
+        if size:
+            fh.seek(size - 1)
+            lead = b"" if fh.read(1) == b"\n" else b"\n"
+        fh.write(lead + line.encode("utf-8") + b"\n")  # "a": written at the end, wherever the read left off
 
 
 @dataclass(frozen=True)
@@ -341,9 +385,8 @@ def run_points(
 
     def finish(i: int, row: dict) -> None:
         results[i] = row = _normalized(row)
-        if journal is not None:
-            with journal.open("a") as fh:  # one line per point, appended at once: a kill loses only runs in flight
-                fh.write(json.dumps(json_safe({"key": keys[i], "row": row})) + "\n")
+        if journal is not None:  # one line per point, appended at once: a kill loses only runs in flight
+            _append_line(journal, json.dumps(json_safe({"key": keys[i], "row": row})))
         bar.update(1)
 
     n_workers = 0
