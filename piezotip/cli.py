@@ -1,12 +1,12 @@
 #!/usr/bin/env python3
-"""piezotip's command line.
+"""piezotip's command line (``python run_sim.py`` in a checkout, the ``piezotip`` console script installed).
 
     python run_sim.py list                       the registered scenarios
     python run_sim.py run SCENARIO [--set KEY=VALUE ...] [--preset NAME] [--out DIR] [--json] [--csv] [--render] [--no-plot]
                       [--video [--video-fps FPS] [--video-size WxH]]   run.mp4: camera and a live strip
                                                  a scenario, headless: summary, plots, recording;
-                                                 exit 0 on success, 1 on any other outcome, 2 on bad input,
-                                                 130 on Ctrl-C (the recording and a summary marked interrupted kept)
+                                                 exit 0 on success, 1 on any other outcome (exit codes below),
+                                                 130 on Ctrl-C, 143 on SIGTERM (the recording and a summary marked interrupted kept)
     python run_sim.py experiment grasp-range [--json] [--out DIR] [--preset NAME] [--set KEY=VALUE ...] [--video ...]
                                                  objects 1 g to 10 kg, multimode vs each mode alone
     python run_sim.py sweep SCENARIO --grid KEY=V1,V2,... [--grid ...] [--set KEY=VALUE ...] [--preset NAME]
@@ -21,16 +21,49 @@
     python run_sim.py creep [--json] [--out DIR] [--quick]   held objects' creep (1.2x grip) and slide (0.8x), per contact model
 
 Every command is headless; figures are PNG (matplotlib Agg), data CSV/JSON with units in
-their column and key names.  Errors print one line naming the bad value and exit with 2.
+their column and key names.
+
+Exit codes, for every command (a batch script tells them apart):
+
+    0    success (run: the grasp succeeded; sweep: no point raised; experiment: multimode and
+         gentle carried every object the gripper can and nothing it cannot)
+    1    the command ran and the result is not a success: a grasp that did not succeed (any
+         outcome but ``success``, a diverged run included), a sweep with a point that raised, an
+         experiment that fails its rule, a benchmark that could not measure, creep that fails
+    2    bad input or environment: one line ``error: ...`` naming the bad value, key, file or
+         missing piece (a config value out of its range, an unknown name, an --out that cannot be
+         written, no OpenGL backend for --video); argparse's usage errors too (its usage line, then
+         the error)
+    3    an internal error (a bug): one line ``internal error: <exception>: <message>`` and the path
+         of a file holding the traceback (in the existing --out folder, else
+         $TMPDIR/piezotip-traceback-<pid>.txt); ``--debug`` prints the traceback as well
+    130  interrupted by Ctrl-C (SIGINT); 143 by SIGTERM: a run's recording so far, its plot and a
+         summary marked ``"interrupted": true`` (its ``"signal"`` names which) are kept
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import math
 import os
 import sys
+import tempfile
+import traceback
 from pathlib import Path
+
+#: Exit codes (the module docstring): success, another outcome, bad input or environment, a bug, Ctrl-C.
+EXIT_SUCCESS, EXIT_OUTCOME, EXIT_BAD_INPUT, EXIT_INTERNAL, EXIT_INTERRUPTED = 0, 1, 2, 3, 130
+#: An error line's longest message, characters (an unknown key's message lists every valid key).
+MAX_ERROR_CHARS = 4000
+#: The most points a sweep's grid may have (each point is a run; the points are listed before any runs).
+MAX_SWEEP_POINTS = 100_000
+#: The most local worker processes per core (a process per core is what pays; past a few, only memory goes).
+MAX_WORKERS_PER_CORE = 4
+
+
+def _max_workers() -> int:
+    return MAX_WORKERS_PER_CORE * (os.cpu_count() or 1)
 
 
 def _rendering_backend() -> None:
@@ -112,8 +145,8 @@ def _range_unit(args: argparse.Namespace, nominal) -> int:
         if args.units < 1:
             raise ValueError(f"--units must be a positive integer, got {args.units}")
         workers = args.workers if args.workers is not None else min(os.cpu_count() or 1, 2)
-        if workers < 1:
-            raise ValueError(f"--workers must be at least 1, got {workers}")
+        if not 1 <= workers <= _max_workers():
+            raise ValueError(f"--workers must be 1 to {_max_workers()} ({MAX_WORKERS_PER_CORE} per core), got {workers}")
         report = monte_carlo(nominal, variation, args.units, args.calibration, temperature, workers, progress=not args.json)
         files = []
         if args.out:
@@ -214,10 +247,12 @@ def _cmd_run(args: argparse.Namespace) -> int:
     else:
         print(format_summary(report))
     if report.get("interrupted"):
+        from piezotip.analysis.runner import exit_status
+
         print(f"interrupted at t = {report['sim_time_s']:.2f} s; the recording up to there is in {out}", file=sys.stderr)
-        return 130
-    # A batch script tells the outcomes apart: 0 success, 1 any other outcome (2: bad input).
-    return 0 if report["success"] else 1
+        return exit_status(report)
+    # A batch script tells the outcomes apart: 0 success, 1 any other outcome (module docstring).
+    return EXIT_SUCCESS if report["success"] else EXIT_OUTCOME
 
 
 def _cmd_experiment(args: argparse.Namespace) -> int:
@@ -255,8 +290,8 @@ def _cmd_experiment(args: argparse.Namespace) -> int:
 
 
 def _check_workers(args: argparse.Namespace) -> None:
-    if args.workers is not None and args.workers < 0:
-        raise ValueError(f"--workers must be 0 (in this process) or more, got {args.workers}")
+    if args.workers is not None and not 0 <= args.workers <= _max_workers():
+        raise ValueError(f"--workers must be 0 (in this process) to {_max_workers()} ({MAX_WORKERS_PER_CORE} per core), got {args.workers}")
     if args.workers is not None and args.scheduler is not None:
         raise ValueError("give --workers (a local cluster) or --scheduler (an existing one), not both")
 
@@ -276,6 +311,14 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
     from piezotip.analysis.sweep import check_points, format_rows, grid_points, parse_grid, run_points, write_sweep
 
     grid = parse_grid(args.grid or [])
+    from piezotip.scenarios.config import parse_value
+
+    for key, values in grid.items():  # each value bounded and parsed as --set would, its key named
+        for value in values:
+            parse_value(value, key)
+    count = math.prod(len(values) for values in grid.values())
+    if count > MAX_SWEEP_POINTS:
+        raise ValueError(f"--grid: {' x '.join(str(len(v)) for v in grid.values())} = {count} points, more than {MAX_SWEEP_POINTS}")
     if args.scenario not in scenarios.names():
         scenarios.get(args.scenario)  # the unknown-scenario error, naming the valid ones
     _start_workers_early(args)
@@ -421,11 +464,25 @@ def _cmd_creep(args: argparse.Namespace) -> int:
     return 0 if report["summary"]["current"]["meets_requirement"] else 1
 
 
-def build_parser() -> argparse.ArgumentParser:
+def prog_name(argv0: str | None = None) -> str:
+    """The name the command line was invoked as: ``piezotip`` (the console script) or ``run_sim.py``
+    (the checkout's script, ``python -m piezotip.cli``, or a caller of :func:`main`)."""
+    argv0 = (sys.argv[0] if sys.argv else "") if argv0 is None else argv0
+    name = os.path.basename(argv0.replace("\\", "/"))  # Windows' piezotip.exe too
+    return "piezotip" if os.path.splitext(name)[0] in ("piezotip", "piezotip-script") else "run_sim.py"
+
+
+def build_parser(prog: str | None = None) -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
-        prog="run_sim.py", description="piezotip: a robot fingertip with a multimode piezoelectric tactile sensor"
+        prog=prog or prog_name(), description="piezotip: a robot fingertip with a multimode piezoelectric tactile sensor"
     )
-    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    debug_help = "on an internal error (exit 3) print the traceback too, not only the file it is written to"
+    parser.add_argument("--debug", action="store_true", help=debug_help)
+    # --debug after the command too (``run grasp --debug``); SUPPRESS keeps the sub-command from
+    # overwriting a --debug given before it.
+    common = argparse.ArgumentParser(add_help=False)
+    common.add_argument("--debug", action="store_true", default=argparse.SUPPRESS, help=debug_help)
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND", parser_class=_subparser(common))
 
     p = sub.add_parser("list", help="the registered scenarios")
     p.set_defaults(func=_cmd_list)
@@ -527,18 +584,79 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _subparser(common: argparse.ArgumentParser):
+    """The sub-commands' parser class: each also takes ``common``'s options."""
+
+    class SubParser(argparse.ArgumentParser):
+        def __init__(self, *args, **kwargs) -> None:
+            kwargs.setdefault("parents", [common])
+            super().__init__(*args, **kwargs)
+
+    return SubParser
+
+
 def main(argv: list[str] | None = None) -> int:
+    """Run the command line on ``argv`` (default ``sys.argv[1:]``); return the exit code (module
+    docstring).  Nothing but argparse's own usage errors and ``--help`` (SystemExit) leaves it."""
     args = build_parser().parse_args(argv)
     try:
         if getattr(args, "render", False) or getattr(args, "video", False):
             _rendering_backend()
         return args.func(args)
-    except (ValueError, OSError) as exc:  # bad input, or a file that cannot be read or written
-        print(f"error: {exc}", file=sys.stderr)
-        return 2
-    except KeyboardInterrupt:  # Ctrl-C outside a run's loop (set-up, plots, sweeps)
+    except KeyboardInterrupt as exc:  # Ctrl-C (or SIGTERM: RunInterrupted) outside a run's loop (set-up, plots, sweeps)
         print("interrupted", file=sys.stderr)
-        return 130
+        return getattr(exc, "exit_status", EXIT_INTERRUPTED)
+    except (ValueError, OSError) as exc:  # bad input, or a file that cannot be read or written
+        print(f"error: {_one_line(exc)}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    except ModuleNotFoundError as exc:
+        if exc.name and exc.name.split(".")[0] != "piezotip":  # the environment lacks a dependency
+            print(f"error: {_one_line(exc)} (a dependency is missing: pip install piezotip's requirements)", file=sys.stderr)
+            return EXIT_BAD_INPUT
+        return _internal_error(exc, args)
+    except Exception as exc:  # a bug: never read as an outcome
+        return _internal_error(exc, args)
+
+
+def _one_line(exc: BaseException) -> str:
+    """An exception's message on one line of at most MAX_ERROR_CHARS characters."""
+    text = " ".join(str(exc).split()) or type(exc).__name__
+    if len(text) > MAX_ERROR_CHARS:
+        text = f"{text[: MAX_ERROR_CHARS - 200]} ... {text[-150:]} ({len(text)} characters)"
+    return text
+
+
+def _internal_error(exc: Exception, args: argparse.Namespace) -> int:
+    """Exit 3: one line naming the exception and the file its traceback went to (printed too with --debug)."""
+    text = "".join(traceback.format_exception(exc))
+    if getattr(args, "debug", False):
+        print(text, end="", file=sys.stderr)
+    where = _write_traceback(text, getattr(args, "out", None))
+    name = type(exc).__name__
+    message = _one_line(exc)[:500]
+    if where is None:  # nowhere to write it: the traceback itself, then the line
+        if not getattr(args, "debug", False):
+            print(text, end="", file=sys.stderr)
+        print(f"internal error: {name}: {message} (a bug in piezotip; the traceback could not be written, it is above)", file=sys.stderr)
+    else:
+        print(f"internal error: {name}: {message} (a bug in piezotip; traceback in {where})", file=sys.stderr)
+    return EXIT_INTERNAL
+
+
+def _write_traceback(text: str, out: str | None) -> Path | None:
+    """Write ``text`` to ``OUT/traceback.txt`` (an existing --out folder) or else to
+    ``$TMPDIR/piezotip-traceback-<pid>.txt``; the path written, or None if neither could be."""
+    candidates = []
+    if out and Path(out).is_dir():
+        candidates.append(Path(out) / "traceback.txt")
+    candidates.append(Path(tempfile.gettempdir()) / f"piezotip-traceback-{os.getpid()}.txt")
+    for path in candidates:
+        try:
+            path.write_text(text)
+            return path
+        except OSError:
+            continue
+    return None
 
 
 if __name__ == "__main__":

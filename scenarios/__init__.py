@@ -62,8 +62,14 @@ def _literal(value) -> str:
     if hasattr(value, "item") and callable(value.item):  # numpy scalars
         value = value.item()
     if isinstance(value, str):
-        # Plain when it reads back as itself (``envelope``), quoted when it would not (``"1"``).
-        return value if parse_value(value) == value else repr(value)
+        # Plain when it reads back as itself (``envelope``), quoted when it would not (``"1"``,
+        # ``"{1: 2}"``, which parse_value refuses as a mapping; a text too long for a value is
+        # refused when the override is applied, naming its key).
+        try:
+            plain = parse_value(value) == value
+        except ValueError:
+            plain = False
+        return value if plain else repr(value)
     if isinstance(value, (list, tuple)):
         return repr(type(value)(_plain(v) for v in value))
     return repr(value)

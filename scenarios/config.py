@@ -5,13 +5,22 @@ by a dotted key (``object.mass_kg=0.4``, ``controller.modes=[1]``); the value is
 a Python literal (numbers, lists, tuples, booleans, ``None``) or else taken as a string,
 then checked against the field's type.  An unknown key gets an error listing the valid
 ones; a value of the wrong type or range gets an error naming the key and the value.
+
+Every value is bounded before it is parsed (:data:`MAX_VALUE_CHARS` characters, nested at most
+:data:`MAX_VALUE_DEPTH` deep; no mappings or sets), and every field's range is the one the
+model is built for, checked in its dataclass's ``validate`` (ranges that depend on other fields,
+such as the quality factor's on the control period, in :meth:`ScenarioConfig.validate`): a bad
+value is a ValueError naming it before anything is built, never a KeyError or a run that cannot
+finish deep inside.
 """
 
 from __future__ import annotations
 
 import ast
 import dataclasses
+import itertools
 import math
+import re
 import types
 import typing
 from dataclasses import dataclass, field
@@ -32,6 +41,33 @@ RATED_MASS_KG = (0.001, 10.0)
 #: Friction coefficients the contact model is meant for: from ice on steel (0.05) to rubber (2).
 FRICTION_RANGE = (0.05, 2.0)
 MAX_TIMESTEP_S = 0.02
+#: The longest control period, s: the coarsest tested (tests/test_extremes.py, 20 ms at a 20 ms
+#: timestep), and the readout's shortest inference window while a load ramps
+#: (sensor.inference.MIN_WINDOW_S, 20 ms) must hold a reading.
+MAX_CONTROL_PERIOD_S = 0.02
+#: The most control steps a run may record: the recording is kept in memory (40 columns, about
+#: 0.3 kB a row: 300 MB), 83 minutes at the default 5 ms.
+MAX_RECORDED_STEPS = 1_000_000
+#: The lowest unloaded quality factor of mode 1: soft PZT, the lossiest piezoceramic an element
+#: is made of (Navy type VI / PZT-5H, mechanical Q 50-65).  See SensorConfig.quality_factor.
+MIN_QUALITY_FACTOR = 50.0
+#: The narrowest gel coverage, mm: the gel's contact edges on the element are moulded to ISO
+#: 3302-1 class M2, +-0.10 mm each (sensor.variation.SPREADS["wide"].coverage_edge_m): a strip
+#: no wider than the two edges' tolerances together can close altogether.
+MIN_COVERAGE_MM = 0.2
+#: Seeds (sensor.seed, sensor.unit_seed): non-negative and signed 64-bit, so that a sweep's
+#: columns (sweep.parquet, int64) and the recordings hold them exactly.
+MAX_SEED = 2**63 - 1
+#: The longest a mode switch may wait for its ``persist`` readings, s: a second, longer than any
+#: ring-up it waits out (10-45 ms at Q 70, 60-350 ms with Table I's damping) and than a touch's
+#: squeeze; past it a pressure change is no longer one switch but a grasp's phase.
+MAX_PERSIST_S = 1.0
+#: A ``--set`` or ``--grid`` value's longest text, characters (checked before it is parsed).
+MAX_VALUE_CHARS = 10_000
+#: ...and its deepest nesting of brackets (a config value is at most a list of numbers or texts).
+MAX_VALUE_DEPTH = 4
+#: ...and of its parsed expression (a list of negative numbers is 3 deep: list, minus, number).
+_MAX_EXPRESSION_DEPTH = 3 * MAX_VALUE_DEPTH
 
 
 @dataclass(frozen=True)
@@ -111,6 +147,11 @@ class PhysicsConfig:
         if not isinstance(self.pad_segments, int) or not 1 <= self.pad_segments <= 64:
             raise ValueError(f"physics.pad_segments must be an integer in 1..64, got {self.pad_segments!r}")
         _positive("physics.control_period_s", self.control_period_s)
+        if self.control_period_s > MAX_CONTROL_PERIOD_S:
+            raise ValueError(
+                f"physics.control_period_s must be at most {MAX_CONTROL_PERIOD_S:g} s (the coarsest tested; the readout's "
+                f"shortest inference window), got {self.control_period_s!r}"
+            )
         ratio = self.control_period_s / self.timestep_s
         if ratio < 1 - 1e-9 or abs(ratio - round(ratio)) > 1e-6:
             raise ValueError(
@@ -136,13 +177,33 @@ class SensorConfig:
         (the modal equation integrated through every drive cycle, demodulated).
     quality_factor : unloaded Q of mode 1, or None for Table I's damping (Q ~ 7800, ring-up
         time constant 0.66 s: the paper's numbers).  Soft PZT has Q ~ 70 (physics.md
-        section 6): 100x faster ring-up and 100x less sensitivity.
+        section 6): 100x faster ring-up and 100x less sensitivity.  Valid from
+        MIN_QUALITY_FACTOR = 50, the lowest Q of any piezoceramic (soft PZT, Navy type VI:
+        Q_m 50-65); below it the element's own damping drowns the gel's load on the higher
+        modes (P_min ~ 1 / Q), which then resolve nothing below the rated 1 MPa or are nowhere
+        the most useful mode (Q 20: mode 4 never; Q 1: only mode 1), and the multimode
+        controller has no switch pressures between them.  Up to the Q whose unloaded ring-up
+        time constant tau0 = 2 Q / omega_1 = Q / (pi f_1) the readout can still read: it infers
+        a reading's steady value from a window W = 0.5 s of readings taken every control period
+        dt (sensor.inference), and the noise gain of that inference on an unloaded fingertip is
+        tau0 sqrt(192 dt / W^3) (the end-point slope of a least-squares quadratic: 2.8 tau0 / s
+        at 5 ms), trusted up to MAX_GAIN = 10: tau0 <= 3.6 s, Q <= 4.3e4 at 5 ms readings
+        (checked in ScenarioConfig.validate, where the control period is known).  Beyond, an
+        unloaded fingertip never reads trusted, a release or a lost object is never seen, and a
+        grasp runs out its time (Q 1e6: tau0 = 84 s).
     gel_frequency_dependent : whether each mode sees its own viscoelastic modulus.
     coverage_mm : gel coverage on the element (x1, x2), mm.  The tip (6.5-7.5 mm) by default:
         the paper's widest-range coverage (2 Pa to 450 kPa with Table I's element), which a
-        10 kg grip needs; the whole beam (0-7.5) is 1 Pa to 110 kPa.
+        10 kg grip needs; the whole beam (0-7.5) is 1 Pa to 110 kPa.  At least MIN_COVERAGE_MM
+        = 0.2 mm wide: the moulded gel's contact edges hold +-0.10 mm each (ISO 3302-1 M2), so a
+        narrower strip is not a dimension the casting makes.  With the multimode controllers the
+        coverage must also give each allowed mode a range where it is the most useful and a
+        switch pressure up to the next (checked in ScenarioConfig.validate): near the clamped
+        root, or in a narrow strip mid-beam, the higher modes bend most and are the most
+        sensitive ones, which the mode switching (one mode up as the pressure rises) is not
+        built for.
     noise : whether readings carry the readout noise.
-    seed : seed of the readout noise.
+    seed : seed of the readout noise (an integer in 0..2**63-1).
     exact_gel : evaluate the gel model exactly every sample (True) or through per-mode
         tables of (k_e, c_e) against pressure (False: 1e-4 relative error, several times faster).
     carrier_samples_per_cycle : carrier samples per drive cycle for the "carrier" dynamics.
@@ -156,11 +217,13 @@ class SensorConfig:
         with fine strips, a contact beside the coverage is not felt at all).
     damage_stiffness, damage_coupling, damage_damping : injected element damage, factors on
         the healthy stiffness, d31 and damping (sensor.selftest.damaged); the multimode
-        controller's start-up self-test must catch them.
+        controller's start-up self-test must catch them.  Damage lowers the stiffness (a crack)
+        and d31 (depolarization), so their factors are in (0, 1]; it raises the damping (a rub),
+        by at most the factor that damps mode 1 critically (Q = 1/2: no resonance is left), 2 Q.
     variation : the physical unit: "none" (exactly the nominal model, the default), "typical"
         or "wide" (a unit drawn from manufacturing spreads, sensor.variation; the simulation
         runs it, the readout and controller see only the nominal model plus calibration).
-    unit_seed : which unit (a non-negative integer: the same seed, the same unit).
+    unit_seed : which unit (an integer in 0..2**63-1: the same seed, the same unit).
     calibration : "none", "self" (the element's own resonance sweep per mode) or "full" (plus
         a known-load bench fit), sensor.calibration; None: "self" for a unit that differs from
         the nominal model (varied, not at 25 C, or drifting), else "none".
@@ -195,19 +258,35 @@ class SensorConfig:
         self.unit_config()  # variation, seed, calibration and temperature, each named if bad
         if not isinstance(self.carrier_samples_per_cycle, int) or not 4 <= self.carrier_samples_per_cycle <= 256:
             raise ValueError(f"sensor.carrier_samples_per_cycle must be an integer in 4..256, got {self.carrier_samples_per_cycle!r}")
-        for name in ("damage_stiffness", "damage_coupling", "damage_damping"):
-            _positive(f"sensor.{name}", getattr(self, name))
+        for name in ("damage_stiffness", "damage_coupling"):
+            value = getattr(self, name)
+            if not _is_number(value) or not 0 < value <= 1:
+                raise ValueError(f"sensor.{name} must be a factor in (0, 1] (damage lowers it), got {_short(value)}")
+        if not _is_number(self.damage_damping) or not 1 <= self.damage_damping < math.inf:
+            raise ValueError(f"sensor.damage_damping must be a factor >= 1 (damage raises the damping), got {_short(self.damage_damping)}")
+        _seed("sensor.seed", self.seed)
+        _seed("sensor.unit_seed", self.unit_seed)
         if not self.pads or len(set(self.pads)) != len(self.pads):
             raise ValueError(f"sensor.pads must name one or both pads (left, right) once each, got {list(self.pads)!r}")
         for pad in self.pads:
             _one_of("sensor.pads", pad, ("left", "right"))
-        if not self.modes or any(not isinstance(m, int) or not 1 <= m <= 30 for m in self.modes):
-            raise ValueError(f"sensor.modes must be a non-empty list of modes in 1..30, got {self.modes!r}")
+        _modes("sensor.modes", self.modes)
         _one_of("sensor.dynamics", self.dynamics, SENSOR_DYNAMICS)
         if self.quality_factor is not None:
             _positive("sensor.quality_factor", self.quality_factor)
+            if self.quality_factor < MIN_QUALITY_FACTOR:
+                raise ValueError(
+                    f"sensor.quality_factor must be at least {MIN_QUALITY_FACTOR:g} (soft PZT, the lossiest piezoceramic; "
+                    f"below it the higher modes resolve nothing and have no switch pressures), got {self.quality_factor!r}"
+                )
         if len(self.coverage_mm) != 2 or not 0 <= self.coverage_mm[0] < self.coverage_mm[1] <= 7.5:
-            raise ValueError(f"sensor.coverage_mm must be (x1, x2) with 0 <= x1 < x2 <= 7.5, got {self.coverage_mm!r}")
+            raise ValueError(f"sensor.coverage_mm must be (x1, x2) with 0 <= x1 < x2 <= 7.5, got {_short(self.coverage_mm)}")
+        width = self.coverage_mm[1] - self.coverage_mm[0]
+        if width < MIN_COVERAGE_MM:
+            raise ValueError(
+                f"sensor.coverage_mm {self.coverage_mm!r} is {width:.3g} mm wide: at least {MIN_COVERAGE_MM:g} mm "
+                "(the moulded gel's contact edges hold +-0.1 mm each)"
+            )
 
     def unit_config(self):
         """The physical unit and its calibration (piezotip.sensor.calibration.UnitConfig), validated."""
@@ -278,7 +357,8 @@ class ControllerConfig:
         out (1 in 740 of Gaussian noise) moves nothing; three in a row come about once in 4e8
         readings (23 days at 200 Hz).  The 10 ms a switch waits is less than the ring-up it costs
         (10-45 ms with Q = 70, 60-350 ms with Table I's damping), and a pressure that swings
-        across the band at every reading (pads sticking and slipping) switches nothing.
+        across the band at every reading (pads sticking and slipping) switches nothing.  At most
+        MAX_PERSIST_S = 1 s of readings.
     cusum_drift_sigma, cusum_alarm_sigma : the touch CUSUM's allowance k (half the 1-sigma shift
         it is tuned to) and threshold h, in sigmas of a reading (Page 1954): with k = 0.5, h = 8
         an unloaded fingertip false-alarms once in about 19,000 readings (Siegmund's
@@ -350,8 +430,7 @@ class ControllerConfig:
 
     def validate(self) -> None:
         _one_of("controller.kind", self.kind, CONTROLLERS)
-        if not self.modes:
-            raise ValueError("controller.modes must name at least one mode")
+        _modes("controller.modes", self.modes)
         for name in (
             "lift_height_m",
             "grip_force_n",
@@ -416,24 +495,146 @@ class ScenarioConfig:
     controller: ControllerConfig = field(default_factory=ControllerConfig)
 
     def validate(self) -> ScenarioConfig:
-        """Check every value; return self so it chains."""
+        """Check every value, then the ranges that depend on several; return self so it chains."""
         _positive("duration_s", self.duration_s)
         for part in (self.object, self.physics, self.sensor, self.controller):
             part.validate()
+        steps = self.duration_s / self.physics.control_period_s
+        if steps > MAX_RECORDED_STEPS:
+            longest = MAX_RECORDED_STEPS * self.physics.control_period_s
+            raise ValueError(
+                f"duration_s {self.duration_s!r} s is {steps:.3g} control periods of {self.physics.control_period_s:g} s: at most "
+                f"{MAX_RECORDED_STEPS:.0e} are recorded (the recording is kept in memory), {longest:g} s"
+            )
         unknown = sorted(set(self.controller.modes) - set(self.sensor.modes))
         if unknown:
-            raise ValueError(f"controller.modes {list(self.controller.modes)} include modes the sensor lacks: {unknown}")
+            raise ValueError(
+                f"controller.modes {list(self.controller.modes)} include modes the sensor lacks "
+                f"(sensor.modes={list(self.sensor.modes)}): {unknown}"
+            )
+        persist_s = self.controller.persist * self.physics.control_period_s
+        if persist_s > MAX_PERSIST_S:
+            raise ValueError(
+                f"controller.persist {self.controller.persist!r} readings of {self.physics.control_period_s:g} s wait "
+                f"{persist_s:.3g} s before a mode switch: at most {MAX_PERSIST_S:g} s"
+            )
+        self._check_quality_factor()
+        _check_fingertip(self)
         return self
+
+    def _check_quality_factor(self) -> None:
+        """The element's Q within what the readout can read at this control period, and its
+        damage no more than critical damping (SensorConfig's docstring derives both)."""
+        from piezotip.sensor import ElementParams, SensorElement
+        from piezotip.sensor.inference import MAX_GAIN, WINDOW_S
+
+        element = SensorElement(ElementParams())
+        q = element.quality_factor(1) if self.sensor.quality_factor is None else self.sensor.quality_factor
+        f1_hz, dt = element.natural_frequency_hz(1), self.physics.control_period_s
+        q_max = math.pi * f1_hz * MAX_GAIN * math.sqrt(WINDOW_S**3 / (192.0 * dt))
+        if q > q_max:
+            tau0 = q / (math.pi * f1_hz)
+            raise ValueError(
+                f"sensor.quality_factor {q:g} rings up with tau0 = {tau0:.3g} s: an unloaded fingertip would never read trusted "
+                f"(the readout's inference gain tau0 sqrt(192 dt / W^3) passes {MAX_GAIN:g} at {dt:g} s readings): at most {q_max:.3g}"
+            )
+        if self.sensor.damage_damping > 2.0 * q:
+            raise ValueError(
+                f"sensor.damage_damping {self.sensor.damage_damping!r} damps the element past critical damping "
+                f"(Q {q:g} / {self.sensor.damage_damping!r} < 1/2, no resonance left): at most {2.0 * q:.4g}"
+            )
+
+
+#: Per (sensor config, allowed modes, controller kind): None where the fingertip is one the run
+#: can build and its modes' ranges suit the controller, else why not (_check_fingertip).
+_FINGERTIPS: dict[tuple, str | None] = {}
+
+
+def _check_fingertip(config: ScenarioConfig) -> None:
+    """The fingertip the run builds (cosim.loop.make_fingertip: a varied unit calibrated), and for
+    the multimode controllers each allowed mode the most useful somewhere and a switch pressure
+    from each up to the next (the edge between their bands): what their mode selector is built
+    for (cosim.control.selector switches one allowed mode up as the pressure rises past it).
+
+    Computed once per sensor configuration, with the selector's own ranges (cached on disk, so
+    the run then finds them done); a ValueError naming the sensor's keys otherwise."""
+    modes = tuple(sorted(config.controller.modes))
+    key = (config.sensor, modes, config.controller.kind == "scripted")
+    if key not in _FINGERTIPS:
+        _FINGERTIPS[key] = _fingertip_problem(config, modes)
+    if _FINGERTIPS[key] is not None:
+        raise ValueError(_FINGERTIPS[key])
+
+
+def _fingertip_problem(config: ScenarioConfig, modes: tuple[int, ...]) -> str | None:
+    from piezotip.cosim.control.selector import allowed_ranges
+    from piezotip.cosim.loop import make_fingertip
+
+    s = config.sensor
+    try:
+        tip = make_fingertip(config)
+    except ValueError as err:
+        unit = f"sensor.variation={s.variation}, sensor.unit_seed={s.unit_seed}, sensor.coverage_mm={s.coverage_mm!r}"
+        return f"the fingertip ({unit}) cannot be built: {err}"
+    if config.controller.kind == "scripted":  # drives no mode selector
+        return None
+    _, bands, _, _ = allowed_ranges(tip, modes)
+    order = [band[0] for band in bands]
+    switches = set(itertools.pairwise(order))
+    lacking = [m for m in modes if m not in order]
+    missing = [pair for pair in itertools.pairwise(modes) if pair not in switches]
+    if not lacking and not missing:
+        return None
+    why = (
+        f"mode {lacking[0]} is nowhere the most useful of them"
+        if lacking
+        else f"there is no switch pressure from mode {missing[0][0]} up to mode {missing[0][1]}"
+    )
+    unit = "" if s.unit_config().is_nominal else f"sensor.variation={s.variation}, sensor.temperature_c={s.temperature_c!r}, "
+    return (
+        f"controller.modes {list(modes)}: with sensor.coverage_mm={s.coverage_mm!r}, sensor.quality_factor={s.quality_factor!r}, {unit}"
+        f"sensor.gel_layer={s.gel_layer} and sensor.modes={list(s.modes)} {why} (the most useful mode from low to high pressure: "
+        f"{_short(', '.join(map(str, order)) or 'none', 60)[1:-1]}), which the {config.controller.kind} controller's mode switching "
+        "(one mode up as the pressure rises past their switch pressure) needs: cover the element's tip, or allow fewer modes"
+    )
+
+
+def _is_number(value) -> bool:
+    return not isinstance(value, bool) and isinstance(value, (int, float)) and not math.isnan(value)
 
 
 def _positive(key: str, value) -> None:
     if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) or value <= 0:
-        raise ValueError(f"{key} must be a positive number, got {value!r}")
+        raise ValueError(f"{key} must be a positive number, got {_short(value)}")
 
 
 def _one_of(key: str, value, valid) -> None:
     if value not in valid:
-        raise ValueError(f"{key} must be one of {', '.join(map(str, valid))}; got {value!r}")
+        raise ValueError(f"{key} must be one of {', '.join(map(str, valid))}; got {_short(value)}")
+
+
+def _modes(key: str, modes) -> None:
+    """A set of vibration modes: each an integer in 1..30 (the element's modes the model
+    computes: sensor.modes), named once."""
+    if not modes or any(isinstance(m, bool) or not isinstance(m, int) or not 1 <= m <= 30 for m in modes):
+        raise ValueError(f"{key} must be a non-empty list of modes in 1..30, got {_short(list(modes))}")
+    if len(set(modes)) != len(modes):
+        repeated = sorted({m for m in modes if modes.count(m) > 1})
+        raise ValueError(f"{key} must name each mode once, got {len(modes)} with {repeated} repeated")
+
+
+def _seed(key: str, value) -> None:
+    if isinstance(value, bool) or not isinstance(value, int) or not 0 <= value <= MAX_SEED:
+        raise ValueError(f"{key} must be an integer in 0..2**63-1, got {_short(value)}")
+
+
+def _short(value, limit: int = 80) -> str:
+    """``repr(value)``, its middle left out past ``limit`` characters (error messages stay one
+    short line whatever was given)."""
+    text = repr(value)
+    if len(text) <= limit:
+        return text
+    return f"{text[: limit // 2]}...{text[-(limit // 4) :]} ({len(text)} characters)"
 
 
 # ---------------------------------------------------------------------------------------
@@ -453,12 +654,59 @@ def valid_keys(config) -> list[str]:
     return keys
 
 
-def parse_value(text: str):
-    """A ``--set`` value: a Python literal if it parses as one, else the string itself."""
+def parse_value(text: str, key: str | None = None):
+    """A ``--set`` value: a Python literal if it parses as one, else the string itself.
+
+    Bounded before it is parsed: at most MAX_VALUE_CHARS characters and MAX_VALUE_DEPTH
+    nested brackets; a mapping or a set (no field takes one) is refused.  Each is a ValueError
+    naming ``key`` (or the value).  Text that is no literal (``envelope``, ``10**400``,
+    ``1+1``) is the string itself, which the field's type then refuses or takes.
+    """
+    what = f"{key}: " if key else ""
+    if len(text) > MAX_VALUE_CHARS:
+        raise ValueError(f"{what}a value of {len(text)} characters ({_short(text, 30)}), more than the {MAX_VALUE_CHARS} a value may have")
+    depth = _bracket_depth(text)
+    if depth > MAX_VALUE_DEPTH:
+        raise ValueError(f"{what}{_short(text, 40)} nests {depth} brackets deep, more than the {MAX_VALUE_DEPTH} a value may")
     try:
-        return ast.literal_eval(text)
-    except (ValueError, SyntaxError):
+        tree = ast.parse(text.strip(), mode="eval")
+    except (SyntaxError, ValueError, MemoryError, RecursionError):  # not Python (or null bytes, or too deep for the parser)
         return text
+    if _expression_depth(tree.body) > _MAX_EXPRESSION_DEPTH:
+        raise ValueError(f"{what}{_short(text, 40)} is an expression nested too deep for a value")
+    if any(isinstance(node, (ast.Dict, ast.Set, ast.DictComp, ast.SetComp)) for node in ast.walk(tree)):
+        raise ValueError(f"{what}{_short(text, 40)} is a mapping or a set; a value is a number, text, True/False, None or a list of them")
+    try:
+        return ast.literal_eval(tree)
+    except (ValueError, SyntaxError, TypeError, MemoryError, RecursionError):
+        return text
+
+
+_QUOTED = re.compile(r"'(?:[^'\\]|\\.)*'|\"(?:[^\"\\]|\\.)*\"")
+
+
+def _bracket_depth(text: str) -> int:
+    """The deepest nesting of (), [] and {} in ``text`` outside quoted strings."""
+    depth = deepest = 0
+    for char in _QUOTED.sub("", text):
+        if char in "([{":
+            depth += 1
+            deepest = max(deepest, depth)
+        elif char in ")]}":
+            depth = max(depth - 1, 0)
+    return deepest
+
+
+def _expression_depth(node: ast.AST) -> int:
+    """The depth of ``node``'s tree, counted without recursion and no further than past the limit."""
+    deepest, stack = 0, [(node, 1)]
+    while stack:
+        node, depth = stack.pop()
+        deepest = max(deepest, depth)
+        if deepest > _MAX_EXPRESSION_DEPTH:
+            break
+        stack.extend((child, depth + 1) for child in ast.iter_child_nodes(node))
+    return deepest
 
 
 def _coerce(key: str, hint, value):
@@ -475,13 +723,13 @@ def _coerce(key: str, hint, value):
                 return _coerce(key, arg, value)
             except ValueError:
                 continue
-        raise ValueError(f"{key}: cannot use {value!r} (expected {hint})")
+        raise ValueError(f"{key}: cannot use {_short(value)} (expected {hint})")
     if origin is tuple:
         given = value
         if isinstance(value, (int, float, str)) and not isinstance(value, bool):
             value = [value]
         if not isinstance(value, (list, tuple)):
-            raise ValueError(f"{key}: expected a list, got {value!r}")
+            raise ValueError(f"{key}: expected a list, got {_short(value)}")
         item_types = args[:1] if (len(args) == 2 and args[1] is Ellipsis) else args
         if len(item_types) == 1:
             try:
@@ -489,27 +737,31 @@ def _coerce(key: str, hint, value):
             except ValueError:
                 # A list of the wrong items, or a list written as text where a mapping's value
                 # is taken as given ({"controller.modes": "[2, 3]"}): say what a list needs.
-                raise ValueError(f"{key}: expected a list of {item_types[0].__name__} values (e.g. {key}=[1, 2]), got {given!r}") from None
+                name = item_types[0].__name__
+                raise ValueError(f"{key}: expected a list of {name} values (e.g. {key}=[1, 2]), got {_short(given)}") from None
         if len(value) != len(item_types):
-            raise ValueError(f"{key}: expected {len(item_types)} values, got {value!r}")
+            raise ValueError(f"{key}: expected {len(item_types)} values, got {_short(value)}")
         return tuple(_coerce(key, t, v) for t, v in zip(item_types, value, strict=True))
     if hint is bool:
         if isinstance(value, bool):
             return value
         if isinstance(value, str) and value.lower() in ("true", "false"):
             return value.lower() == "true"
-        raise ValueError(f"{key}: expected true or false, got {value!r}")
+        raise ValueError(f"{key}: expected true or false, got {_short(value)}")
     if hint is int:
         if isinstance(value, bool) or not isinstance(value, int):
-            raise ValueError(f"{key}: expected an integer, got {value!r}")
+            raise ValueError(f"{key}: expected an integer, got {_short(value)}")
         return value
     if hint is float:
         if isinstance(value, bool) or not isinstance(value, (int, float)):
-            raise ValueError(f"{key}: expected a number, got {value!r}")
-        return float(value)
+            raise ValueError(f"{key}: expected a number, got {_short(value)}")
+        try:
+            return float(value)
+        except OverflowError:  # an integer past 1.8e308
+            raise ValueError(f"{key}: {_short(value)} is too large a number (at most 1.8e308)") from None
     if hint is str:
         if not isinstance(value, str):
-            raise ValueError(f"{key}: expected text, got {value!r}")
+            raise ValueError(f"{key}: expected text, got {_short(value)}")
         return value
     return value
 
@@ -535,9 +787,9 @@ def with_overrides(config: ScenarioConfig, assignments: list[str]) -> ScenarioCo
         key, sep, text = assignment.partition("=")
         key = key.strip()
         if not sep or not key:
-            raise ValueError(f"--set takes key=value, got {assignment!r}")
+            raise ValueError(f"--set takes key=value, got {_short(assignment)}")
         try:
-            config = apply_override(config, key, parse_value(text.strip()))
+            config = apply_override(config, key, parse_value(text.strip(), key))
         except KeyError:
-            raise ValueError(f"unknown key {key!r}; valid keys: {', '.join(valid_keys(config))}") from None
+            raise ValueError(f"unknown key {_short(key)}; valid keys: {', '.join(valid_keys(config))}") from None
     return config.validate()
