@@ -181,6 +181,7 @@ def _run(name, overrides, out, csv, render, plot, quiet, preset, video, video_fp
     from piezotip import scenarios
     from piezotip.cosim.loop import CoSimulation, RunResult
     from piezotip.cosim.recorder import Recorder
+    from piezotip.provenance import versions
 
     from .run_report import object_needed_grip_n, plot_run, summary
 
@@ -252,6 +253,7 @@ def _run(name, overrides, out, csv, render, plot, quiet, preset, video, video_fp
     report["touch_time_s"] = getattr(sim.controller, "touch_time_s", math.nan)
     report["overrides"] = list(overrides)
     report["preset"] = preset
+    report["versions"] = versions()  # what made it: piezotip, mujoco, numpy, scipy, python, the commit
     summary_path = out / "summary.json"
     report["files"].append(str(summary_path))
     tmp = summary_path.with_name(summary_path.name + ".tmp")

@@ -309,6 +309,7 @@ def _start_workers_early(args: argparse.Namespace) -> None:
 def _cmd_sweep(args: argparse.Namespace) -> int:
     from piezotip import scenarios
     from piezotip.analysis.sweep import check_points, format_rows, grid_points, parse_grid, run_points, write_sweep
+    from piezotip.provenance import versions
 
     grid = parse_grid(args.grid or [])
     from piezotip.scenarios.config import parse_value
@@ -343,6 +344,7 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
         "errors": sum(r["outcome"] == "error" for r in result.rows),
         "rows": result.rows,
         "files": files,
+        "versions": versions(),
     }
     (out / "sweep.json").write_text(json.dumps(_json_safe(report), indent=2) + "\n")
     files.append(str(out / "sweep.json"))
