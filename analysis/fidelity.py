@@ -290,31 +290,27 @@ def reference_convergence(ladder: list[dict], touch_s: tuple[float, float], outc
     # halving is all the multimode ladder has (no order): the safety factor of a ladder that
     # does not show one.
     t_ref, t_half = touch_s
-    change = abs(t_half - t_ref) if math.isfinite(t_ref) and math.isfinite(t_half) else math.nan
-    out["touch_time_s"] = {
+    out["touch_time_s"] = _one_halving(abs(t_half - t_ref) if math.isfinite(t_ref) and math.isfinite(t_half) else math.nan, False)
+    # The grip the multimode controller chose: one halving too (relative changes).
+    for kind in GRIP_KINDS:
+        q_ref, q_half = (grips or {}).get(kind, (math.nan, math.nan))
+        out[kind] = _one_halving(_rel(q_half, q_ref), True)
+    out["outcome_same_when_halved"] = bool(outcome_same)
+    return out
+
+
+def _one_halving(change: float, relative: bool) -> dict:
+    """The convergence entry of a quantity the reference has at one halving only: no order, its
+    uncertainty the safety factor of a ladder that does not show one times the change."""
+    return {
         "uncertainty": SAFETY_NOT_ASYMPTOTIC * change,
         "halving_change": change,
         "finest_change": math.nan,
         "observed_order": math.nan,
         "extrapolated": math.nan,
         "asymptotic": False,
-        "relative": False,
+        "relative": relative,
     }
-    # The grip the multimode controller chose: one halving too (relative changes).
-    for kind in GRIP_KINDS:
-        q_ref, q_half = (grips or {}).get(kind, (math.nan, math.nan))
-        change = _rel(q_half, q_ref)
-        out[kind] = {
-            "uncertainty": SAFETY_NOT_ASYMPTOTIC * change,
-            "halving_change": change,
-            "finest_change": math.nan,
-            "observed_order": math.nan,
-            "extrapolated": math.nan,
-            "asymptotic": False,
-            "relative": True,
-        }
-    out["outcome_same_when_halved"] = bool(outcome_same)
-    return out
 
 
 def _bounds(found: dict, convergence: dict) -> dict:
