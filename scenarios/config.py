@@ -45,8 +45,8 @@ MAX_TIMESTEP_S = 0.02
 #: timestep), and the readout's shortest inference window while a load ramps
 #: (sensor.inference.MIN_WINDOW_S, 20 ms) must hold a reading.
 MAX_CONTROL_PERIOD_S = 0.02
-#: The most control steps a run may record: the recording is kept in memory (40 columns, about
-#: 0.3 kB a row: 300 MB), 83 minutes at the default 5 ms.
+#: The most control steps a run may record: 40 columns, about 0.3 kB a row, 300 MB of run.npz,
+#: whose columns the referee and the plot read whole (8 MB each), 83 minutes at the default 5 ms.
 MAX_RECORDED_STEPS = 1_000_000
 #: The lowest unloaded quality factor of mode 1: soft PZT, the lossiest piezoceramic an element
 #: is made of (Navy type VI / PZT-5H, mechanical Q 50-65).  See SensorConfig.quality_factor.
@@ -504,7 +504,7 @@ class ScenarioConfig:
             longest = MAX_RECORDED_STEPS * self.physics.control_period_s
             raise ValueError(
                 f"duration_s {self.duration_s!r} s is {steps:.3g} control periods of {self.physics.control_period_s:g} s: at most "
-                f"{MAX_RECORDED_STEPS:.0e} are recorded (the recording is kept in memory), {longest:g} s"
+                f"{MAX_RECORDED_STEPS:.0e} are recorded (300 MB of run.npz, read back whole by the referee), {longest:g} s"
             )
         unknown = sorted(set(self.controller.modes) - set(self.sensor.modes))
         if unknown:
