@@ -130,7 +130,7 @@ class GentleGrasp(MultimodeGrasp):
         growth_n_s = 0.0
         if rising:
             if self.grip_n >= self.grip_cap_n:
-                self._pads_slide_at_cap(t)
+                self._pads_slide_at_cap(t, self._raw_load_n)
                 return
             growth_n_s = min(self.grip_growth_per_s * self.grip_n, self.grip_rate_n_s)
             self.grip_n = min(self.grip_cap_n, self.grip_n + growth_n_s * dt_s)
@@ -189,17 +189,6 @@ class GentleGrasp(MultimodeGrasp):
         self._start_carry(obs)
         how = f"friction {self.friction:.3g} measured while the pads slid" if self._slid else f"friction at least {self.friction:.3g}"
         self._event(t, "carried", f"load {weight_n:.3g} N stayed while the grip grew: carried; {how}; grip {self.grip_n:.3g} N")
-
-    def _pads_slide_at_cap(self, t: float) -> None:
-        blind = self.measurable_grip_n < self.max_grip_n
-        limit = "what the fingertip measures" if blind else "the gripper's limit"
-        load = self._raw_load_n
-        self._give_up(
-            t,
-            "blind" if blind else "never_lifted",
-            f"the pads slide at {load:.3g} N of load with the grip at {limit}, {self.grip_cap_n:.3g} N",
-            Phase.PLACE,
-        )
 
     def _start_carry(self, obs: Observation) -> None:
         """The raise begins.  The fingertips' slip references are taken once the grip the probe

@@ -478,10 +478,7 @@ class MultimodeGrasp:
             self._check = None
             self._track.clear()
             if self.grip_n >= self.grip_cap_n:
-                blind = self.measurable_grip_n < self.max_grip_n
-                limit = "what the fingertip measures" if blind else "the gripper's limit"
-                message = f"the pads slide at {l0:.3g} N of load with the grip at {limit}, {self.grip_cap_n:.3g} N"
-                self._give_up(t, "blind" if blind else "never_lifted", message, Phase.PLACE)
+                self._pads_slide_at_cap(t, l0)
         elif risen and t - t0 >= self._check_window_s(g0) and follows and window_load >= self.robot.min_load_n:
             self._check = None
             self.stage = Stage.RAISE
@@ -650,6 +647,14 @@ class MultimodeGrasp:
         wanted = max(self.grip_floor_n, self.cfg.grip_safety * max(self._load_n, 0.0) / (2.0 * self.friction))
         if not self._over_cap(t, wanted, self._load_n, carried=True):
             self._ratchet_grip(wanted, dt_s)
+
+    def _pads_slide_at_cap(self, t: float, load_n: float) -> None:
+        """Give up: the pads slide at ``load_n`` N of load with the grip at its cap (``blind``
+        when the cap is what the fingertip measures, ``never_lifted`` when it is the gripper's)."""
+        blind = self.measurable_grip_n < self.max_grip_n
+        limit = "what the fingertip measures" if blind else "the gripper's limit"
+        message = f"the pads slide at {load_n:.3g} N of load with the grip at {limit}, {self.grip_cap_n:.3g} N"
+        self._give_up(t, "blind" if blind else "never_lifted", message, Phase.PLACE)
 
     def _over_cap(self, t: float, wanted: float, load: float, carried: bool) -> bool:
         """Give up when the load needs more grip than the fingertip measures or the robot has."""
