@@ -64,6 +64,8 @@ from dataclasses import dataclass
 
 from piezotip.cosim.control import Command, Event, Observation, Phase, RobotLimits
 
+from .referee import needed_grip_n  # m g / (2 mu) per finger: the grip the creep is measured against
+
 #: The requirement (issue 29): at 1.2x the needed grip, at most this much motion per second of hold, mm/s.
 CREEP_LIMIT_MM_S = 0.1
 #: A held object moved by more than this relative to the pads has slid, mm (analysis.referee's "slipped").
@@ -113,11 +115,6 @@ _WIDTHS = ((0.005, 0.02), (0.05, 0.03), (0.2, 0.04), (2.0, 0.06), (math.inf, 0.0
 def default_size_m(mass_kg: float) -> float:
     """The object's width across the fingers for its mass, m (:data:`_WIDTHS`)."""
     return next(width for upto, width in _WIDTHS if mass_kg <= upto)
-
-
-def needed_grip_n(mass_kg: float, friction: float, gravity_m_s2: float = 9.81) -> float:
-    """The grip per finger that just carries the weight on two pads, m g / (2 mu), N."""
-    return mass_kg * gravity_m_s2 / (2.0 * friction)
 
 
 @functools.cache
