@@ -1,9 +1,10 @@
 """Grasp experiments across objects and controllers (``run_sim.py experiment grasp-range``).
 
 Every object of the catalogue (:data:`scenarios.objects.OBJECTS`: 1 g to 10 kg, crush limits
-from 0.1 N, friction 0.3 to 1.2) is grasped by the multimode controller and by each
-single-mode baseline (``controller.modes=[n]``), with the same controller code and settings
-(never tuned per object).  The user's ``--set`` overrides apply to every run, after the
+from 0.1 N, friction 0.3 to 1.2) is grasped by each controller registered for the experiment
+(:mod:`piezotip.controllers`: the multimode one and the gentle one) with every mode, and by the
+default controller's single-mode baselines (``controller.modes=[n]``), with the same controller
+code and settings (never tuned per object).  The user's ``--set`` overrides apply to every run, after the
 object's and the controller's.  Each run is judged by the referee (:mod:`analysis.referee`);
 the table says, per object and controller: the outcome and its reason, peak and held pressure,
 the time from first contact to detected touch and which sense felt it (the fingertips or the
@@ -26,7 +27,8 @@ import numpy as np
 from .plotting import save_figure
 from .referee import needed_grip_n
 from .runner import json_safe
-from .sweep import OUTCOME_COLOUR, SweepRun
+from .sweep import SweepRun
+from .sweep_output import OUTCOME_COLOUR
 
 
 @dataclass(frozen=True)
@@ -46,16 +48,41 @@ def _objects() -> tuple[TestObject, ...]:
 #: The catalogue's objects, as overrides.
 OBJECTS: tuple[TestObject, ...] = _objects()
 
-#: The controllers compared: the multimode one, the gentle one (the multimode controller with
-#: the friction probe: cosim/control/gentle.py) and each mode alone.
-CONTROLLERS: tuple[tuple[str, tuple[str, ...]], ...] = (
-    ("multimode", ("controller.modes=[1, 2, 3, 4]",)),
-    ("gentle", ("controller.kind=gentle", "controller.modes=[1, 2, 3, 4]")),
-    ("mode 1 only", ("controller.modes=[1]",)),
-    ("mode 2 only", ("controller.modes=[2]",)),
-    ("mode 3 only", ("controller.modes=[3]",)),
-    ("mode 4 only", ("controller.modes=[4]",)),
-)
+
+def experiment_controllers() -> tuple[tuple[str, tuple[str, ...]], ...]:
+    """The controllers compared, as (label, overrides): each registered for the experiment
+    (``piezotip.controllers.register(..., experiment=True)``: the multimode one, the gentle one)
+    with every mode of the grasp scenario's sensor, then the scenario's own controller with each
+    mode alone ("mode n only").  A kind is named only where it is not the scenario's own, so the
+    overrides (which key each run's folder and record) are those the experiment always gave."""
+    from piezotip import controllers, scenarios
+
+    grasp = scenarios.get("grasp")
+    every = f"controller.modes={list(grasp.sensor.modes)}"
+    compared = [
+        (name, (every,) if name == grasp.controller.kind else (f"controller.kind={name}", every))
+        for name in controllers.names()
+        if controllers.get(name).experiment
+    ]
+    baselines = [(f"mode {mode} only", (f"controller.modes={[mode]}",)) for mode in grasp.sensor.modes]
+    return (*compared, *baselines)
+
+
+def pass_rule_controllers() -> tuple[str, ...]:
+    """The controllers held to the experiment's pass rule (a success exactly where the gripper
+    can carry the object): those registered for the experiment, by their labels in its rows."""
+    from piezotip import controllers
+
+    return tuple(name for name in controllers.names() if controllers.get(name).experiment)
+
+
+def __getattr__(name: str):
+    # CONTROLLERS: the registry's experiment controllers as they are now (one registered after
+    # this module was imported is in it).
+    if name == "CONTROLLERS":
+        return experiment_controllers()
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
 
 COLUMNS = (
     "object",
@@ -107,15 +134,17 @@ def feasible(obj, finger_force_limit_n: float | None = None, gravity_m_s2: float
     return False, f"holding it needs {need:.3g} N per finger, over the {limit:.3g} N allowed"
 
 
-def experiment_points(objects=None, controllers=CONTROLLERS, base_overrides: tuple[str, ...] = ()) -> list:
-    """A sweep point per (object, controller), labelled by both.
+def experiment_points(objects=None, controllers=None, base_overrides: tuple[str, ...] = ()) -> list:
+    """A sweep point per (object, controller), labelled by both (``controllers``: as
+    :func:`experiment_controllers` gives them, which None takes).
 
     ``base_overrides`` (the user's ``--set``) come last, so they win over the object's and the
     controller's own settings.
     """
-    from .sweep import Point
+    from .sweep_grid import Point
 
     objects = OBJECTS if objects is None else objects
+    controllers = experiment_controllers() if controllers is None else controllers
     return [
         Point({"object": obj.name, "controller": ctrl_name}, (*obj.overrides, *ctrl_overrides, *base_overrides), f"{obj.name}, {ctrl_name}")
         for obj in objects
@@ -162,7 +191,7 @@ def run_experiment(
     progress: bool = True,
     options: dict | None = None,
     objects=None,
-    controllers=CONTROLLERS,
+    controllers=None,
 ) -> SweepRun:
     """Every (object, controller) on the sweep machinery (:func:`analysis.sweep.run_points`:
     Dask, resumable from ``out``); each run's files in ``out/runs/NN``.  The result's rows are

@@ -161,7 +161,7 @@ def held_mode(scene: str, grip_n: float) -> int:
     """The mode with the finest resolution at the pressure ``grip_n`` puts on a pad."""
     from piezotip import scenarios
     from piezotip.cosim.loop import make_fingertip
-    from piezotip.cosim.pads import PadGeometry
+    from piezotip.cosim.pad_geometry import PadGeometry
 
     pressure_pa = grip_n / PadGeometry().pad_area_m2
     return int(make_fingertip(scenarios.get(scene)).best_mode(np.array([pressure_pa]))[0])

@@ -155,10 +155,10 @@ def estimate_errors(unit, p_min_pa: float, p_max_pa: float, points: int = ERROR_
 
     At each true pressure P the readout drives the mode whose band (its model's, the
     controller's switch pressures) holds P, reads the unit's steady, noise-free reading and
-    inverts it with its model (:meth:`sensor.channel.ModeInverse.pressure`); the error is
+    inverts it with its model (:meth:`sensor.estimator.ModeInverse.pressure`); the error is
     |P_hat - P| / P, inf where the reading is past the model's table (no estimate at all).
     """
-    from piezotip.sensor.channel import mode_tables
+    from piezotip.sensor.estimator import mode_tables
 
     model = unit.model
     bands = model.mode_bands()

@@ -154,7 +154,10 @@ def judge(
     data : the record's columns: ``time_s``, ``lift_m`` and the ground truth
         (``object_height_m``, ``object_x_m``, ``object_y_m``, ``object_vz_m_s``,
         ``object_speed_m_s``, ``table_force_n``, ``left_finger_force_n``,
-        ``right_finger_force_n``; and, for an object with a crush limit, each finger's peak over
+        ``right_finger_force_n``: each finger's push on the object, the house gripper's fingers
+        or, with ``gripper.mjcf``, the fingers that carry the named fingertips, whole (the body
+        under the gripper's common root that holds each: cosim.gripper_mount); and, for an
+        object with a crush limit, each finger's peak over
         the period's physics steps, ``left_finger_peak_force_n``, ``right_finger_peak_force_n``,
         on which the crush and ``peak_grip_force_n`` are judged).
     lift_height_m, hold_s : what the controller was asked to do, m and s.
@@ -205,7 +208,7 @@ def judge(
     dropped = bool(fell) or landing > c.landing_speed_m_s or (max_rise > c.placed_tolerance_m and released and not resting_home)
 
     # The fingers' peak over every physics step where it was recorded (an object with a crush
-    # limit: cosim.loop.PEAK_COLUMNS), else their force at each control period.
+    # limit: cosim.rows.PEAK_COLUMNS), else their force at each control period.
     grip = np.maximum(data.get("left_finger_peak_force_n", left), data.get("right_finger_peak_force_n", right))
     peak_grip = float(grip.max())
     clear = gripped & off_table & ~on_table

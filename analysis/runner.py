@@ -33,11 +33,6 @@ import numpy as np
 #: ``run.chunks/``): a rerun removes them, ``summary.json`` first (and its temporary).
 RUN_FILES = ("summary.json", "summary.json.tmp", "run.png", "frames.png", "run.mp4")
 
-#: The signals that end a run as Ctrl-C does, each with the handler Python starts with (a
-#: handler a program set itself is left alone).
-_RUN_SIGNALS = ((signal.SIGINT, signal.default_int_handler), (signal.SIGTERM, signal.SIG_DFL))
-
-
 class RunInterrupted(KeyboardInterrupt):
     """A signal stopped the run: ``signum`` (SIGINT or SIGTERM).  A KeyboardInterrupt, so whatever
     catches Ctrl-C (the loop, the command line) catches it; raised out of :func:`run_scenario`
@@ -54,6 +49,18 @@ class RunInterrupted(KeyboardInterrupt):
     def exit_status(self) -> int:
         """The process's exit status by the shell's convention: 128 + the signal's number."""
         return 128 + self.signum
+
+
+def sigterm_as_interrupt(signum: int, frame) -> None:
+    """SIGTERM's handler while a command runs (the command line installs it): SIGTERM ends a
+    command as Ctrl-C does (set-up, sweeps, plots), raised as :class:`RunInterrupted` (exit 143).
+    Inside a run the run's own handler takes over, as it does from Python's SIGINT handler."""
+    raise RunInterrupted(signum)
+
+
+#: The signals that end a run as Ctrl-C does, each with the handlers the run takes over: Python's
+#: own, or the command line's (a handler a program set itself is left alone).
+_RUN_SIGNALS = ((signal.SIGINT, (signal.default_int_handler,)), (signal.SIGTERM, (signal.SIG_DFL, sigterm_as_interrupt)))
 
 
 def exit_status(report: dict) -> int | None:
@@ -80,8 +87,8 @@ class _Signals:
 
     def __enter__(self) -> _Signals:
         if threading.current_thread() is threading.main_thread():
-            for signum, default in _RUN_SIGNALS:
-                if signal.getsignal(signum) is default:
+            for signum, defaults in _RUN_SIGNALS:
+                if signal.getsignal(signum) in defaults:
                     self._previous[signum] = signal.signal(signum, self._handle)
         return self
 
@@ -190,7 +197,7 @@ def _run(name, overrides, out, csv, render, plot, quiet, preset, video, video_fp
     _start_folder(out)
     sim = CoSimulation(config)
     from piezotip.cosim.control import PHASES
-    from piezotip.cosim.loop import STATUS_CODES
+    from piezotip.cosim.rows import STATUS_CODES
 
     meta = {
         "scenario": name,

@@ -23,14 +23,16 @@ import numpy as np
 from piezotip.scenarios.config import ScenarioConfig
 from piezotip.sensor import ElementParams, Fingertip, GelModel, SensorElement
 from piezotip.sensor.calibration import SensorUnit, sensor_unit
-from piezotip.sensor.channel import Reading, SensorChannel
+from piezotip.sensor.channel import SensorChannel
+from piezotip.sensor.resonator import Reading
 from piezotip.sensor.spread import spread_weights
 from piezotip.sensor.unit_channel import UnitChannel
 
-from .control import Command, Controller, Observation, PadSignal, RobotLimits, ScriptedGrasp, make_observation, make_pad_signal
-from .pads import PAD_NAMES, PAD_SIDES, PadBridge, PadGeometry
+from .control import Command, Controller, Observation, PadSignal, RobotLimits, make_observation, make_pad_signal
+from .pad_bridge import PadBridge
+from .pad_geometry import PAD_NAMES, PAD_SIDES, PadGeometry
 from .recorder import Recorder
-from .rows import _STATUS_INDEX, PEAK_COLUMNS, STATUS_CODES, TRUTH_COLUMNS, RowBuilder, row_columns  # noqa: F401 - importable from here as before
+from .rows import _STATUS_INDEX, RowBuilder, row_columns
 from .scene import build_scene, check_reach, finite_state, reset_home, robot_limits
 
 
@@ -69,23 +71,12 @@ def _nominal_fingertip(config: ScenarioConfig) -> Fingertip:
 
 
 def make_controller(config: ScenarioConfig, robot: RobotLimits, fingertip: Fingertip) -> Controller:
-    """The scenario's controller (the multimode one first runs the element's self-test)."""
-    c = config.controller
-    pads = tuple(f"{p}_pad" for p in config.sensor.pads)
-    if c.kind == "scripted":
-        return ScriptedGrasp(c, robot, pads)
-    from piezotip.sensor.selftest import damaged, self_test
+    """The scenario's controller: the class registered as its ``controller.kind``
+    (:mod:`piezotip.controllers`), built from the scenario (the multimode ones first run the
+    element's self-test)."""
+    from piezotip import controllers
 
-    from .control import GentleGrasp, MultimodeGrasp
-
-    s = config.sensor
-    unit = make_unit(config)  # the element as built (and as warm as it is), not the model
-    element = unit.physical.fingertip_at(s.temperature_c).element if unit is not None else fingertip.element
-    physical = damaged(element, s.damage_stiffness, s.damage_coupling, s.damage_damping)
-    report = self_test(physical, healthy=fingertip.element, modes=c.modes, noise=fingertip.noise, rng=np.random.default_rng(s.seed))
-    message = None if report.passed else report.message
-    kind = GentleGrasp if c.kind == "gentle" else MultimodeGrasp
-    return kind(c, robot, pads, fingertip, message, config.physics.control_period_s)
+    return controllers.get(config.controller.kind).controller.from_scenario(config, robot, fingertip)
 
 
 #: After the controller finishes, the recording goes on at least this long, s, and until the
@@ -164,13 +155,17 @@ class CoSimulation:
 
     def __init__(self, config: ScenarioConfig) -> None:
         self.config = config.validate()
-        self.model = build_scene(config)
-        self.data = mujoco.MjData(self.model)
-        self.home = reset_home(self.model, self.data, config)
-        self.fingertip = make_fingertip(config)
-        self.unit = make_unit(config)  # the physical unit, when it is not the model itself
-        self.bridge = PadBridge(self.model, gel=self.fingertip.gel)
-        self.robot = robot_limits(self.model, self.home, self.bridge.geometry, self.fingertip.gel.params)
+        self.mounted = None  # a third-party gripper on the lift (gripper.mjcf), or None: the house's
+        if config.gripper.mjcf is None:
+            self.model = build_scene(config)
+            self.data = mujoco.MjData(self.model)
+            self.home = reset_home(self.model, self.data, config)
+            self.fingertip = make_fingertip(config)
+            self.unit = make_unit(config)  # the physical unit, when it is not the model itself
+            self.bridge = PadBridge(self.model, gel=self.fingertip.gel)
+            self.robot = robot_limits(self.model, self.home, self.bridge.geometry, self.fingertip.gel.params)
+        else:
+            self._mount(config)
         check_reach(config, self.robot)  # before the sensor's set-up: a bad lift fails fast
         self.dt = config.physics.control_period_s
         self._gel_every_substep = config.physics.gel_update == "substep"
@@ -205,9 +200,12 @@ class CoSimulation:
         self.controller = make_controller(config, self.robot, self.fingertip)
         m = self.model
         self._lift_qpos = m.joint("lift_joint").qposadr[0]
-        self._finger_qpos = [m.joint(f"{s}_finger_joint").qposadr[0] for s in ("left", "right")]
         self._lift_act = m.actuator("lift_actuator").id
-        self._finger_act = m.actuator("fingers_actuator").id
+        if self.mounted is None:
+            self._finger_qpos = [m.joint(f"{s}_finger_joint").qposadr[0] for s in ("left", "right")]
+            self._finger_act = m.actuator("fingers_actuator").id
+        else:
+            self._finger_qpos = []  # the opening is the drive's (_observe_mounted)
         self.time_s = 0.0
         self.steps = 0
         self._finger_limit = self.robot.finger_force_limit_n  # the model's, before _actuate rewrites its forcerange
@@ -220,7 +218,10 @@ class CoSimulation:
         self._object_dof = m.joint("object_joint").dofadr[0]
         self._lift_dof = m.joint("lift_joint").dofadr[0]
         self._lift_from = self._lift_to = float(self.data.ctrl[self._lift_act])
-        self._fingers_from = self._fingers_to = float(self.data.ctrl[self._finger_act])
+        if self.mounted is None:
+            self._fingers_from = self._fingers_to = float(self.data.ctrl[self._finger_act])
+        else:
+            self._fingers_from = self._fingers_to = self.data.ctrl[self.mounted.drive.actuators].tolist()
         # The referee judges a crush on the fingers' largest force, which can peak between two
         # control periods' samples (8 % over them in the default grasp): for an object with a
         # crush limit, MuJoCo's sensors run in every physics step and each period records the
@@ -228,6 +229,24 @@ class CoSimulation:
         self._track_peaks = config.object.crush_force_n is not None
         self._finger_peaks = (0.0, 0.0)
         self._prepare_step()
+        if self.mounted is not None:
+            # The mounted gripper's drive in place of the house's one finger servo, on this
+            # instance (as wrap_stages puts its instruments): the default never takes this branch.
+            for name in ("_physics", "_observe", "_actuate", "model_settings", "apply_model_settings"):
+                setattr(self, name, getattr(self, f"{name}_mounted"))
+
+    def _mount(self, config: ScenarioConfig) -> None:
+        """The scene, home, pads and limits with ``gripper.mjcf`` on the lift (cosim.gripper_mount)."""
+        from .gripper_mount import mount_gripper  # imports cosim.attach, which imports this module
+
+        self.mounted = mount_gripper(config)
+        self.model = self.mounted.model
+        self.data = mujoco.MjData(self.model)
+        self.home = self.mounted.reset_home(self.data, config)
+        self.fingertip = make_fingertip(config)
+        self.unit = make_unit(config)
+        self.bridge = PadBridge(self.model, gel=self.fingertip.gel, geometry=self.mounted.geometry, pads=self.mounted.pads)
+        self.robot = self.mounted.robot_limits(self.home, self.fingertip.gel.params)
 
     #: Live views of the model's and data's arrays (see _prepare_step): rebuilt, not copied.
     _VIEWS = (
@@ -455,6 +474,78 @@ class CoSimulation:
     def _record(self, obs: Observation, command: Command, profiles: list[list[float]], cells: list[list[float]]) -> list[float]:
         """The row's values in :attr:`columns` order (all Python floats: cosim/rows.py)."""
         return self._row_builder.row(self.time_s, obs, command, profiles, cells, self._finger_peaks)
+
+    # -- a mounted gripper's drive (gripper.mjcf): the house's one finger servo replaced ----------
+
+    def _physics_mounted(self) -> None:
+        """:meth:`_physics` with the mounted gripper's actuators: each one's command interpolated
+        over the period from the drive's commands for the last opening target to the new one's."""
+        m, d, apply_gel_forces, mj_step = self.model, self.data, self.bridge.apply_gel_forces, self._mj_step
+        ctrl, act, start = d.ctrl, self._lift_act, self._lift_from
+        delta = (self._lift_to - start) / self.substeps
+        drive = zip(self.mounted.drive.actuators, self._fingers_from, self._fingers_to, strict=True)
+        fingers = [(a, s, (e - s) / self.substeps) for a, s, e in drive]
+        opt, flags, track = m.opt, m.opt.disableflags, self._track_peaks
+        inner = flags if track else flags | _NO_SENSORS
+        sensordata, (left_adr, right_adr) = d.sensordata, self._finger_adr
+        left_peak = right_peak = 0.0
+        last = self.substeps
+        if last > 1 and inner != flags:
+            opt.disableflags = inner
+        for k in range(1, last + 1):
+            ctrl[act] = start + k * delta
+            for a, f_start, f_delta in fingers:
+                ctrl[a] = f_start + k * f_delta
+            if k == 1 or self._gel_every_substep:
+                apply_gel_forces(d)
+            if k == last:
+                opt.disableflags = flags
+            mj_step(m, d)
+            if track:
+                left_peak = max(left_peak, abs(sensordata[left_adr]))
+                right_peak = max(right_peak, abs(sensordata[right_adr]))
+        if track:
+            self._finger_peaks = (float(left_peak), float(right_peak))
+        self._lift_from, self._fingers_from = self._lift_to, self._fingers_to
+        self._check_stable()
+        self.time_s += self.dt
+        self.steps += 1
+
+    def _observe_mounted(self, signals: dict[str, PadSignal]) -> Observation:
+        """:meth:`_observe` with the opening and the grip read from the mounted gripper's drive."""
+        d, drive = self.data, self.mounted.drive
+        return make_observation(
+            time_s=self.time_s,
+            pads=signals,
+            lift_pos_m=float(d.qpos[self._lift_qpos]),
+            opening_m=drive.opening_m(d),
+            lift_force_n=float(d.actuator_force[self._lift_act]),
+            grip_force_n=drive.grip_force_n(d),
+            lift_vel_m_s=float(d.qvel[self._lift_dof]),
+        )
+
+    def _actuate_mounted(self, command: Command) -> None:
+        """:meth:`_actuate` through the mounted gripper's drive: its actuators' commands for the
+        opening target, their force limits for the grip (each within its rating)."""
+        drive = self.mounted.drive
+        self._lift_to = command.lift_m
+        self._fingers_to = drive.ctrl_for(command.opening_m)
+        limit = min(max(command.grip_force_limit_n, 0.0), self._finger_limit)
+        self.model.actuator_forcerange[drive.actuators] = np.column_stack(drive.force_limits(limit, drive.opening_m(self.data)))
+        for pad, mode in command.modes.items():
+            self.channels[pad].select_mode(mode)
+
+    def model_settings_mounted(self) -> tuple[np.ndarray, np.ndarray, int]:
+        """:meth:`model_settings` with every finger actuator's force range."""
+        m, actuators = self.model, self.mounted.drive.actuators
+        return m.jnt_stiffness[self.bridge.joint_ids].copy(), m.actuator_forcerange[actuators].copy(), int(m.opt.disableflags)
+
+    def apply_model_settings_mounted(self, settings: tuple[np.ndarray, np.ndarray, int]) -> None:
+        """:meth:`apply_model_settings` with every finger actuator's force range."""
+        stiffness, forcerange, flags = settings
+        self.model.jnt_stiffness[self.bridge.joint_ids] = stiffness
+        self.model.actuator_forcerange[self.mounted.drive.actuators] = forcerange
+        self.model.opt.disableflags = flags
 
     # -- instruments (run_sim.py bench): measured without patching ---------------------------
 

@@ -19,7 +19,8 @@ from piezotip.scenarios.config import RATED_MASS_KG, ObjectConfig, ScenarioConfi
 from piezotip.sensor.gel import GelParams
 
 from .control.interface import RobotLimits
-from .pads import MODELS_DIR, PadGeometry, build_model
+from .pad_geometry import PadGeometry
+from .pad_model import MODELS_DIR, build_model
 
 SCENE_FILE = MODELS_DIR / "scene_grasp.xml"
 #: Height of the pad centres above the palm joint's zero, m (gripper.xml: palm at 0.35 m,
@@ -92,7 +93,12 @@ def _edit_object(obj: ObjectConfig):
 
 
 def build_scene(config: ScenarioConfig, gel: GelParams | None = None) -> mujoco.MjModel:
-    """The compiled model for ``config``: its object, pad resolution, timestep and integrator."""
+    """The compiled model for ``config``: its object, pad resolution, timestep and integrator;
+    with ``gripper.mjcf``, that gripper on the lift (:func:`cosim.gripper_mount.mount_gripper`)."""
+    if config.gripper.mjcf is not None:
+        from .gripper_mount import mount_gripper  # it builds on this module
+
+        return mount_gripper(config, gel).model
     phys = config.physics
     model = build_model(
         SCENE_FILE,
@@ -105,6 +111,52 @@ def build_scene(config: ScenarioConfig, gel: GelParams | None = None) -> mujoco.
     return model
 
 
+@dataclass(frozen=True)
+class GripperRanges:
+    """What a driver outside the loop (a Gymnasium agent) commands the gripper within.
+
+    Attributes
+    ----------
+    lift_range_m : the lift servo's set-points, (low, high), m.
+    opening_range_m : the fingers' opening set-points, (low, high), m (0 = the unloaded pads
+        touching).
+    opening_joint_range_m : the openings the fingers reach, (low, high), m.
+    finger_force_limit_n : the fingers' force limit, N per finger.
+    gravity_m_s2 : the magnitude of gravity, m/s^2.
+    """
+
+    lift_range_m: tuple[float, float]
+    opening_range_m: tuple[float, float]
+    opening_joint_range_m: tuple[float, float]
+    finger_force_limit_n: float
+    gravity_m_s2: float
+
+
+def gripper_ranges(config: ScenarioConfig) -> GripperRanges:
+    """The gripper's command ranges and force limit for ``config``, as its model has them: the
+    house gripper's servos (models/gripper.xml), or a mounted gripper's drive (from its open
+    pads down to touching, its rating: cosim.gripper_mount)."""
+    if config.gripper.mjcf is not None:
+        from .gripper_mount import mount_gripper
+
+        mounted = mount_gripper(config)
+        lift, drive = mounted.model.actuator("lift_actuator"), mounted.drive
+        reach = (float(drive.path.opening_m[0]), drive.home_opening_m)
+        ranges = (float(lift.ctrlrange[0]), float(lift.ctrlrange[1])), (0.0, drive.home_opening_m), reach
+        return GripperRanges(*ranges, drive.rating_n(), gravity_m_s2(mounted.model))
+    model = build_scene(config)
+    lift, fingers = model.actuator("lift_actuator"), model.actuator("fingers_actuator")
+    joints = [model.joint(f"{side}_finger_joint").range for side in ("left", "right")]
+    return GripperRanges(
+        (float(lift.ctrlrange[0]), float(lift.ctrlrange[1])),
+        (float(fingers.ctrlrange[0]), float(fingers.ctrlrange[1])),
+        # The opening is the fingers tendon: the sum of the two finger joints (coef 1 each).
+        (float(joints[0][0] + joints[1][0]), float(joints[0][1] + joints[1][1])),
+        finger_force_limit_n(model),
+        gravity_m_s2(model),
+    )
+
+
 def finger_force_limit_n(model: mujoco.MjModel) -> float:
     """The fingers' force limit, N per finger, as the compiled model has it."""
     return float(model.actuator("fingers_actuator").forcerange[1])
@@ -115,20 +167,32 @@ def gravity_m_s2(model: mujoco.MjModel) -> float:
     return float(-model.opt.gravity[2])
 
 
-def robot_limits(model: mujoco.MjModel, home: dict[str, float], geometry: PadGeometry, gel: GelParams | None = None) -> RobotLimits:
-    """The gripper's limits and servo gains as the compiled model has them (never typed again)."""
-    lift, fingers = model.actuator("lift_actuator"), model.actuator("fingers_actuator")
-    joint = model.joint("left_finger_joint")
+def robot_limits(
+    model: mujoco.MjModel,
+    home: dict[str, float],
+    geometry: PadGeometry,
+    gel: GelParams | None = None,
+    fingers: tuple[float, float, float] | None = None,
+) -> RobotLimits:
+    """The gripper's limits and servo gains as the compiled model has them (never typed again).
+
+    ``fingers``: a mounted gripper's (force limit N per finger, damping on the opening N s/m,
+    dry friction on the opening N), from its drive (cosim.gripper_mount.GripperDrive); None
+    reads the house gripper's (no friction: its finger joints have none)."""
+    lift = model.actuator("lift_actuator")
     kp, kv = float(lift.gainprm[0]), float(-lift.biasprm[2])
+    if fingers is None:
+        house, joint = model.actuator("fingers_actuator"), model.joint("left_finger_joint")
+        # The tendon's speed is the opening's; each finger moves at half of it against its
+        # joint's damping, and the servo's own kv acts on the tendon.
+        fingers = finger_force_limit_n(model), float(0.5 * model.dof_damping[joint.dofadr[0]] - house.biasprm[2]), 0.0
     return RobotLimits(
         lift_kp_n_m=kp,
         lift_kv_n_s_m=kv,
         lift_force_limit_n=float(lift.forcerange[1]),
         lift_range_m=(float(model.joint("lift_joint").range[0]), float(model.joint("lift_joint").range[1])),
-        finger_force_limit_n=finger_force_limit_n(model),
-        # The tendon's speed is the opening's; each finger moves at half of it against its
-        # joint's damping, and the servo's own kv acts on the tendon.
-        finger_damping_n_s_m=float(0.5 * model.dof_damping[joint.dofadr[0]] - fingers.biasprm[2]),
+        finger_force_limit_n=float(fingers[0]),
+        finger_damping_n_s_m=float(fingers[1]),
         lift_moving_mass_kg=float(model.body_subtreemass[model.body("palm").id]),
         pad_area_m2=geometry.pad_area_m2,
         pad_travel_m=geometry.stop_m,
@@ -137,6 +201,7 @@ def robot_limits(model: mujoco.MjModel, home: dict[str, float], geometry: PadGeo
         gravity_m_s2=gravity_m_s2(model),
         home_lift_m=home["lift_m"],
         home_opening_m=home["opening_m"],
+        finger_friction_n=float(fingers[2]),
     )
 
 
@@ -177,4 +242,4 @@ def finite_state(data: mujoco.MjData) -> bool:
     return bool(np.all(np.isfinite(data.qpos)) and np.all(np.isfinite(data.qvel)))
 
 
-__all__ = ["build_scene", "grasp_height_m", "object_height_m", "object_shape", "reset_home"]
+__all__ = ["GripperRanges", "build_scene", "grasp_height_m", "gripper_ranges", "object_height_m", "object_shape", "reset_home"]

@@ -29,12 +29,21 @@ _API = {
     "sweep": "piezotip.analysis.sweep",
     "GraspEnv": "piezotip.gym_env",  # also gymnasium.make("piezotip/Grasp-v0")
     "MultimodePolicy": "piezotip.gym_env",
+    "attach": "piezotip.cosim.attach",  # the fingertip on the user's own MjSpec (docs/attach.md)
 }
 
-__all__ = [*_API, "__version__"]
+__all__ = [*_API, "controllers", "__version__"]
+
+
+#: Submodules loaded on first use (``piezotip.controllers.register``, ...).
+_SUBMODULES = ("controllers",)
 
 
 def __getattr__(name: str):
+    if name in _SUBMODULES:
+        import importlib
+
+        return importlib.import_module(f"piezotip.{name}")
     if name in _API:
         import importlib
 
@@ -45,7 +54,7 @@ def __getattr__(name: str):
 
 
 def __dir__() -> list[str]:
-    return sorted([*globals(), *_API])
+    return sorted({*globals(), *_API, *_SUBMODULES})
 
 
 # Gymnasium (issue 12): `piezotip/Grasp-v0` is registered when gymnasium is imported, before or

@@ -122,6 +122,8 @@ def run(
     ----------
     scenario : a registered scenario name (``run_sim.py list``).
     overrides : ``{"object.mass_kg": 0.4}`` or ``["object.mass_kg=0.4"]``; applied after the preset.
+        ``"controller.kind"`` picks any registered controller (:mod:`piezotip.controllers`, one
+        registered by the calling script included); the other ``controller.*`` keys set its config.
     preset : ``fast``, ``balanced``, ``accurate``, ``reference`` or None.
     out : a folder to write the run's files into; None keeps everything in memory.
     plot : write ``run.png`` (only with ``out``).

@@ -13,7 +13,7 @@
                       [--workers N | --scheduler ADDRESS] [--out DIR] [--json] [--no-plot]
                                                  every grid point on Dask: sweep.csv, sweep.parquet, sweep.png;
                                                  resumable (same --out); exit 1 if a point raised
-    python run_sim.py bench [--json] [--out DIR] [--no-presets] [--throughput [--baseline REV]] [--instructions]
+    python run_sim.py bench [--json] [--out DIR] [--no-presets]
                                                  cost (vs bare mj_step) and each preset's error
     python run_sim.py figures [--out DIR]        the paper's analysis figures + crossovers.json
     python run_sim.py range [--coverage X1_MM X2_MM] [--json] [--out DIR]
@@ -44,11 +44,14 @@ Exit codes, for every command (a batch script tells them apart):
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import math
 import os
+import signal
 import sys
 import tempfile
+import threading
 import traceback
 from pathlib import Path
 
@@ -260,7 +263,7 @@ def _cmd_experiment(args: argparse.Namespace) -> int:
         raise ValueError(f"unknown experiment {args.name!r}; valid experiments: grasp-range")
     if not args.video:  # with --video each worker loads MuJoCo's GL backend itself, never a forked one
         _start_workers_early(args)
-    from piezotip.analysis.experiment import format_table, run_experiment, write_outputs
+    from piezotip.analysis.experiment import format_table, pass_rule_controllers, run_experiment, write_outputs
     from piezotip.analysis.runner import check_out_dir
 
     out = check_out_dir(Path(args.out or "out/grasp-range"))
@@ -284,8 +287,10 @@ def _cmd_experiment(args: argparse.Namespace) -> int:
             f"{result.skipped} of {len(rows)} runs were done before in {out} and not run again (a new --out runs them all)",
             file=sys.stderr,
         )
-    # Success: multimode and gentle carry every object the gripper can, and nothing it cannot.
-    expected = all(r["success"] == r["feasible"] for r in rows if r["controller"] in ("multimode", "gentle"))
+    # Success: the controllers registered for the experiment (multimode, gentle) carry every
+    # object the gripper can, and nothing it cannot.
+    held = pass_rule_controllers()
+    expected = all(r["success"] == r["feasible"] for r in rows if r["controller"] in held)
     return 0 if expected else 1
 
 
@@ -298,17 +303,19 @@ def _check_workers(args: argparse.Namespace) -> None:
 
 def _start_workers_early(args: argparse.Namespace) -> None:
     """For a command that will start a local Dask cluster: the server its workers are forked
-    from, first (analysis.sweep.start_worker_server), so that the workers' imports run while
+    from, first (analysis.sweep_cluster.start_worker_server), so that the workers' imports run while
     this process imports and checks."""
     if args.scheduler is None and (args.workers is None or args.workers > 0):
-        from piezotip.analysis.sweep import start_worker_server
+        from piezotip.analysis.sweep_cluster import start_worker_server
 
         start_worker_server()
 
 
 def _cmd_sweep(args: argparse.Namespace) -> int:
     from piezotip import scenarios
-    from piezotip.analysis.sweep import check_points, format_rows, grid_points, parse_grid, run_points, write_sweep
+    from piezotip.analysis.sweep import run_points, runs_in_this_process
+    from piezotip.analysis.sweep_grid import check_points, grid_points, parse_grid
+    from piezotip.analysis.sweep_output import format_rows, write_sweep
     from piezotip.provenance import versions
 
     grid = parse_grid(args.grid or [])
@@ -322,7 +329,8 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
         raise ValueError(f"--grid: {' x '.join(str(len(v)) for v in grid.values())} = {count} points, more than {MAX_SWEEP_POINTS}")
     if args.scenario not in scenarios.names():
         scenarios.get(args.scenario)  # the unknown-scenario error, naming the valid ones
-    _start_workers_early(args)
+    if not runs_in_this_process(count, args.workers, args.scheduler):  # a single point starts no workers
+        _start_workers_early(args)
     from piezotip.analysis.runner import check_out_dir
 
     points = grid_points(grid, list(args.set or ()))
@@ -396,26 +404,6 @@ def _cmd_bench(args: argparse.Namespace) -> int:
         report["presets"] = fidelity["presets"]
         report["convergence"] = fidelity["convergence"]
         report["fidelity_checks"] = fidelity["checks"]
-    if args.baseline is not None:
-        args.throughput = True  # the baseline is one of the throughput figures
-    if args.throughput:
-        from piezotip.analysis.throughput import throughput_report
-
-        try:
-            report["throughput"] = throughput_report(progress=progress, baseline=args.baseline)
-        except ValueError as err:  # a revision git does not know
-            print(f"error: {err}", file=sys.stderr)
-            return 2
-    if args.instructions:
-        from piezotip.analysis.instructions import instruction_counts
-
-        if progress is not None:
-            progress("instructions (callgrind)")
-        try:
-            report["instructions"] = instruction_counts(overrides=base)
-        except RuntimeError as err:  # valgrind missing, or a counted run failed
-            print(f"error: {err}", file=sys.stderr)
-            return 1
     files = [str(p) for p in write_report(report, Path(args.out))] if args.out else []
     if args.out and not args.no_presets:
         files.append(str(plot_pareto(fidelity, Path(args.out) / "pareto.png")))
@@ -426,16 +414,6 @@ def _cmd_bench(args: argparse.Namespace) -> int:
         if not args.no_presets:
             print()
             print(format_fidelity(fidelity))
-        if args.throughput:
-            from piezotip.analysis.throughput import format_throughput
-
-            print()
-            print(format_throughput(report["throughput"]))
-        if args.instructions:
-            from piezotip.analysis.instructions import format_instructions
-
-            print()
-            print(format_instructions(report["instructions"]))
         for f in files:
             print(f"wrote {f}")
     return 0
@@ -550,7 +528,7 @@ def build_parser(prog: str | None = None) -> argparse.ArgumentParser:
     p.add_argument("--workers", type=int, metavar="N", help="processes for --units (default: up to 2 cores)")
     p.set_defaults(func=_cmd_range)
 
-    p = sub.add_parser("bench", help="the co-simulation's cost: real-time factor, overhead over bare mj_step, per-stage times")
+    p = sub.add_parser("bench", help="the co-simulation's cost: real-time factor, overhead over bare mj_step, each preset's cost and error")
     p.add_argument("--json", action="store_true", help="print the report as JSON")
     p.add_argument("--out", help="directory for bench.json and bench.png")
     p.add_argument("--repeats", type=int, default=5, help="timed runs and bare-step passes; the fastest is kept (default 5)")
@@ -559,21 +537,6 @@ def build_parser(prog: str | None = None) -> argparse.ArgumentParser:
     p.add_argument("--set", action="append", metavar="KEY=VALUE", help="override a config value of every benchmarked scene (repeatable)")
     p.add_argument("--preset", choices=PRESET_NAMES, help="fidelity preset of the benchmarked scenes (the overhead part)")
     p.add_argument("--no-presets", action="store_true", help="skip the fidelity presets' cost and error table")
-    p.add_argument(
-        "--throughput",
-        action="store_true",
-        help="also time whole commands: experiment (Dask + caches vs serial, no caches), sweep on 2 vs 1 workers, 300 s vs 10 s runs",
-    )
-    p.add_argument(
-        "--baseline",
-        metavar="REV",
-        help="with --throughput: also time experiment grasp-range as git revision REV of this repository runs it, against now",
-    )
-    p.add_argument(
-        "--instructions",
-        action="store_true",
-        help="also count the loop's instructions per control step inside and outside mj_step (valgrind's callgrind; about 50 s)",
-    )
     p.set_defaults(func=_cmd_bench)
 
     p = sub.add_parser(
@@ -601,6 +564,28 @@ def main(argv: list[str] | None = None) -> int:
     """Run the command line on ``argv`` (default ``sys.argv[1:]``); return the exit code (module
     docstring).  Nothing but argparse's own usage errors and ``--help`` (SystemExit) leaves it."""
     args = build_parser().parse_args(argv)
+    with _sigterm_as_interrupt():
+        return _dispatch(args)
+
+
+@contextlib.contextmanager
+def _sigterm_as_interrupt():
+    """SIGTERM ends the command as Ctrl-C does (exit 143, a run's summary kept), not the process
+    with it: while the command runs (main thread, SIGTERM at its default), then as it was."""
+    from piezotip.analysis.runner import sigterm_as_interrupt
+
+    if threading.current_thread() is not threading.main_thread() or signal.getsignal(signal.SIGTERM) is not signal.SIG_DFL:
+        yield
+        return
+    signal.signal(signal.SIGTERM, sigterm_as_interrupt)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, signal.SIG_DFL)
+
+
+def _dispatch(args) -> int:
+    """Run the parsed command; map what it raises to the exit codes (module docstring)."""
     try:
         if getattr(args, "render", False) or getattr(args, "video", False):
             _rendering_backend()

@@ -29,12 +29,14 @@ from piezotip.analysis.video import import_mujoco
 # render_mode="rgb_array" on a headless machine, set MUJOCO_GL=egl.
 import_mujoco()
 
-from piezotip import scenarios  # noqa: E402
+from piezotip import controllers, scenarios  # noqa: E402
 from piezotip.analysis.referee import Criteria, judge  # noqa: E402
 from piezotip.cosim.control import Command, Observation, PadSignal, Phase, RobotLimits, make_command  # noqa: E402
-from piezotip.cosim.loop import STATUS_CODES, CoSimulation, SimulationDiverged, make_controller  # noqa: E402
+from piezotip.cosim.loop import CoSimulation, SimulationDiverged, make_controller  # noqa: E402
+from piezotip.cosim.rows import STATUS_CODES  # noqa: E402
 from piezotip.scenarios.config import RATED_MASS_KG, ObjectConfig, ScenarioConfig  # noqa: E402
-from piezotip.sensor.channel import Estimate, Reading  # noqa: E402
+from piezotip.sensor.estimator import Estimate  # noqa: E402
+from piezotip.sensor.resonator import Reading  # noqa: E402
 
 #: The object is lost when its centre is farther than this from the fingers' axis, m: half the
 #: open fingers' 90 mm span (cosim.scene.HOME_OPENING_M), beyond their reach.
@@ -294,14 +296,11 @@ class GraspEnv(gym.Env):
         self.modes = tuple(cfg.sensor.modes)
         self.dt = cfg.physics.control_period_s
         self.total_steps = math.ceil(cfg.duration_s / self.dt - 1e-9)
-        from piezotip.cosim.scene import build_scene, finger_force_limit_n, gravity_m_s2
+        from piezotip.cosim.scene import gripper_ranges
 
-        model = build_scene(cfg)
-        lift, fingers = model.actuator("lift_actuator"), model.actuator("fingers_actuator")
-        self.lift_range_m = (float(lift.ctrlrange[0]), float(lift.ctrlrange[1]))
-        self.opening_range_m = (float(fingers.ctrlrange[0]), float(fingers.ctrlrange[1]))
-        self.finger_force_limit_n = finger_force_limit_n(model)
-        self.gravity_m_s2 = gravity_m_s2(model)
+        ranges = gripper_ranges(cfg)  # the house gripper's servos, or a mounted gripper's drive (gripper.mjcf)
+        self.lift_range_m, self.opening_range_m = ranges.lift_range_m, ranges.opening_range_m
+        self.finger_force_limit_n, self.gravity_m_s2 = ranges.finger_force_limit_n, ranges.gravity_m_s2
         n, m = len(self.pads), len(self.modes)
         f64, inf = np.float64, np.inf
         lift_rate = (self.lift_range_m[1] - self.lift_range_m[0]) / self.dt
@@ -352,10 +351,9 @@ class GraspEnv(gym.Env):
         obj = self.object_ranges.sample(self.np_random, cfg.object) if self.object_ranges is not None else cfg.object
         noise_seed = int(seed) if seed is not None else int(self.np_random.integers(2**31))
         self.config = dataclasses.replace(cfg, object=obj, sensor=dataclasses.replace(cfg.sensor, seed=noise_seed)).validate()
-        # The loop's own controller is replaced by the agent's: build the cheap scripted one
-        # (the multimode one would run the element's self-test for nothing).
-        scripted = dataclasses.replace(self.config, controller=dataclasses.replace(self.config.controller, kind="scripted"))
-        sim = self.sim = CoSimulation(scripted)
+        # The loop's own controller is replaced by the agent's: build a cheap one (a sensing one
+        # would run the element's self-test for nothing).
+        sim = self.sim = CoSimulation(_with_blind_controller(self.config))
         sim.controller = _AgentController()
         self._lift_sp, self._opening_sp = sim.robot.home_lift_m, sim.robot.home_opening_m
         self._rows: list[list[float]] = []
@@ -427,6 +425,12 @@ class GraspEnv(gym.Env):
         super().close()
 
     # -- the episode's record and judgement ------------------------------------------------
+
+    def last_row(self) -> dict[str, float]:
+        """The episode's last recorded step (column name -> value), without copying the record."""
+        if self.sim is None or not self._rows:
+            return {}
+        return dict(zip(self.sim.columns, self._rows[-1], strict=True))
 
     def recording(self) -> dict[str, np.ndarray]:
         """The episode so far as the command line records it (column name -> array, a row per step)."""
@@ -629,8 +633,7 @@ class MultimodePolicy:
 
     def _init_from_config(self) -> None:
         cfg = self.config
-        scripted = dataclasses.replace(cfg, controller=dataclasses.replace(cfg.controller, kind="scripted"))
-        sim = CoSimulation(scripted)  # for the robot's design and the fingertip model, nothing run
+        sim = CoSimulation(_with_blind_controller(cfg))  # for the robot's design and the fingertip model, nothing run
         self.robot: RobotLimits = sim.robot
         self.fingertip = sim.fingertip
         self.pads = tuple(f"{p}_pad" for p in cfg.sensor.pads)
@@ -682,6 +685,14 @@ class MultimodePolicy:
             grip_force_n=float(obs["grip_force_n"][0]),
             lift_vel_m_s=float(obs["lift_velocity_m_s"][0]),
         )
+
+
+def _with_blind_controller(config: ScenarioConfig) -> ScenarioConfig:
+    """``config`` with the first registered controller that reads no fingertip (the built-in
+    scripted one), the cheapest to build, where only the simulation is wanted (its controller is
+    replaced or unused); its other settings as they were."""
+    kind = next(name for name in controllers.names() if not controllers.get(name).senses)
+    return dataclasses.replace(config, controller=controllers.configure(kind, like=config.controller))
 
 
 def _rate(target: float, setpoint: float, dt: float) -> float:

@@ -1,19 +1,21 @@
-"""Register the Gymnasium environment ``piezotip/Grasp-v0`` without importing gymnasium.
+"""Register the Gymnasium environments ``piezotip/Grasp-v0`` and ``piezotip/GraspFlat-v0`` (the
+same task with flat, scaled spaces for learning libraries: piezotip/gym_flat.py) without
+importing gymnasium.
 
 ``import gymnasium`` costs about 130 ms, and the command line imports the ``piezotip`` package
 on every command, so ``import piezotip`` must not import it.  :func:`register_when_imported`
-(called at the end of ``piezotip/__init__.py``) registers the environment at once when
+(called at the end of ``piezotip/__init__.py``) registers the environments at once when
 gymnasium is already imported; otherwise it puts a finder first on ``sys.meta_path`` that, when
-gymnasium is imported, lets the normal import run and registers the environment right after
+gymnasium is imported, lets the normal import run and registers them right after
 (a post-import hook).  Both orders work::
 
     import piezotip, gymnasium; gymnasium.make("piezotip/Grasp-v0")
     import gymnasium, piezotip; gymnasium.make("piezotip/Grasp-v0")
 
-The entry point is a string, so registering imports nothing of the environment's own code
-(``piezotip.gym_env``, MuJoCo) until ``gymnasium.make`` is called.  In a process that never
-imports ``piezotip`` (a ``spawn``-ed worker), ``gymnasium.make("piezotip:piezotip/Grasp-v0")``
-imports it first.
+The entry points are strings, so registering imports nothing of the environments' own code
+(``piezotip.gym_env``, ``piezotip.gym_flat``, MuJoCo) until ``gymnasium.make`` is called.  In a
+process that never imports ``piezotip`` (a ``spawn``-ed worker),
+``gymnasium.make("piezotip:piezotip/Grasp-v0")`` imports it first.
 """
 
 from __future__ import annotations
@@ -22,12 +24,17 @@ import sys
 
 ENV_ID = "piezotip/Grasp-v0"
 ENTRY_POINT = "piezotip.gym_env:GraspEnv"
+FLAT_ENV_ID = "piezotip/GraspFlat-v0"
+FLAT_ENTRY_POINT = "piezotip.gym_flat:GraspFlatEnv"
+#: Every environment this package registers: id -> entry point.
+ENVIRONMENTS = {ENV_ID: ENTRY_POINT, FLAT_ENV_ID: FLAT_ENTRY_POINT}
 
 
 def register_env(gymnasium) -> None:
-    """Register :data:`ENV_ID` with the imported ``gymnasium`` module (once; again is a no-op)."""
-    if ENV_ID not in gymnasium.registry:
-        gymnasium.register(id=ENV_ID, entry_point=ENTRY_POINT)
+    """Register :data:`ENVIRONMENTS` with the imported ``gymnasium`` module (once; again is a no-op)."""
+    for env_id, entry_point in ENVIRONMENTS.items():
+        if env_id not in gymnasium.registry:
+            gymnasium.register(id=env_id, entry_point=entry_point)
 
 
 class _RegisteringLoader:

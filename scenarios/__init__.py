@@ -63,10 +63,11 @@ def _literal(value) -> str:
         value = value.item()
     if isinstance(value, str):
         # Plain when it reads back as itself (``envelope``), quoted when it would not (``"1"``,
-        # ``"{1: 2}"``, which parse_value refuses as a mapping; a text too long for a value is
-        # refused when the override is applied, naming its key).
+        # ``"{1: 2}"``, which parse_value refuses as a mapping; ``" x"``, whose spaces the
+        # ``key=value`` reader strips; a text too long for a value is refused when the override
+        # is applied, naming its key).
         try:
-            plain = parse_value(value) == value
+            plain = value == value.strip() and parse_value(value) == value
         except ValueError:
             plain = False
         return value if plain else repr(value)

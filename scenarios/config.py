@@ -30,7 +30,6 @@ INTEGRATORS = ("discrete", "implicitfast", "implicit", "Euler", "RK4")
 SENSOR_DYNAMICS = ("steady", "envelope", "carrier")
 LOAD_SPREADS = ("layer", "none")
 """sensor.load_spread: the gel layer spreads a face pressure over the element (sensor/spread.py), or not."""
-CONTROLLERS = ("scripted", "multimode", "gentle")
 #: The physics timesteps tested stable with the discrete integrator (tests/test_extremes.py): 0.1 ms
 #: (smaller only costs time) to 20 ms (the pads' contact time constant, 2 steps, is then 40 ms).
 MIN_TIMESTEP_S = 1e-5
@@ -297,19 +296,55 @@ class SensorConfig:
 
 @dataclass(frozen=True)
 class ControllerConfig:
-    """The grasp controller.  Every number it uses is here, with its derivation.
+    """What every grasp controller is configured with: which one, the modes it may drive, the task.
+
+    Each registered controller (:mod:`piezotip.controllers`) has its own config class, this one
+    or a subclass of it; ``controller.kind`` chooses the controller, and with it the class whose
+    fields the other ``controller.*`` keys set.  Every value is checked when the config is made.
 
     Attributes
     ----------
-    kind : "scripted" (fixed approach, close, lift, hold, place), "multimode" (reads the
-        sensors, switches mode by pressure range) or "gentle" (the multimode controller that
-        finds the grip that holds with a friction probe instead of assuming the friction:
-        cosim/control/gentle.py).
+    kind : the registered controller's name (``piezotip.controllers.names()``: "multimode",
+        "gentle", "scripted" and any registered by the user's own script).
     modes : the modes the controller may drive (a subset of sensor.modes); ``[1]`` alone
-        makes a single-mode baseline.
-    lift_height_m : how far to lift the object, m.
-    hold_s : how long to hold it up, s.
-    grip_force_n : the scripted controller's grip (the fingers' force limit), N per finger.
+        makes a single-mode baseline of a multimode controller.
+    lift_height_m : how far to lift the object, m (the referee judges the lift against it).
+    hold_s : how long to hold it up, s (the referee judges the hold against it).
+    """
+
+    kind: str
+    modes: tuple[int, ...] = (1, 2, 3, 4)
+    lift_height_m: float = 0.05
+    hold_s: float = 1.0
+
+    def __post_init__(self) -> None:
+        self.validate()
+
+    def validate(self) -> None:
+        """Every field within its range (a ValueError naming the key and the value otherwise)."""
+        if not isinstance(self.kind, str) or not self.kind:
+            raise ValueError(f"controller.kind must be a registered controller's name, got {_short(self.kind)}")
+        _modes("controller.modes", self.modes)
+        _positive("controller.lift_height_m", self.lift_height_m)
+        if isinstance(self.hold_s, bool) or not isinstance(self.hold_s, (int, float)) or self.hold_s < 0 or not math.isfinite(self.hold_s):
+            raise ValueError(f"controller.hold_s must be non-negative, got {self.hold_s!r}")
+
+    def check_scenario(self, scenario: ScenarioConfig) -> None:
+        """The ranges that depend on the rest of the scenario: the modes must be the sensor's."""
+        unknown = sorted(set(self.modes) - set(scenario.sensor.modes))
+        if unknown:
+            raise ValueError(
+                f"controller.modes {list(self.modes)} include modes the sensor lacks "
+                f"(sensor.modes={list(scenario.sensor.modes)}): {unknown}"
+            )
+
+
+@dataclass(frozen=True)
+class MotionConfig(ControllerConfig):
+    """The gripper's motions the built-in controllers share (scripted and multimode alike).
+
+    Attributes
+    ----------
     closing_speed_m_s : how fast the fingers close, m/s: 0.02, the slowest setting of common
         parallel grippers (20-150 mm/s).  The element feels a touch some 10 ms after contact at
         best (Table I's slow resonator), and the pads press on by about the speed times that
@@ -317,13 +352,63 @@ class ControllerConfig:
         does not (README, "Grasp experiments").
     opening_speed_m_s : how fast they open on release, m/s (a parallel gripper's tens of mm/s).
     lift_speed_m_s : how fast the object is lifted, m/s.
-    lift_accel_m_s2 : the lift's acceleration once the object is carried, m/s^2: 0.5 adds 5 %
-        of g to the weight, inside the grip's safety margin; it also sets the braking distance
-        v^2 / (2 a) above the table at which placing slows to ``touchdown_speed_m_s``.
     touchdown_speed_m_s : the last part of the descent when placing, m/s: a fifth of the
         0.1 m/s at which a landing counts as a drop (analysis.referee), and slow enough that the
         lift servo (kp 2e4 N/m) adds at most kp v dt = 2 N per 5 ms control period once the
         table holds the object, so the table's take-over is seen within a period or two.
+    baseline_s : how long the gripper waits, open, before it closes, s: 0.1, twenty readings at
+        5 ms, over which the multimode controller averages the unloaded touch baseline (to a
+        fifth of a sigma, 1 / sqrt 20).
+    drive_margin : the fingers' force limit while they move freely, over what their drive's
+        damping needs at the commanded speed, -: 1.5 (they keep pace; a touch before it is felt
+        meets no more than that).
+    """
+
+    closing_speed_m_s: float = 0.02
+    opening_speed_m_s: float = 0.05
+    lift_speed_m_s: float = 0.1
+    touchdown_speed_m_s: float = 0.02
+    baseline_s: float = 0.1
+    drive_margin: float = 1.5
+
+    def validate(self) -> None:
+        super().validate()
+        for name in ("closing_speed_m_s", "opening_speed_m_s", "lift_speed_m_s", "touchdown_speed_m_s", "baseline_s"):
+            _positive(f"controller.{name}", getattr(self, name))
+        if not (_is_number(self.drive_margin) and self.drive_margin >= 1 and math.isfinite(self.drive_margin)):
+            raise ValueError(f"controller.drive_margin must be a number >= 1, got {self.drive_margin!r}")
+
+
+@dataclass(frozen=True)
+class ScriptedConfig(MotionConfig):
+    """The scripted grasp's settings (cosim/control/scripted.py: fixed targets, no sensing).
+
+    Attributes
+    ----------
+    grip_force_n : the grip, N per finger: the fingers' force limit it squeezes with, at most
+        the fingers' 100 N (models/gripper.xml).
+    """
+
+    kind: str = "scripted"
+    grip_force_n: float = 20.0
+
+    def validate(self) -> None:
+        super().validate()
+        _positive("controller.grip_force_n", self.grip_force_n)
+        if self.grip_force_n > 100:
+            raise ValueError(f"controller.grip_force_n must be at most the fingers' 100 N force limit, got {self.grip_force_n!r}")
+
+
+@dataclass(frozen=True)
+class MultimodeConfig(MotionConfig):
+    """The multimode grasp's settings (cosim/control/multimode.py).  Every number it uses is here,
+    with its derivation, or derived there from the fingertip's ranges and the robot's limits.
+
+    Attributes
+    ----------
+    lift_accel_m_s2 : the lift's acceleration once the object is carried, m/s^2: 0.5 adds 5 %
+        of g to the weight, inside the grip's safety margin; it also sets the braking distance
+        v^2 / (2 a) above the table at which placing slows to ``touchdown_speed_m_s``.
     touchdown_margin_m : the descent slows to the touchdown speed this far above the lift's
         braking distance over where the object rested, m: an object that crept down in the
         fingers by up to this (a quarter of the 20 mm pad) still lands at the touchdown speed.
@@ -358,7 +443,8 @@ class ControllerConfig:
         readings (23 days at 200 Hz).  The 10 ms a switch waits is less than the ring-up it costs
         (10-45 ms with Q = 70, 60-350 ms with Table I's damping), and a pressure that swings
         across the band at every reading (pads sticking and slipping) switches nothing.  At most
-        MAX_PERSIST_S = 1 s of readings.
+        MAX_PERSIST_S = 1 s of readings (checked in :meth:`check_scenario`, where the control
+        period is known).
     cusum_drift_sigma, cusum_alarm_sigma : the touch CUSUM's allowance k (half the 1-sigma shift
         it is tuned to) and threshold h, in sigmas of a reading (Page 1954): with k = 0.5, h = 8
         an unloaded fingertip false-alarms once in about 19,000 readings (Siegmund's
@@ -369,45 +455,20 @@ class ControllerConfig:
         reading.  A touch is then felt one reading sooner than by the CUSUM alone (at 20 mm/s,
         0.06 N on a 30 mm sphere instead of 0.11 N).
     out_of_range_sigma : readings outside [-n sigma, 1 + n sigma] are a sensor fault.
-    baseline_s : unloaded readings averaged for the touch baseline before closing, s: 0.1, twenty
-        readings at 5 ms, the baseline to a fifth of a sigma (1 / sqrt 20).
     squeeze_settle_s : the squeeze's settling before the lift, s: 0.1, several times the finger
         servo's time constant on the gel (46 g of finger on the pad's 2.4 kN/m: 4 ms) and long
         enough for the readout to say whether the pads feel the grip floor.
     measurable_share : the share of the highest mode's P_max the grip may use, -: 0.9, inside
         the range where the mode still resolves 10 % of the pressure.
-    friction_max : (``gentle``) the highest pad-object friction the probe expects, -: 1.5, rubber
-        on the pads' silicone film (the rating's top, models/gripper.xml).  The gentle probe
-        starts from the grip floor and measures the friction while the pads slide; until its
-        first measurement this sets how fast the lift's goal rises while the grip grows (the
-        sag 2 mu G / kp that a sliding grip adds), so the lift keeps rising on any friction
-        below it.
-    probe_speed_m_s : (``gentle``) the lift's pace while the probe finds the grip, m/s: 0.001.
-        The pads slide up the object meanwhile; the probe lasts ln(grip / floor) / growth rate
-        (one to three seconds from milli-newtons to tens of newtons), so they slide a
-        millimetre or two, well inside the 7.5 mm element under the contact.
     sliding_pace : a lift keeping this share of its goal's pace runs free (the pads slide or the
         object is carried), -: 0.9; between 0.5 and this the pads creep (MuJoCo's soft friction
         at a light grip) and the load-to-grip ratio says nothing of the friction.
-    drive_margin : the fingers' force limit while they move freely, over what their drive's
-        damping needs at the commanded speed, -: 1.5 (they keep pace; a touch before it is felt
-        meets no more than that).
     """
 
     kind: str = "multimode"
-    modes: tuple[int, ...] = (1, 2, 3, 4)
-    lift_height_m: float = 0.05
-    hold_s: float = 1.0
-    grip_force_n: float = 20.0
-    closing_speed_m_s: float = 0.02
-    opening_speed_m_s: float = 0.05
-    lift_speed_m_s: float = 0.1
     lift_accel_m_s2: float = 0.5
-    touchdown_speed_m_s: float = 0.02
     touchdown_margin_m: float = 0.005
     friction_assumed: float = 0.8
-    friction_max: float = 1.5
-    probe_speed_m_s: float = 0.001
     grip_safety: float = 1.25
     grip_floor_n: float | None = None
     max_grip_n: float | None = None
@@ -422,46 +483,30 @@ class ControllerConfig:
     cusum_alarm_sigma: float = 8.0
     touch_single_sigma: float = 6.0
     out_of_range_sigma: float = 6.0
-    baseline_s: float = 0.1
     squeeze_settle_s: float = 0.1
     measurable_share: float = 0.9
     sliding_pace: float = 0.9
-    drive_margin: float = 1.5
 
     def validate(self) -> None:
-        _one_of("controller.kind", self.kind, CONTROLLERS)
-        _modes("controller.modes", self.modes)
+        super().validate()
         for name in (
-            "lift_height_m",
-            "grip_force_n",
-            "closing_speed_m_s",
-            "opening_speed_m_s",
-            "lift_speed_m_s",
             "lift_accel_m_s2",
-            "touchdown_speed_m_s",
             "touchdown_margin_m",
             "friction_assumed",
-            "friction_max",
-            "probe_speed_m_s",
             "load_filter_s",
             "lost_s",
             "cusum_drift_sigma",
             "cusum_alarm_sigma",
             "touch_single_sigma",
             "out_of_range_sigma",
-            "baseline_s",
             "squeeze_settle_s",
         ):
             _positive(f"controller.{name}", getattr(self, name))
         for name in ("grip_floor_n", "max_grip_n", "grip_rate_n_s"):
             if getattr(self, name) is not None:
                 _positive(f"controller.{name}", getattr(self, name))
-        if self.grip_force_n > 100:
-            raise ValueError(f"controller.grip_force_n must be at most the fingers' 100 N force limit, got {self.grip_force_n!r}")
-        if not self.grip_safety > 1 or not math.isfinite(self.grip_safety):
+        if not _is_number(self.grip_safety) or not self.grip_safety > 1 or not math.isfinite(self.grip_safety):
             raise ValueError(f"controller.grip_safety must be a number above 1, got {self.grip_safety!r}")
-        if not (isinstance(self.drive_margin, (int, float)) and self.drive_margin >= 1 and math.isfinite(self.drive_margin)):
-            raise ValueError(f"controller.drive_margin must be a number >= 1, got {self.drive_margin!r}")
         for name in ("table_load_fraction", "slip_pressure_drop", "hysteresis", "measurable_share"):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, (int, float)) or not 0 < value < 1:
@@ -470,8 +515,104 @@ class ControllerConfig:
             raise ValueError(f"controller.sliding_pace must be in (0.5, 1], got {self.sliding_pace!r}")
         if not isinstance(self.persist, int) or isinstance(self.persist, bool) or self.persist < 1:
             raise ValueError(f"controller.persist must be an integer >= 1, got {self.persist!r}")
-        if self.hold_s < 0 or not math.isfinite(self.hold_s):
-            raise ValueError(f"controller.hold_s must be non-negative, got {self.hold_s!r}")
+
+    def check_scenario(self, scenario: ScenarioConfig) -> None:
+        """Also: the mode switch's ``persist`` readings last at most MAX_PERSIST_S."""
+        super().check_scenario(scenario)
+        persist_s = self.persist * scenario.physics.control_period_s
+        if persist_s > MAX_PERSIST_S:
+            raise ValueError(
+                f"controller.persist {self.persist!r} readings of {scenario.physics.control_period_s:g} s wait "
+                f"{persist_s:.3g} s before a mode switch: at most {MAX_PERSIST_S:g} s"
+            )
+
+
+@dataclass(frozen=True)
+class GentleConfig(MultimodeConfig):
+    """The gentle grasp's settings (cosim/control/gentle.py): the multimode controller's, and its
+    friction probe's.
+
+    Attributes
+    ----------
+    friction_max : the highest pad-object friction the probe expects, -: 1.5, rubber on the
+        pads' silicone film (the rating's top, models/gripper.xml).  The gentle probe starts
+        from the grip floor and measures the friction while the pads slide; until its first
+        measurement this sets how fast the lift's goal rises while the grip grows (the sag
+        2 mu G / kp that a sliding grip adds), so the lift keeps rising on any friction below it.
+    probe_speed_m_s : the lift's pace while the probe finds the grip, m/s: 0.001.  The pads
+        slide up the object meanwhile; the probe lasts ln(grip / floor) / growth rate (one to
+        three seconds from milli-newtons to tens of newtons), so they slide a millimetre or two,
+        well inside the 7.5 mm element under the contact.
+    """
+
+    kind: str = "gentle"
+    friction_max: float = 1.5
+    probe_speed_m_s: float = 0.001
+
+    def validate(self) -> None:
+        super().validate()
+        _positive("controller.friction_max", self.friction_max)
+        _positive("controller.probe_speed_m_s", self.probe_speed_m_s)
+
+
+@dataclass(frozen=True)
+class GripperConfig:
+    """The gripper the scene hangs from the lift: the house gripper (models/gripper.xml), or
+    another from its MJCF file (cosim/gripper_mount.py; docs/grippers.md).
+
+    Attributes
+    ----------
+    mjcf : the gripper's MJCF file (a path, relative to the working directory or absolute), or
+        None for the house gripper.  The scene keeps its own options (timestep, integrator,
+        contacts), table, object and lift; the file's top body under which both fingertips hang
+        is mounted on the lift, with every limit the controller uses read from it.
+    fingertips : with ``mjcf``, the two fingertips that carry the gel pads, each the name of a
+        box site, a body or a geom in the file (looked up in that order; a body's or a geom's pad
+        goes on its face towards the other fingertip, as :func:`piezotip.attach` puts it): the
+        first carries the ``left`` pad, the second the ``right``.
+    actuators : with ``mjcf``, the actuators in the file that close the fingers, one or several:
+        position servos or motors on joints or tendons.
+    approach_axis : with ``mjcf``, the direction in which the gripper approaches an object, in
+        the file's own frame (a 3-vector, any length; its part along the line between the
+        fingertips is dropped); None: from the fingertips' common root body towards the middle
+        between their pads.  The mount points it down at the table.
+    """
+
+    mjcf: str | None = None
+    fingertips: tuple[str, ...] = ()
+    actuators: tuple[str, ...] = ()
+    approach_axis: tuple[float, float, float] | None = None
+
+    def validate(self) -> None:
+        if self.mjcf is None:
+            for key, value in (("fingertips", self.fingertips), ("actuators", self.actuators), ("approach_axis", self.approach_axis)):
+                if value:
+                    raise ValueError(f"gripper.{key} {_short(value)} names a part of a gripper file: give gripper.mjcf too")
+            return
+        if not isinstance(self.mjcf, str) or not self.mjcf.strip():
+            raise ValueError(f"gripper.mjcf must be the path of an MJCF file, got {_short(self.mjcf)}")
+        _names_once("gripper.fingertips", self.fingertips)
+        if len(self.fingertips) != 2:
+            raise ValueError(f"gripper.fingertips must name two fingertips (the left and the right pad's), got {len(self.fingertips)}")
+        _names_once("gripper.actuators", self.actuators)
+        if self.approach_axis is not None:
+            if not all(_is_number(v) and math.isfinite(v) for v in self.approach_axis) or not any(self.approach_axis):
+                raise ValueError(f"gripper.approach_axis must be a nonzero 3-vector of finite numbers, got {_short(self.approach_axis)}")
+        from piezotip.cosim.gripper_mount import check_gripper
+
+        check_gripper(self)  # the file loads, and names what these keys name (a ValueError naming the key)
+
+
+def _names_once(key: str, names) -> None:
+    """A non-empty list of names, each once; a list written unquoted (``[a, b]``, which reads as
+    one name) gets the quoting it needs."""
+    if not names:
+        raise ValueError(f"{key} must name at least one, got none")
+    if len(names) == 1 and names[0].startswith("[") and names[0].endswith("]"):
+        quoted = ", ".join(repr(n.strip()) for n in names[0][1:-1].split(","))
+        raise ValueError(f"{key}: {_short(names[0])} reads as one name; quote each: {key}=[{quoted}]")
+    if any(not n for n in names) or len(set(names)) != len(names):
+        raise ValueError(f"{key} must name each once, got {_short(list(names))}")
 
 
 @dataclass(frozen=True)
@@ -483,7 +624,10 @@ class ScenarioConfig:
     name, description : the registry's name and a line for ``list``.
     duration_s : the longest the controller may take, s (a run ends earlier when it finishes;
         the recording then goes on until the object rests, cosim.loop.REST_MIN_S).
-    object, physics, sensor, controller : the parts (their own docstrings).
+    object, physics, sensor : the parts (their own docstrings).
+    controller : the controller's config: the class its ``kind`` is registered with
+        (:mod:`piezotip.controllers`), the multimode controller's by default.
+    gripper : the gripper on the lift (:class:`GripperConfig`): the house's by default.
     """
 
     name: str
@@ -492,12 +636,19 @@ class ScenarioConfig:
     object: ObjectConfig = field(default_factory=ObjectConfig)
     physics: PhysicsConfig = field(default_factory=PhysicsConfig)
     sensor: SensorConfig = field(default_factory=SensorConfig)
-    controller: ControllerConfig = field(default_factory=ControllerConfig)
+    controller: ControllerConfig = field(default_factory=MultimodeConfig)
+    gripper: GripperConfig = field(default_factory=GripperConfig)
 
     def validate(self) -> ScenarioConfig:
         """Check every value, then the ranges that depend on several; return self so it chains."""
         _positive("duration_s", self.duration_s)
-        for part in (self.object, self.physics, self.sensor, self.controller):
+        registration = controller_registration(self.controller.kind)
+        if type(self.controller) is not registration.config:
+            raise ValueError(
+                f"controller.kind {self.controller.kind!r} takes a {registration.config.__name__}, got a "
+                f"{type(self.controller).__name__} (piezotip.controllers.configure builds the one a kind takes)"
+            )
+        for part in (self.object, self.physics, self.sensor, self.controller, self.gripper):
             part.validate()
         steps = self.duration_s / self.physics.control_period_s
         if steps > MAX_RECORDED_STEPS:
@@ -506,20 +657,9 @@ class ScenarioConfig:
                 f"duration_s {self.duration_s!r} s is {steps:.3g} control periods of {self.physics.control_period_s:g} s: at most "
                 f"{MAX_RECORDED_STEPS:.0e} are recorded (300 MB of run.npz, read back whole by the referee), {longest:g} s"
             )
-        unknown = sorted(set(self.controller.modes) - set(self.sensor.modes))
-        if unknown:
-            raise ValueError(
-                f"controller.modes {list(self.controller.modes)} include modes the sensor lacks "
-                f"(sensor.modes={list(self.sensor.modes)}): {unknown}"
-            )
-        persist_s = self.controller.persist * self.physics.control_period_s
-        if persist_s > MAX_PERSIST_S:
-            raise ValueError(
-                f"controller.persist {self.controller.persist!r} readings of {self.physics.control_period_s:g} s wait "
-                f"{persist_s:.3g} s before a mode switch: at most {MAX_PERSIST_S:g} s"
-            )
+        self.controller.check_scenario(self)
         self._check_quality_factor()
-        _check_fingertip(self)
+        _check_fingertip(self, registration.senses)
         return self
 
     def _check_quality_factor(self) -> None:
@@ -545,28 +685,29 @@ class ScenarioConfig:
             )
 
 
-#: Per (sensor config, allowed modes, controller kind): None where the fingertip is one the run
-#: can build and its modes' ranges suit the controller, else why not (_check_fingertip).
+#: Per (sensor config, allowed modes, controller kind, whether it senses): None where the fingertip
+#: is one the run can build and its modes' ranges suit the controller, else why not (_check_fingertip).
 _FINGERTIPS: dict[tuple, str | None] = {}
 
 
-def _check_fingertip(config: ScenarioConfig) -> None:
+def _check_fingertip(config: ScenarioConfig, senses: bool) -> None:
     """The fingertip the run builds (cosim.loop.make_fingertip: a varied unit calibrated), and for
-    the multimode controllers each allowed mode the most useful somewhere and a switch pressure
-    from each up to the next (the edge between their bands): what their mode selector is built
-    for (cosim.control.selector switches one allowed mode up as the pressure rises past it).
+    a controller that reads the fingertips (registered with ``senses``: the multimode ones) each
+    allowed mode the most useful somewhere and a switch pressure from each up to the next (the
+    edge between their bands): what their mode selector is built for (cosim.control.selector
+    switches one allowed mode up as the pressure rises past it).
 
     Computed once per sensor configuration, with the selector's own ranges (cached on disk, so
     the run then finds them done); a ValueError naming the sensor's keys otherwise."""
     modes = tuple(sorted(config.controller.modes))
-    key = (config.sensor, modes, config.controller.kind == "scripted")
+    key = (config.sensor, modes, config.controller.kind, senses)
     if key not in _FINGERTIPS:
-        _FINGERTIPS[key] = _fingertip_problem(config, modes)
+        _FINGERTIPS[key] = _fingertip_problem(config, modes, senses)
     if _FINGERTIPS[key] is not None:
         raise ValueError(_FINGERTIPS[key])
 
 
-def _fingertip_problem(config: ScenarioConfig, modes: tuple[int, ...]) -> str | None:
+def _fingertip_problem(config: ScenarioConfig, modes: tuple[int, ...], senses: bool) -> str | None:
     from piezotip.cosim.control.selector import allowed_ranges
     from piezotip.cosim.loop import make_fingertip
 
@@ -576,7 +717,7 @@ def _fingertip_problem(config: ScenarioConfig, modes: tuple[int, ...]) -> str | 
     except ValueError as err:
         unit = f"sensor.variation={s.variation}, sensor.unit_seed={s.unit_seed}, sensor.coverage_mm={s.coverage_mm!r}"
         return f"the fingertip ({unit}) cannot be built: {err}"
-    if config.controller.kind == "scripted":  # drives no mode selector
+    if not senses:  # drives no mode selector
         return None
     _, bands, _, _ = allowed_ranges(tip, modes)
     order = [band[0] for band in bands]
@@ -767,7 +908,10 @@ def _coerce(key: str, hint, value):
 
 
 def apply_override(config, key: str, value, full_key: str | None = None):
-    """A copy of ``config`` with the dotted ``key`` set to ``value`` (already parsed)."""
+    """A copy of ``config`` with the dotted ``key`` set to ``value`` (already parsed).
+
+    ``controller.kind`` chooses the controller and with it the config's class: the new kind's
+    (:func:`piezotip.controllers.configure`), keeping what the old config was given."""
     full_key = full_key or key
     head, _, rest = key.partition(".")
     names = {f.name: f for f in dataclasses.fields(config)}
@@ -778,18 +922,63 @@ def apply_override(config, key: str, value, full_key: str | None = None):
     if dataclasses.is_dataclass(getattr(config, head)):
         raise KeyError(key)
     hints = typing.get_type_hints(type(config))
+    if head == "kind" and isinstance(config, ControllerConfig):
+        from piezotip import controllers
+
+        kind = _coerce(full_key, hints[head], value)
+        controller_registration(kind)  # an unknown kind's error names the key
+        return controllers.configure(kind, like=config)
     return dataclasses.replace(config, **{head: _coerce(full_key, hints[head], value)})
 
 
+def controller_registration(kind: str):
+    """The registration (:class:`piezotip.controllers.Registration`) of controller ``kind``, or a
+    ValueError naming ``controller.kind`` and the registered controllers."""
+    from piezotip import controllers
+
+    if kind not in controllers.names():
+        raise ValueError(f"controller.kind must be one of {', '.join(controllers.names())}; got {_short(kind)}")
+    return controllers.get(kind)
+
+
+#: The key that chooses the controller, and so which ``controller.*`` keys there are.
+CONTROLLER_KIND_KEY = "controller.kind"
+
+
 def with_overrides(config: ScenarioConfig, assignments: list[str]) -> ScenarioConfig:
-    """Apply ``key=value`` strings in order, then validate the result."""
+    """Apply ``key=value`` strings, then validate the result.
+
+    In order, except that ``controller.kind`` comes first: it chooses the controller, whose
+    config class has the keys the other ``controller.*`` assignments set (so the order they are
+    given in does not matter)."""
+    pairs = []
     for assignment in assignments:
         key, sep, text = assignment.partition("=")
         key = key.strip()
         if not sep or not key:
             raise ValueError(f"--set takes key=value, got {_short(assignment)}")
+        pairs.append((key, text))
+    pairs.sort(key=lambda pair: pair[0] != CONTROLLER_KIND_KEY)  # stable: the kinds in their order, then the rest
+    for key, text in pairs:
         try:
             config = apply_override(config, key, parse_value(text.strip(), key))
         except KeyError:
-            raise ValueError(f"unknown key {_short(key)}; valid keys: {', '.join(valid_keys(config))}") from None
+            raise ValueError(unknown_key_message(config, key)) from None
     return config.validate()
+
+
+def unknown_key_message(config: ScenarioConfig, key: str) -> str:
+    """Why ``key`` is not one of ``config``'s: the valid keys; for a ``controller.*`` key, the
+    chosen controller's keys, and which registered controllers have it."""
+    head, _, name = key.partition(".")
+    if head != "controller" or not name or "." in name:
+        return f"unknown key {_short(key)}; valid keys: {', '.join(valid_keys(config))}"
+    from piezotip import controllers
+
+    c = config.controller
+    owners = [kind for kind in controllers.names() if name in {f.name for f in dataclasses.fields(controllers.get(kind).config)}]
+    elsewhere = f" (the {', '.join(owners)} controller{'s have' if len(owners) > 1 else ' has'} it)" if owners else ""
+    return (
+        f"unknown key {_short(key)} for the {c.kind} controller ({type(c).__name__}){elsewhere}; "
+        f"its valid keys: {', '.join(f'controller.{k}' for k in valid_keys(c))}"
+    )

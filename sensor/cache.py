@@ -10,10 +10,10 @@ A cache must not change a result, so, in order of importance:
 - The key is a SHA-256 of the namespace, the ``repr`` of the configuration key (every
   parameter, floats written exactly) and a fingerprint of the code that runs to compute it
   (:func:`code_files`): the source of every module of ``piezotip.sensor`` and of any module the
-  caller names, the Cython sources (``.pyx``, ``.pxd``) beside them, and the compiled extension
-  modules there that this interpreter imports (their files' bytes: an edited ``.pyx`` that has not
-  been rebuilt is not what runs, the built module is; its source is keyed too, which costs at most
-  one recomputation).  A change of parameter or of code computes afresh; an entry is never reused
+  caller names, the Cython sources (``.pyx``, ``.pxd``, a compiled kernel's ``.py``) beside
+  them, and the compiled extension modules there that this interpreter imports (their files'
+  bytes: an edited source that has not been rebuilt is not what runs, the built module is; its
+  source is keyed too, which costs at most one recomputation).  A change of parameter or of code computes afresh; an entry is never reused
   for anything else.
 - Every entry carries a manifest (:data:`MANIFEST`): the key it was written under, each array's
   dtype, shape and count of non-finite values, and a SHA-256 of all of them and of the arrays'
@@ -146,15 +146,18 @@ def prune(folder: Path, limit_bytes: int) -> list[Path]:
 def code_files(extra_modules: Iterable[str] = ()) -> list[Path]:
     """The files whose content computes an entry: every ``piezotip.sensor`` module, the modules
     ``extra_modules`` (paths), and in each of their folders the Cython sources (``*.pyx``,
-    ``*.pxd``) and the extension modules built from them that this interpreter imports (for each
-    module name, the first file by :data:`importlib.machinery.EXTENSION_SUFFIXES`, as the import
-    system picks it).  With ``PIEZOTIP_PURE_PYTHON`` set the extension modules are not imported
+    ``*.pxd``, and a compiled kernel's ``.py``: one with a ``.pxd`` beside it) and the extension
+    modules built from them that this interpreter imports (for each module name, the first file
+    by :data:`importlib.machinery.EXTENSION_SUFFIXES`, as the import system picks it).  With
+    ``PIEZOTIP_PURE_PYTHON`` set the extension modules are not imported
     (:mod:`piezotip.sensor.compiled`) and are left out."""
     here = Path(__file__).parent
     extra = sorted({Path(p) for p in extra_modules})
     files = sorted(here.glob("*.py")) + extra
     for folder in sorted({here} | {p.parent for p in extra}):
-        files += sorted(folder.glob("*.pyx")) + sorted(folder.glob("*.pxd"))
+        declarations = sorted(folder.glob("*.pxd"))
+        files += sorted(folder.glob("*.pyx")) + declarations
+        files += [p.with_suffix(".py") for p in declarations if p.with_suffix(".py").is_file() and p.with_suffix(".py") not in files]
         if not compiled.PURE_PYTHON:
             files += _extension_modules(folder)
     return files

@@ -29,9 +29,6 @@ contract, measured by tests/test_readout_honesty.py: an "ok" estimate's interval
 that the readings do not show yet (a physical limit of a slow resonator, measured against an
 oracle); the estimate is "settling" while the inference cannot tell; after the load is removed
 it reads "below_detection" within the inference's settling time.
-
-The names this module held before the split (the records, the inverse, the tables, the
-inference) stay importable from here.
 """
 
 from __future__ import annotations
@@ -41,35 +38,29 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from .carrier import CarrierResonator
 from .equations import normalized_response
-from .estimator import (  # noqa: F401 - _TABLE_P, _estimate: importable from here as before
-    _SETTLING,
-    _TABLE_P,
-    Estimate,
-    FoundationTable,
-    ModeInverse,
-    _estimate,
-    foundation_table,
-    mode_tables,
-)
+from .estimator import _SATURATED, _SETTLING, Estimate, ModeInverse, mode_tables
 from .fingertip import Fingertip
 from .inference import MAX_GAIN, SteadyInference
-from .lookup import interp as _interp  # noqa: F401 - importable from here as before
-from .resonator import (  # noqa: F401 - _steady, _step, SETTLE_FRACTION: importable from here as before
-    _SETTLE_TAUS,
-    DYNAMICS,
-    SETTLE_FRACTION,
-    CarrierResonator,
-    Reading,
-    _rate,
-    _reading,
-    _steady,
-    _step,
-)
+from .resonator import _SETTLE_TAUS, DYNAMICS, Reading, _rate, _reading, _step
 from .sampler import ModeSampler
 
 #: Noise is drawn in blocks (one generator call per block, not per reading; even: I and Q pair up).
 _NOISE_BLOCK = 4096
+
+#: A mode is known to be saturated, while its inference cannot tell, once every reading for
+#: SATURATION_TAUS unloaded time constants has stayed under half the mode's output at P_max (by 3
+#: sigma of noise).  Why that proves it: a load's damping only adds to the element's, so the
+#: envelope relaxes to its steady value A_ss at least as fast as unloaded, |A(t) - A_ss| <=
+#: |A(0) - A_ss| e^(-t / tau0), from any start and along any spiral of a detuned mode.  Were
+#: |A_ss| >= V(P_max) with every |A| under V(P_max) / 2, then after t, |A(t)| >= |A_ss| -
+#: (V(P_max) / 2 + |A_ss|) e^(-t / tau0), which passes V(P_max) / 2 once e^(-t / tau0) < 1/3:
+#: t > ln 3 tau0 (0.73 s with Table I's damping).  So the steady reading lies past P_max: the
+#: status is "saturated" (and the selector moves up) instead of "settling" for as long as the
+#: load lasts, which a mode driven deep past its range (a 10 kg grip in mode 1: V_1 ~ 1e-3, at
+#: the noise) gave before (tests/test_readout_saturation.py).
+SATURATION_TAUS = math.log(3.0)
 
 
 def _modal_load(table_at, pressure_cells_pa, weights) -> tuple[float, float]:
@@ -179,6 +170,11 @@ class SensorChannel:
         self._estimated_at, self._last_estimate = math.nan, _SETTLING
         # The readout's history before the scene: settled, unloaded readings of this value.
         self._seed_a = 1 + 0j
+        # Since when (readout clock, s) every reading has stayed under half the driven mode's
+        # output at P_max (SATURATION_TAUS); None while the last one did not.
+        self._low_since_s: float | None = None
+        self._saturation_s = SATURATION_TAUS * self._tau0
+        self._low_amplitude = {m: 0.5 * self._inverse[m].v_at_p_max - 3.0 * self._sigma[m] for m in used}
 
     def _new_carrier(self, mode: int) -> CarrierResonator:
         return CarrierResonator(self._rho_a_f, self._c_f, float(self._omega[mode]), self._carrier_spc)
@@ -195,6 +191,12 @@ class SensorChannel:
     def n_cells(self) -> int:
         return self.edges_m.size - 1
 
+    @property
+    def unloaded_samples(self) -> int:
+        """Readings that reused the unloaded resonator's response (no modal load: every cell at
+        0 Pa), over this channel's modes (:mod:`sensor.sampler`; 0 where it has no samplers)."""
+        return sum(s.unloaded_samples for s in self._samplers.values())
+
     def select_mode(self, mode: int) -> None:
         """Drive ``mode`` from now on; the envelope starts from rest (a ring-up)."""
         if mode.__class__ is int and mode == self.mode:  # already driven (so a valid mode): nothing to do
@@ -209,6 +211,7 @@ class SensorChannel:
             self._inference.restart(0.0, 0j)
             self._inference_mode = mode
             self._estimated_at = math.nan
+            self._low_since_s = None
             if self.dynamics == "envelope":
                 self.envelope = 0j
             elif self.dynamics == "carrier":
@@ -327,7 +330,17 @@ class SensorChannel:
         if reading.mode != self._inference_mode:  # a reading of a mode no longer driven
             return _SETTLING
         a_ss, gain, trusted = inference.step(t, reading.iq)
-        est = inverse.inferred(abs(a_ss), gain) if trusted and gain <= MAX_GAIN else _SETTLING
+        if abs(reading.iq) < self._low_amplitude[reading.mode]:
+            if self._low_since_s is None:
+                self._low_since_s = t
+        else:
+            self._low_since_s = None
+        if trusted and gain <= MAX_GAIN:
+            est = inverse.inferred(abs(a_ss), gain)
+        elif self._low_since_s is not None and t - self._low_since_s >= self._saturation_s:
+            est = _SATURATED  # past P_max, as the readings show (SATURATION_TAUS)
+        else:
+            est = _SETTLING
         if self._tracking and est is not _SETTLING:
             self._track(t, est, a_ss, gain)
         self._estimated_at, self._last_estimate = t, est

@@ -22,9 +22,6 @@ import numpy as np
 from .equations import normalized_output, phase_rad, sensed_voltage_v, sensitivity_c, sensitivity_k, unloaded_voltage_v
 from .modes import Boundary, ModeShape, check_mode, mode_shape
 
-# The paper's equations live in :mod:`sensor.equations`; these names stay importable from here.
-__all__ = ["ElementParams", "ModeTrim", "SensorElement", "normalized_output", "phase_rad", "sensitivity_c", "sensitivity_k"]
-
 VACUUM_PERMITTIVITY_F_PER_M = 8.8541878128e-12
 
 

@@ -27,8 +27,7 @@ import numpy as np
 
 from .cache import disk_cached
 from .cache import enabled as cache_enabled
-from .compiled import record_maker, twin
-from .inference import GAIN_FLOOR
+from .compiled import is_compiled, record_maker, source_module
 from .lookup import interp, interp_pair
 from .readout import DETECTION_SIGMAS, PressureEstimate
 
@@ -113,50 +112,7 @@ _estimate = record_maker(Estimate)
 
 
 _SETTLING = _estimate(math.nan, math.nan, "settling")
-
-
-class PyInverseCore:
-    """The per-reading part of :meth:`ModeInverse.inferred`, on Python floats: the reference of
-    its compiled twin (``sensor/_estimator.pyx``; :data:`INVERSE_COMPILED` says which runs).
-
-    The curve is one mode's V_1 (dimensionless) against log P (P in Pa), monotone falling:
-    ``neg_v`` (-V_1, increasing), ``log_p`` and ``dv_dlogp`` (dV_1 / d ln P) as lists;
-    ``v_first`` and ``v_last`` its ends; ``slope0`` the unloaded |dV_1/dP| (1/Pa); ``sigma`` a
-    reading's noise (V_1 units); ``p_min_pa`` and ``p_max_pa`` the mode's limits, Pa.
-    """
-
-    __slots__ = ("_dv_dlogp", "_log_p", "_neg_v", "_p_max", "_p_min", "_sigma", "_slope0", "_three_sigma", "_v_first", "_v_last")
-
-    def __init__(self, neg_v, log_p, dv_dlogp, v_first, v_last, slope0, sigma, p_min_pa, p_max_pa) -> None:
-        self._neg_v, self._log_p, self._dv_dlogp = [float(x) for x in neg_v], [float(x) for x in log_p], [float(x) for x in dv_dlogp]
-        if not 2 <= len(self._neg_v) == len(self._log_p) == len(self._dv_dlogp):
-            lengths = (len(self._neg_v), len(self._log_p), len(self._dv_dlogp))
-            raise ValueError(f"an inverse needs columns of one length, 2 or more, got lengths {lengths}")
-        self._v_first, self._v_last, self._slope0 = float(v_first), float(v_last), float(slope0)
-        self._sigma, self._p_min, self._p_max = float(sigma), float(p_min_pa), float(p_max_pa)
-        self._three_sigma = 3.0 * self._sigma
-
-    def inferred(self, v1: float, gain: float) -> Estimate:
-        """:meth:`ModeInverse.inferred` (see there): the estimate of an inferred steady reading."""
-        drop = 1.0 - v1
-        below_scale = gain if gain > 1.0 else 1.0
-        if drop < self._three_sigma * below_scale:
-            return _estimate(max(drop, 0.0) / self._slope0, self._p_min * below_scale, "below_detection")
-        g = gain if gain > GAIN_FLOOR else GAIN_FLOOR
-        if v1 <= self._v_last:
-            return _estimate(math.nan, math.nan, "saturated")
-        if v1 >= self._v_first:
-            return _estimate(drop / self._slope0, g * self._sigma / self._slope0, "ok")
-        log_p = interp(-v1, self._neg_v, self._log_p)
-        p = math.exp(log_p)
-        if not p <= self._p_max:
-            return _estimate(math.nan, math.nan, "saturated")
-        slope = abs(interp(log_p, self._log_p, self._dv_dlogp)) / p
-        return _estimate(p, g * self._sigma / slope if slope > 0 else math.inf, "ok")
-
-    def __reduce__(self):
-        args = (self._neg_v, self._log_p, self._dv_dlogp, self._v_first, self._v_last, self._slope0, self._sigma, self._p_min, self._p_max)
-        return type(self), args
+_SATURATED = _estimate(math.nan, math.nan, "saturated")
 
 
 class ModeInverse:
@@ -199,6 +155,8 @@ class ModeInverse:
         self.p_min_pa = float(numbers["p_min_pa"])
         self.p_max_pa = float(numbers["p_max_pa"])
         self._v_first, self._v_last = float(v[0]), float(v[-1])
+        #: The mode's output V_1 at P_max (dimensionless; from the table, as the inverse reads it).
+        self.v_at_p_max = float(np.interp(math.log(self.p_max_pa), self._log_p, v)) if self.p_max_pa > 0 else self._v_last
         self._slope0 = float(numbers["slope0"])
         self._neg_v_list = self._neg_v.tolist()
         self._sigma_f, self._p_min_f, self._p_max_f = float(self.sigma), float(self.p_min_pa), float(self.p_max_pa)
@@ -251,7 +209,7 @@ class ModeInverse:
         reading's: as :meth:`__call__` with sigma scaled by max(gain, 1) for the below-detection
         test (within 3 scaled sigma of unloaded; its uncertainty is the scaled detection limit)
         and by max(gain, GAIN_FLOOR) for the uncertainty of an "ok" estimate
-        (:meth:`PyInverseCore.inferred`, compiled where built)."""
+        (:class:`InverseCore`, compiled where built)."""
         return self._core.inferred(v1, gain)
 
     def polished(self, fingertip: Fingertip, mode: int, v1) -> PressureEstimate:
@@ -345,5 +303,16 @@ def exact_estimate(fingertip: Fingertip, v1, mode: int) -> PressureEstimate:
     return mode_tables(fingertip, mode, exact=True)[1].polished(fingertip, mode, v1)
 
 
-#: The inverses' per-reading core: the compiled twin of :class:`PyInverseCore` where built, else it.
-InverseCore, INVERSE_COMPILED = twin("piezotip.sensor._estimator", "InverseCore", PyInverseCore)
+# The inverses' per-reading core (:meth:`ModeInverse.inferred`), a kernel: sensor/_estimator.py,
+# compiled where built (sensor.compiled).  Imported last: it reads Estimate from this module.
+from . import _estimator  # noqa: E402
+from ._estimator import InverseCore  # noqa: E402
+
+#: Whether :class:`InverseCore` runs compiled (sensor/_estimator.py built), not as Python.
+INVERSE_COMPILED = is_compiled(_estimator)
+
+
+def __getattr__(name: str):
+    if name == "PyInverseCore":  # the kernel's source run as Python, loaded when asked for
+        return source_module(_estimator.__name__).InverseCore
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -1,7 +1,7 @@
 """Reading the sensor: noise, detection and resolution, and the steady envelope of a relaxation.
 
 The envelope's own dynamics live in :mod:`sensor.resonator` (``envelope_rate``,
-``steady_envelope`` and ``envelope_step`` are importable from here too).
+``steady_envelope`` and ``envelope_step``).
 
 Physics reference: ``shared/physics.md`` sections 5 and 6.  Definitions used throughout
 (stated here once, computed by :class:`sensor.Fingertip`):
@@ -24,7 +24,6 @@ from dataclasses import dataclass
 import numpy as np
 
 from .element import _require_positive
-from .resonator import envelope_rate, envelope_step, steady_envelope  # noqa: F401 - their home is sensor.resonator
 
 #: A reading moves "detectably" when it moves by this many standard deviations.
 DETECTION_SIGMAS = 3.0
@@ -97,8 +96,8 @@ def ring_up_steady(envelope: complex, time_s: float, tau0_s: float, rate_guess: 
     a(t) = a_ss (1 - exp(-lambda t)), and the load ties the two unknowns together:
     a_ss = omega c / (omega (gamma + c) - j kappa) and lambda = ((c + gamma) - j kappa / omega) / (2 rho A)
     give a_ss = 1 / (tau0 lambda), tau0 = 2 rho A / c the unloaded time constant (both from
-    eqs. 10 and 19 and :func:`envelope_rate`).  One complex reading a at time t therefore
-    fixes z = lambda t through
+    eqs. 10 and 19 and :func:`sensor.resonator.envelope_rate`).  One complex reading a at time t
+    therefore fixes z = lambda t through
 
         (1 - exp(-z)) / z = a tau0 / t,
 

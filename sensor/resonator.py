@@ -26,14 +26,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .carrier import CarrierResonator
 from .compiled import record_maker
 from .equations import normalized_response
 
 __all__ = [
     "DYNAMICS",
     "SETTLE_FRACTION",
-    "CarrierResonator",
     "Reading",
     "envelope_rate",
     "envelope_step",

@@ -17,12 +17,13 @@ from collections.abc import Sequence
 import numpy as np
 
 from .calibration import SensorUnit, detuning, reading_sigma_v
+from .carrier import CarrierResonator
 from .channel import SensorChannel, _modal_load
 from .equations import normalized_response
 from .estimator import _TABLE_P, CalibratedInverse, Estimate, foundation_table
 from .fingertip import Fingertip
 from .inference import GAIN_FLOOR
-from .resonator import CarrierResonator, Reading, _rate, _reading
+from .resonator import Reading, _rate, _reading
 from .variation import REFERENCE_TEMPERATURE_C
 
 #: A calibrated unit's readout re-zeroes after this long unloaded (below detection), s: longer

@@ -130,7 +130,7 @@ def test_only_piezotip_is_installed_at_the_top_level(name, tmp_path):
 def test_the_subpackages_and_the_models_are_reachable_under_piezotip(tmp_path):
     probe = (
         "import piezotip.sensor, piezotip.cosim.control, piezotip.scenarios, piezotip.analysis.sweep;"
-        "from piezotip.cosim.pads import MODELS_DIR; print((MODELS_DIR / 'scene_grasp.xml').is_file())"
+        "from piezotip.cosim.pad_model import MODELS_DIR; print((MODELS_DIR / 'scene_grasp.xml').is_file())"
     )
     out = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, cwd=tmp_path, check=True).stdout
     assert out.strip() == "True"

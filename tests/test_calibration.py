@@ -169,7 +169,7 @@ def test_drift_under_load_reads_as_load():
     unit = SensorUnit(UnitConfig("typical", 1, "full"), TIP)
     el = unit.physical.fingertip_at(25.0).element
     mode, p = 2, 2000.0
-    from piezotip.sensor.channel import mode_tables
+    from piezotip.sensor.estimator import mode_tables
 
     inverse = mode_tables(unit.model, mode, False)[1]
     p0 = inverse.pressure(float(abs(unit.reading(mode, p, 25.0))))

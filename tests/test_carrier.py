@@ -9,7 +9,7 @@ from scipy.integrate import solve_ivp
 
 from piezotip.sensor import SensorElement
 from piezotip.sensor.carrier import CarrierResonator
-from piezotip.sensor.readout import envelope_rate, steady_envelope
+from piezotip.sensor.resonator import envelope_rate, steady_envelope
 
 EL = SensorElement().with_quality_factor(70)
 RHO_A = EL.params.mass_per_length_kg_m

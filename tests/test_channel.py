@@ -8,7 +8,7 @@ from numpy.testing import assert_allclose
 
 from piezotip.sensor import Fingertip, SensorElement
 from piezotip.sensor.channel import SensorChannel
-from piezotip.sensor.readout import envelope_rate, envelope_step, steady_envelope
+from piezotip.sensor.resonator import envelope_rate, envelope_step, steady_envelope
 
 
 @pytest.fixture(scope="module")
@@ -137,7 +137,7 @@ def test_bad_profiles_raise(tip):
 def test_mode_tables_are_built_once_per_fingertip_mode_and_gel_evaluation():
     from piezotip import scenarios
     from piezotip.cosim.loop import make_fingertip
-    from piezotip.sensor.channel import mode_tables
+    from piezotip.sensor.estimator import mode_tables
 
     tip = make_fingertip(scenarios.get("grasp"))
     table, inverse = mode_tables(tip, 2, exact=False)

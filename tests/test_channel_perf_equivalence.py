@@ -24,26 +24,17 @@ from numpy.testing import assert_allclose
 
 from piezotip import scenarios
 from piezotip.cosim.loop import CoSimulation
-from piezotip.cosim.pads import PadBridge, PadGeometry, _GelTable, build_model
+from piezotip.cosim.pad_bridge import PadBridge, _GelTable
+from piezotip.cosim.pad_geometry import PadGeometry
+from piezotip.cosim.pad_kernels import UniformPairTable
+from piezotip.cosim.pad_model import build_model
 from piezotip.cosim.recorder import Recorder
 from piezotip.sensor import Fingertip, SensorElement
-from piezotip.sensor.channel import (
-    _SETTLE_TAUS,
-    _TABLE_P,
-    Estimate,
-    FoundationTable,
-    Reading,
-    SensorChannel,
-    _estimate,
-    _interp,
-    _rate,
-    _reading,
-    _steady,
-    _step,
-)
+from piezotip.sensor.channel import SensorChannel
+from piezotip.sensor.estimator import _TABLE_P, Estimate, FoundationTable, _estimate
 from piezotip.sensor.gel import GelModel
-from piezotip.sensor.lookup import UniformPairTable
-from piezotip.sensor.readout import envelope_rate, envelope_step, steady_envelope
+from piezotip.sensor.lookup import interp as _interp
+from piezotip.sensor.resonator import _SETTLE_TAUS, Reading, _rate, _reading, _steady, _step, envelope_rate, envelope_step, steady_envelope
 
 RTOL = 1e-12
 

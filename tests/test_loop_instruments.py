@@ -8,6 +8,7 @@ import pytest
 from piezotip import scenarios
 from piezotip.cosim import loop
 from piezotip.cosim.loop import STAGE_METHODS, CoSimulation
+from piezotip.cosim.rows import TRUTH_COLUMNS
 
 STEPS = 120
 
@@ -68,7 +69,7 @@ def test_sensors_once_a_period_record_what_every_substep_would(config, monkeypat
     every = CoSimulation(config)
     rows_every = [every.advance() for _ in range(STEPS)]
     assert rows_once == rows_every
-    truth = [once.columns.index(c) for c in loop.TRUTH_COLUMNS]
+    truth = [once.columns.index(c) for c in TRUTH_COLUMNS]
     assert any(row[i] != 0.0 for row in rows_once for i in truth)  # the sensors did read something
 
 

@@ -11,7 +11,7 @@ import pytest
 
 from piezotip import scenarios
 from piezotip.analysis import experiment, run_report
-from piezotip.analysis.sweep import point_row, touch_sense
+from piezotip.analysis.sweep_rows import point_row, touch_sense
 from piezotip.cosim.rows import STATUS_CODES
 
 STEPS = 120  # a short stretch of the grasp: the plot draws whatever is recorded

@@ -8,7 +8,8 @@ import pytest
 from numpy.testing import assert_allclose
 
 from piezotip.sensor import SensorElement
-from piezotip.sensor.readout import envelope_rate, ring_up_steady, steady_envelope
+from piezotip.sensor.readout import ring_up_steady
+from piezotip.sensor.resonator import envelope_rate, steady_envelope
 
 EL = SensorElement()
 OMEGA = EL.natural_angular_frequency(2)

@@ -29,9 +29,11 @@ import numpy as np
 import pytest
 
 import piezotip.sensor.channel as sensor_channel
-import piezotip.sensor.inference as channel_module
 from piezotip.sensor import ElementParams, Fingertip, GelModel, SensorElement
-from piezotip.sensor.channel import SensorChannel, SteadyInference, _steady
+from piezotip.sensor.channel import SensorChannel
+from piezotip.sensor.compiled import source_module
+from piezotip.sensor.inference import SteadyInference
+from piezotip.sensor.resonator import _steady
 
 DT = 0.005
 #: The oracle's detection horizon: a change counts as visible once the noise-free readings since
@@ -280,11 +282,13 @@ def test_inferred_steady_reading_scatters_as_its_stated_gain(quality_factor):
 
 def test_a_sliding_latch_would_fail_the_contract(monkeypatch):
     """The test above can fail: with the change test off (the window slides over a change like
-    the old latch did) the bug report's estimate stays "ok" on the removed load.  (On the Python
-    reference: the compiled twin reads its constants once, when imported.)"""
-    monkeypatch.setattr(sensor_channel, "SteadyInference", channel_module.PySteadyInference)
-    monkeypatch.setattr(channel_module, "CHANGE_STAT", math.inf)
-    monkeypatch.setattr(channel_module, "SUSPECT_STAT", math.inf)
-    monkeypatch.setattr(channel_module, "_SUSPECT_STAT_LONGEST", math.inf)
+    the old latch did) the bug report's estimate stays "ok" on the removed load.  (On the
+    inference's source run as Python, whose constants are its module's globals: compiled, they
+    are C constants, read once, when it is imported.)"""
+    kernel = source_module("piezotip.sensor._inference")  # the inference's source run as Python
+    monkeypatch.setattr(sensor_channel, "SteadyInference", kernel.SteadyInference)
+    monkeypatch.setattr(kernel, "CHANGE_STAT", math.inf)
+    monkeypatch.setattr(kernel, "SUSPECT_STAT", math.inf)
+    monkeypatch.setattr(kernel, "_SUSPECT_STAT_LONGEST", math.inf)
     after, _ = repro(None, 2, REPRO_PA, seed=1)
     assert any(e.status == "ok" and abs(e.pressure_pa) > 10.0 * e.uncertainty_pa for e in after)

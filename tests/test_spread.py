@@ -8,7 +8,7 @@ from scipy import integrate
 
 from piezotip import scenarios
 from piezotip.cosim.loop import CoSimulation, coverage_cells, coverage_weights
-from piezotip.cosim.pads import PadGeometry
+from piezotip.cosim.pad_geometry import PadGeometry
 from piezotip.sensor.spread import flamant_kernel, spread_weights
 
 H0 = 5e-3  # the default gel's thickness, m

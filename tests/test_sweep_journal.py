@@ -7,7 +7,9 @@ import math
 import pytest
 
 from piezotip.analysis import sweep as sweep_module
-from piezotip.analysis.sweep import grid_points, run_points
+from piezotip.analysis import sweep_cluster
+from piezotip.analysis.sweep import run_points
+from piezotip.analysis.sweep_grid import grid_points
 
 #: A short, cheap scenario: the fast preset, the grasp cut at 3 s (as tests/test_sweep.py).
 SHORT = ("duration_s=3.0",)
@@ -17,7 +19,7 @@ LOGGER = "piezotip.analysis.sweep"
 
 @pytest.fixture(autouse=True)
 def _spawned_workers_unless_started(monkeypatch):
-    monkeypatch.setattr(sweep_module, "_worker_server", False)
+    monkeypatch.setattr(sweep_cluster, "_worker_server", False)
 
 
 def _comparable(rows: list[dict]) -> list[dict]:
@@ -157,6 +159,6 @@ def test_a_point_cut_by_ctrl_c_is_not_journaled_and_the_sweep_stops(tmp_path, mo
         run_points("grasp", POINTS, "fast", out, workers=0, progress=False)
     assert calls["runs"] == 2 and len((out / "points.jsonl").read_bytes().splitlines()) == 1
     monkeypatch.undo()
-    monkeypatch.setattr(sweep_module, "_worker_server", False)
+    monkeypatch.setattr(sweep_cluster, "_worker_server", False)
     resumed = run_points("grasp", POINTS, "fast", out, workers=0, progress=False)
     assert resumed.skipped == 1 and _comparable(resumed.rows) == _comparable(whole.rows)

@@ -12,7 +12,7 @@ import pytest
 
 from piezotip import scenarios
 from piezotip.analysis.runner import run_scenario
-from piezotip.cosim.loop import STATUS_CODES
+from piezotip.cosim.rows import STATUS_CODES
 
 OK = STATUS_CODES.index("ok")
 #: A 3-sigma interval covers 99.73 % of a Gaussian error; the readout's error is not exactly

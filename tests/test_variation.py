@@ -14,7 +14,7 @@ import pytest
 from numpy.testing import assert_allclose
 
 from piezotip.sensor import ElementParams, Fingertip, GelModel, GelParams, SensorElement
-from piezotip.sensor.channel import foundation_table, mode_tables
+from piezotip.sensor.estimator import foundation_table, mode_tables
 from piezotip.sensor.gel import modulus_ratio
 from piezotip.sensor.variation import (
     PZT_YOUNGS_TC_PER_K,

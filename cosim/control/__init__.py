@@ -9,10 +9,25 @@
 - :mod:`.multimode`: :class:`MultimodeGrasp`, the fingertip-driven controller.
 - :mod:`.gentle`: :class:`GentleGrasp`, the multimode controller finding the grip that holds
   with a friction probe instead of assuming the friction.
+
+Each controller registers itself (:func:`piezotip.controllers.register`) with its config class
+(scenarios/config.py) under its ``controller.kind``: importing this package registers them.
 """
 
 from .gentle import GentleGrasp
-from .interface import Command, Controller, Event, Observation, PadSignal, RobotLimits, Why, make_command, make_observation, make_pad_signal
+from .interface import (
+    Command,
+    Controller,
+    Event,
+    Observation,
+    PadSignal,
+    RobotLimits,
+    Why,
+    make_command,
+    make_observation,
+    make_pad_signal,
+    pad_names,
+)
 from .multimode import MultimodeGrasp, grip_floor_n
 from .phases import PHASES, Phase, phase_index
 from .scripted import ScriptedGrasp
@@ -37,5 +52,6 @@ __all__ = [
     "make_command",
     "make_observation",
     "make_pad_signal",
+    "pad_names",
     "phase_index",
 ]

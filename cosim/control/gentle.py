@@ -29,8 +29,11 @@ from __future__ import annotations
 
 import math
 
+from piezotip.controllers import register
+from piezotip.scenarios.config import GentleConfig
+
 from .interface import Observation
-from .multimode import MultimodeGrasp, Stage
+from .multimode import MultimodeGrasp
 from .phases import Phase
 
 
@@ -72,9 +75,11 @@ def load_is_steady(loads: list[float], fraction: float) -> bool:
     return math.sqrt(sum((x - mean) ** 2 for x in loads) / n) <= fraction * mean
 
 
+@register("gentle", config=GentleConfig, experiment=True, senses=True)
 class GentleGrasp(MultimodeGrasp):
-    """The multimode controller with the friction probe (the module docstring); the same
-    parameters (its config's ``friction_max`` and ``probe_speed_m_s`` are the probe's)."""
+    """The multimode controller with the friction probe (the module docstring): the same
+    parameters, and the probe's (:class:`~scenarios.config.GentleConfig`: ``friction_max`` and
+    ``probe_speed_m_s``).  Built as the multimode one is (its self-test first)."""
 
     shut_check_in_transfer = True
 
@@ -90,7 +95,7 @@ class GentleGrasp(MultimodeGrasp):
         #: The grip's growth rate while the pads may slide, 1/s: by the safety factor in one
         #: plateau window, the time the load takes to show it (so the grip overshoots the one
         #: that holds by at most that factor before the probe sees the load stay).
-        self.grip_growth_per_s = math.log(c.grip_safety) / (self.plateau_steps * dt_s)
+        self.grip_growth_per_s = math.log(c.grip_safety) / (self.lift.plateau_steps * dt_s)
         #: The load lags the grip by the lift servo's time constant kv / kp: while the grip grows
         #: as e^(r t), a sliding load is 2 mu G e^(-r kv / kp).
         self._probe_lag = math.exp(-self.grip_growth_per_s * robot.lift_kv_n_s_m / robot.lift_kp_n_m)
@@ -117,20 +122,17 @@ class GentleGrasp(MultimodeGrasp):
         or the object is off the table), the grip grows by ``grip_growth_per_s`` and the
         verdict below runs; if it does not (the pads hold the object on the table), the grip
         holds and the load grows with the goal until the pads slide or the object leaves."""
-        c = self.cfg
+        c, lift = self.cfg, self.lift
         if t - self._t_phase > self.transfer_timeout_s:
             self._give_up(t, "never_lifted", f"the load transfer did not finish in {self.transfer_timeout_s:.2g} s", Phase.PLACE)
             return
         applied = max(obs.grip_force_n, 0.0)
-        self._track.append((applied, obs.lift_pos_m, self._raw_load_n))
-        if len(self._track) > self.plateau_steps:
-            self._track.pop(0)
-        n = len(self._track)
-        rising = n == self.plateau_steps and self._track[-1][1] - self._track[0][1] >= 0.5 * c.probe_speed_m_s * (n - 1) * dt_s
+        window_full = lift.record(applied, obs.lift_pos_m)
+        rising = window_full and lift.risen_m() >= 0.5 * c.probe_speed_m_s * (lift.plateau_steps - 1) * dt_s
         growth_n_s = 0.0
         if rising:
             if self.grip_n >= self.grip_cap_n:
-                self._pads_slide_at_cap(t, self._raw_load_n)
+                self._pads_slide_at_cap(t, lift.raw_load_n)
                 return
             growth_n_s = min(self.grip_growth_per_s * self.grip_n, self.grip_rate_n_s)
             self.grip_n = min(self.grip_cap_n, self.grip_n + growth_n_s * dt_s)
@@ -138,13 +140,11 @@ class GentleGrasp(MultimodeGrasp):
         # whose pads slide (2 mu G / kp), at the friction measured so far (the highest expected
         # until then): the lift keeps rising while the pads slide, and the pads slide up the
         # object at about the probe's pace, not faster.
-        speed = c.probe_speed_m_s + 2.0 * self.friction * growth_n_s / self.robot.lift_kp_n_m
-        self._goal = min(self.top_m, self._goal + speed * dt_s)
-        self.lift_target = self._goal
+        lift.climb(c.probe_speed_m_s + 2.0 * self.friction * growth_n_s / self.robot.lift_kp_n_m, dt_s)
         if not rising:
             self._span = []  # held on the table: the load grows, the grip waits
             return
-        self._span.append((applied, self._raw_load_n))
+        self._span.append((applied, lift.raw_load_n))
         elasticity, error, grip_n, load_n = probe_verdict(self._span, c.grip_safety)
         if math.isinf(error):
             return  # the grip has not grown enough over the span to tell
@@ -169,7 +169,7 @@ class GentleGrasp(MultimodeGrasp):
             # pads that stick and slip do (at milli-newton grips they chatter on the object,
             # and the friction follows the touches, not the drive).  Still sliding.
             return
-        self._carry(obs, t, sum(e[2] for e in self._track) / n, carried_from_n)
+        self._carry(obs, t, lift.window_load_n(), carried_from_n)
 
     def _carry(self, obs: Observation, t: float, weight_n: float, carried_from_n: float) -> None:
         """The load stayed while the grip grew: the object is off the table, its weight the load
@@ -183,9 +183,9 @@ class GentleGrasp(MultimodeGrasp):
         if self._over_cap(t, held_n, weight_n, carried=True):
             return
         self.grip_n = min(held_n, self.grip_cap_n)
-        self._goal = obs.lift_pos_m  # the raise feeds the sag forward from where the lift is
-        self._load_n = self._weight_n = weight_n
-        self.stage = Stage.RAISE
+        self.lift.goal_m = obs.lift_pos_m  # the raise feeds the sag forward from where the lift is
+        self.lift.load_n = self._weight_n = weight_n
+        self.raising = True
         self._start_carry(obs)
         how = f"friction {self.friction:.3g} measured while the pads slid" if self._slid else f"friction at least {self.friction:.3g}"
         self._event(t, "carried", f"load {weight_n:.3g} N stayed while the grip grew: carried; {how}; grip {self.grip_n:.3g} N")
@@ -194,20 +194,18 @@ class GentleGrasp(MultimodeGrasp):
         """The raise begins.  The fingertips' slip references are taken once the grip the probe
         has just set has settled on the pads, six load-filter time constants on (the settling
         the hold gives the lift's load): a grip lowered to the one that holds is not a slip."""
-        self._speed = 0.0
+        self.lift.speed_m_s = 0.0
         self._slip_watch_from_s = obs.time_s + 6.0 * self.cfg.load_filter_s
         self._reference_pa = {}
 
     def _raise(self, obs: Observation, t: float, dt_s: float) -> None:
-        c = self.cfg
-        self._speed = self._profile(self.top_m - self._goal, c.lift_speed_m_s, 0.0, dt_s)
-        self._goal = min(self.top_m, self._goal + self._speed * dt_s)
+        lift = self.lift
+        lift.rise(self.cfg.lift_speed_m_s, dt_s)
         # The grip stays where the probe set it (raised only by a slip): the load the lift reads
         # while it speeds up and brakes is mostly the gripper's own inertia, not the object's.
-        self.lift_target = self._servo_target(self._weight_n, self._speed)
-        moving = abs(obs.lift_vel_m_s) > 1e-3
-        if self._goal >= self.top_m and abs(obs.lift_pos_m - self.top_m) < 0.002 and not moving:
-            self._held_load_n = self._weight_n
+        lift.target_m = lift.servo_target(self._weight_n, lift.speed_m_s)
+        if lift.arrived_at_top(obs.lift_pos_m, obs.lift_vel_m_s):
+            lift.held_load_n = self._weight_n
             self._enter(Phase.HOLD, t, f"carrying {self._weight_n:.3g} N with {self.grip_n:.3g} N of grip")
 
     def _follow_load(self, t: float, dt_s: float) -> None:

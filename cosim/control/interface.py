@@ -12,8 +12,9 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Protocol, runtime_checkable
 
-from piezotip.sensor.channel import Estimate, Reading
 from piezotip.sensor.compiled import record_maker, twin
+from piezotip.sensor.estimator import Estimate
+from piezotip.sensor.resonator import Reading
 
 from .phases import Phase
 
@@ -88,7 +89,8 @@ class Event:
 
 @dataclass(frozen=True)
 class RobotLimits:
-    """The gripper's own design, read from the compiled model (never typed again).
+    """The gripper's own design, read from the compiled model (never typed again): the house
+    gripper's (cosim.scene.robot_limits) or a mounted one's (cosim.gripper_mount).
 
     Attributes
     ----------
@@ -109,6 +111,11 @@ class RobotLimits:
         object between them the fingers cannot close by more than twice this.
     home_lift_m, home_opening_m : the home targets, m.
     gravity_m_s2 : the magnitude of gravity, m/s^2.
+    finger_friction_n : the dry friction the fingers' drive must overcome to move, on the
+        opening, N (its joints' frictionloss, each times its speed per opening speed): none on
+        the house gripper; a mounted gripper's from its file (cosim/gripper_mount.py).  Like
+        ``finger_damping_n_s_m`` it is a force the fingers need to move, which a moving-force
+        guard built on the damping alone leaves out.
     """
 
     lift_kp_n_m: float
@@ -125,6 +132,7 @@ class RobotLimits:
     home_lift_m: float
     home_opening_m: float
     gravity_m_s2: float
+    finger_friction_n: float = 0.0
 
     def lift_load_n(self, target_m: float, pos_m: float, vel_m_s: float, accel_m_s2: float = 0.0) -> float:
         """The load the lift carries, N: its servo's force kp (target - q) - kv q' less the
@@ -132,9 +140,19 @@ class RobotLimits:
         return self.lift_kp_n_m * (target_m - pos_m) - self.lift_kv_n_s_m * vel_m_s - self.lift_moving_mass_kg * accel_m_s2
 
 
+def pad_names(sensor_pads: tuple[str, ...]) -> tuple[str, ...]:
+    """The instrumented pads' names as observations key them (``sensor.pads`` "left" -> "left_pad")."""
+    return tuple(f"{pad}_pad" for pad in sensor_pads)
+
+
 @runtime_checkable
 class Controller(Protocol):
-    """What the co-simulation loop calls, once per control period."""
+    """What the co-simulation loop calls, once per control period.
+
+    A registered controller class (:func:`piezotip.controllers.register`) is also built by the
+    loop with ``from_scenario(config, robot, fingertip)``: the scenario's whole config (its own in
+    ``config.controller``), the robot's :class:`RobotLimits` and the fingertip model the readout
+    is calibrated with."""
 
     phase: Phase
     events: list[Event]

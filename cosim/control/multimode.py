@@ -2,8 +2,8 @@
 
 It reads only the fingertip readouts and the robot's own joints (:class:`Observation`) and
 knows only the robot's design (:class:`RobotLimits`); every number it uses is a field of
-:class:`~scenarios.config.ControllerConfig` with its derivation, or derived here from the
-fingertip's ranges and the robot's limits.
+:class:`~scenarios.config.MultimodeConfig` with its derivation, or derived here from the
+fingertip's ranges and the robot's limits.  Registered as ``controller.kind=multimode``.
 
 Phases (:class:`Phase`), one method each::
 
@@ -41,21 +41,26 @@ reading a load, is a loss.  Give-ups (``no_object``, ``unfelt_contact``, ``never
 ``lost``) and faults (``self_test``, ``out_of_range``) are events with their time and reason;
 after a give-up the controller puts down what it still holds and opens, instead of running out
 the clock.
+
+The phases decide; the lift's side of them (its goal and speed profile, the servo's target with
+the sag fed forward, the load it reads, the plateau window, the held load's bookkeeping) is
+:class:`~.lift.LiftPlan`'s, in lift.py, with the grip that follows the load.
 """
 
 from __future__ import annotations
 
 import math
-from enum import Enum
 from operator import attrgetter
 
 import numpy as np
 
-from piezotip.scenarios.config import ControllerConfig
+from piezotip.controllers import register
+from piezotip.scenarios.config import MultimodeConfig, ScenarioConfig
 from piezotip.sensor import Fingertip
 from piezotip.sensor.cache import disk_cached
 
-from .interface import Command, Event, Observation, RobotLimits, Why, make_command
+from .interface import Command, Event, Observation, RobotLimits, Why, make_command, pad_names
+from .lift import LiftPlan, grip_for_load_n, ratchet_grip_n
 from .phases import FINISHED, Phase
 from .selector import ModeSelector, TouchDetector
 
@@ -107,28 +112,32 @@ def resolved_floor_pa(fingertip: Fingertip, mode: int, resolved_fraction: float 
     return float(numbers["floor_pa"])
 
 
-class Stage(Enum):
-    """The lift's stages (see the module docstring)."""
-
-    TRANSFER = "transfer"
-    CHECK = "friction check"
-    RAISE = "raise"
-
-
-#: The members the per-step path compares with, as module globals: on Python 3.11 reading a
-#: member through its class passes EnumType's __getattr__ hook (0.1 us, as long as the rest of
-#: a comparison ten times over).
-_FAULT, _LIFT, _RAISE = Phase.FAULT, Phase.LIFT, Stage.RAISE
-
 _EMPTY = attrgetter("empty")  # all(map(_EMPTY, ...)): no generator made and closed each step
 
 
+def element_self_test(config: ScenarioConfig, fingertip: Fingertip) -> str | None:
+    """None if the element of ``config``'s scenario passes its start-up self-test in the
+    controller's modes, else the self-test's message: the element as built (its unit, as warm as
+    it is, and its injected damage), not the model the readout is calibrated with (``fingertip``)."""
+    from piezotip.cosim.loop import make_unit
+    from piezotip.sensor.selftest import damaged, self_test
+
+    s = config.sensor
+    unit = make_unit(config)
+    element = unit.physical.fingertip_at(s.temperature_c).element if unit is not None else fingertip.element
+    physical = damaged(element, s.damage_stiffness, s.damage_coupling, s.damage_damping)
+    modes = config.controller.modes
+    report = self_test(physical, healthy=fingertip.element, modes=modes, noise=fingertip.noise, rng=np.random.default_rng(s.seed))
+    return None if report.passed else report.message
+
+
+@register("multimode", config=MultimodeConfig, experiment=True, senses=True)
 class MultimodeGrasp:
     """The multimode grasp controller (module docstring).
 
     Parameters
     ----------
-    config : ControllerConfig (``modes`` restricts the modes: ``[1]`` is a single-mode baseline).
+    config : MultimodeConfig (``modes`` restricts the modes: ``[1]`` is a single-mode baseline).
     robot : the gripper's limits and home targets, read from the model.
     pads : instrumented pad names.
     fingertip : the fingertip model the readout is calibrated with.
@@ -142,9 +151,15 @@ class MultimodeGrasp:
     #: closes fingers that hold nothing.
     shut_check_in_transfer = False
 
+    @classmethod
+    def from_scenario(cls, config: ScenarioConfig, robot: RobotLimits, fingertip: Fingertip) -> MultimodeGrasp:
+        """The controller of ``config``'s scenario, after the element's self-test (:func:`element_self_test`)."""
+        message = element_self_test(config, fingertip)
+        return cls(config.controller, robot, pad_names(config.sensor.pads), fingertip, message, config.physics.control_period_s)
+
     def __init__(
         self,
-        config: ControllerConfig,
+        config: MultimodeConfig,
         robot: RobotLimits,
         pads: tuple[str, ...],
         fingertip: Fingertip,
@@ -174,11 +189,14 @@ class MultimodeGrasp:
         self.grip_floor_n = min(self.grip_floor_n, self.grip_cap_n)
         #: Grip ramp rate, N/s: by default the finger drive's whole force range in one second.
         self.grip_rate_n_s = c.grip_rate_n_s if c.grip_rate_n_s is not None else robot.finger_force_limit_n
-        #: The fingers' force limit while they move freely: what their drive's damping needs at
-        #: the commanded speed, x 1.5 (a guard: a touch before it is detected meets no more).
-        moving = c.drive_margin * robot.finger_damping_n_s_m * c.closing_speed_m_s
+        #: The fingers' force limit while they move freely: what their drive's damping and its
+        #: joints' dry friction need at the commanded speed, x 1.5 (a guard: a touch before it is
+        #: detected meets no more; the house gripper's joints have no friction, a mounted one's
+        #: may: without it robosuite's fingers closed at half pace and the grasp gave up).
+        moving = c.drive_margin * (robot.finger_damping_n_s_m * c.closing_speed_m_s + robot.finger_friction_n)
         self.moving_force_n = min(robot.finger_force_limit_n, max(self.grip_floor_n, moving))
-        self.opening_force_n = min(robot.finger_force_limit_n, c.drive_margin * robot.finger_damping_n_s_m * c.opening_speed_m_s)
+        opening = c.drive_margin * (robot.finger_damping_n_s_m * c.opening_speed_m_s + robot.finger_friction_n)
+        self.opening_force_n = min(robot.finger_force_limit_n, opening)
         #: The fingers' acceleration, m/s^2: the element feels its own pad's inertia (rho h0 a
         #: on its face), so they speed up slowly enough that it stays under half the lowest
         #: mode's detection limit, unseen (a faster start reads as a touch).
@@ -190,14 +208,18 @@ class MultimodeGrasp:
         self._free_drive_n: float | None = None
         self._joints_felt_touch = False  # the last touch was the joints', not the fingertips'
         self._last_drive_n = math.nan
-        #: Share of a load change the lift's own acceleration explains (load = m (g + a)).
-        self.load_noise_fraction = c.lift_accel_m_s2 / robot.gravity_m_s2
         #: The load transfer gives up after twice the time the grip needs to ramp to its cap
         #: and the goal to rise by the lift height at lift speed.
         self.transfer_timeout_s = 2.0 * (self.grip_cap_n / self.grip_rate_n_s + c.lift_height_m / c.lift_speed_m_s)
-        self.top_m = robot.home_lift_m + c.lift_height_m
+        #: The lift's goal, speed, servo target and load (lift.py); the phases here say when it moves.
+        self.lift = LiftPlan(robot, robot.home_lift_m + c.lift_height_m, c.lift_accel_m_s2, c.load_filter_s, dt_s)
         self.phase = Phase.APPROACH
-        self.stage = Stage.TRANSFER
+        #: The lift's stage: False while the weight moves onto the pads (the transfer and its
+        #: friction checks), True once the object is carried and raised.  A bool, as ``faulted``
+        #: is: the per-step path tests them instead of comparing enum members, which on Python
+        #: 3.11 pass EnumType's __getattr__ hook (0.1 us, ten times the rest of a comparison).
+        self.raising = False
+        self.faulted = False  # the phase is FAULT (set by _fault alone, which nothing leaves)
         self.events: list[Event] = []
         self.gave_up: str | None = None
         self.touch_time_s = math.nan
@@ -205,33 +227,14 @@ class MultimodeGrasp:
         self._sliding_ratio = c.friction_assumed
         self._t_phase = 0.0
         self.opening_target = robot.home_opening_m
-        self.lift_target = robot.home_lift_m
         self.grip_n = self.moving_force_n
-        self._goal = robot.home_lift_m
-        self._speed = 0.0
-        self._last_vel = 0.0
-        self._load_n = 0.0  # low-passed load, N
-        self._raw_load_n = 0.0
-        self._baseline_n = 0.0
-        self._held_load_n = 0.0
-        # (goal, lift position, raw load) over the last plateau window, to tell a lift that
-        # follows its goal (the object airborne, or the pads sliding) from one held back by the
-        # object, and to average the load over the same window.
-        self._track: list[tuple[float, float, float]] = []
-        #: The plateau window: two of the lift servo's time constants kv / kp, so a lift that
-        #: lags its goal is not taken for one that cannot follow it.
-        self.plateau_steps = max(3, math.ceil(2.0 * robot.lift_kv_n_s_m / robot.lift_kp_n_m / dt_s))
         self._check: tuple[float, float, float] | None = None  # (t0, G0, L0)
         self._check_pace = 0.0
         self._reference_pa: dict[str, float] = {}
         self._empty_s = 0.0
         self._shut_s = 0.0  # how long the fingers have been shut past the object, no fingertip reading it
-        self._table_steps = 0
         self._last_slip_s = -math.inf
-        self._low_steps = 0
-        self._low_sum_n = 0.0  # the low readings' sum, N (_hold)
         self._width_m = math.nan
-        self._steady_steps = 0
         self._saturated_logged: set[str] = set()
         self._unfelt_opening_m: float | None = None  # the opening at the last false touch felt by no fingertip
         self._last_opening_m = math.inf  # the fingers' opening at the last closing step, m
@@ -254,7 +257,7 @@ class MultimodeGrasp:
 
     def _fault(self, t: float, pad: str, kind: str, message: str) -> None:
         self._event(t, kind, message, pad)
-        self.phase = Phase.FAULT
+        self.phase, self.faulted = Phase.FAULT, True
         self.gave_up = self.gave_up or kind
 
     def _give_up(self, t: float, kind: str, message: str, then: Phase) -> None:
@@ -273,16 +276,14 @@ class MultimodeGrasp:
         t = obs.time_s
         self.dt_s = dt_s
         modes, reasons = self._read_fingertips(obs, t)
-        if self.phase is _FAULT:
+        lift = self.lift
+        if self.faulted:
             # Refused or faulted: hold still with the fingers open (nothing was grasped) or
             # as they are, never squeezing.
-            return make_command(self.lift_target, self.opening_target, self.opening_force_n, modes, self.phase, self.events[-1].message)
-        accel = (obs.lift_vel_m_s - self._last_vel) / dt_s
-        self._last_vel = obs.lift_vel_m_s
-        self._raw_load_n = self.robot.lift_load_n(self.lift_target, obs.lift_pos_m, obs.lift_vel_m_s, accel) - self._baseline_n
-        self._load_n += (self._raw_load_n - self._load_n) * min(1.0, dt_s / self.cfg.load_filter_s)
+            return make_command(lift.target_m, self.opening_target, self.opening_force_n, modes, self.phase, self.events[-1].message)
+        lift.read_load(obs.lift_pos_m, obs.lift_vel_m_s, dt_s)
         _HANDLERS[self.phase](self, obs, t, dt_s)
-        return make_command(self.lift_target, self.opening_target, self.grip_n, modes, self.phase, Why.join(reasons))
+        return make_command(lift.target_m, self.opening_target, self.grip_n, modes, self.phase, Why.join(reasons))
 
     def _read_fingertips(self, obs: Observation, t: float) -> tuple[dict[str, int], list]:
         """Check each reading's range and choose each fingertip's next mode."""
@@ -291,7 +292,7 @@ class MultimodeGrasp:
             sel, low, high = self._reading_bounds[pad]
             reading = sig.reading
             v1 = reading.v1
-            if not (low <= v1 <= high) and self.phase is not _FAULT:
+            if not (low <= v1 <= high) and not self.faulted:
                 bound = self.cfg.out_of_range_sigma
                 self._fault(t, pad, "out_of_range", f"{pad}: reading {v1!r} outside [0, 1] by more than {bound:g} sigma")
             mode, why = sel.update(sig.estimate)
@@ -409,9 +410,7 @@ class MultimodeGrasp:
             self._event(t, "false_touch", f"{', '.join(empty)} read no pressure at the grip floor: closing on")
             self._enter(Phase.CLOSE, t)
             return
-        self._baseline_n = self._raw_load_n + self._baseline_n  # what the lift carries before lifting
-        self._load_n = self._raw_load_n = 0.0
-        self._goal = self.lift_target
+        self.lift.tare()  # what the lift carries before lifting is not the object's
         self._enter(Phase.LIFT, t, self._lift_message())
 
     def _lift_message(self) -> str:
@@ -419,16 +418,18 @@ class MultimodeGrasp:
         return f"grip {self.grip_n:.3g} N, assumed friction {self.friction:g}"
 
     def _lift(self, obs: Observation, t: float, dt_s: float) -> None:
-        if self._carried_checks(obs, t):
+        raising = self.raising
+        if self._carried_checks(obs, t, raising):
             return
-        if self.stage is _RAISE:
+        if raising:
             self._raise(obs, t, dt_s)
         else:
             self._transfer(obs, t, dt_s)
 
     def _transfer(self, obs: Observation, t: float, dt_s: float) -> None:
         """Move the weight onto the pads: the goal rises only as far as the grip carries."""
-        c, load = self.cfg, max(self._raw_load_n, 0.0)
+        c, lift = self.cfg, self.lift
+        load = max(lift.raw_load_n, 0.0)
         if t - self._t_phase > self.transfer_timeout_s:
             self._give_up(t, "never_lifted", f"the load transfer did not finish in {self.transfer_timeout_s:.2g} s", Phase.PLACE)
             return
@@ -438,34 +439,30 @@ class MultimodeGrasp:
         # follow the grip, at the load-to-grip ratio seen then: while the pads slide that ratio
         # is the friction, and the grip grows until the pads hold.  (Where MuJoCo's soft
         # friction crept at a tiny grip the ratio is low, and the grip carries more margin.)
-        wanted = max(self.grip_floor_n, c.grip_safety * load / (2.0 * self._sliding_ratio))
+        wanted = grip_for_load_n(load, self._sliding_ratio, c.grip_safety, self.grip_floor_n)
         if self._check is not None:
             wanted = max(wanted, c.grip_safety * self._check[1])
-        self._ratchet_grip(min(wanted, self.grip_cap_n), dt_s)
+        self.grip_n = ratchet_grip_n(self.grip_n, wanted, self.grip_cap_n, self.grip_rate_n_s, dt_s)
         # The goal rises at the speed at which the load it adds on a held object (kp per metre)
         # needs grip no faster than the grip can rise, and only while the grip the fingers
         # apply (their drive lags the command) can carry the load at the friction assumed.
         applied = max(obs.grip_force_n, 0.0)
         carry = 2.0 * self.friction * applied - load
-        speed = min(c.lift_speed_m_s, self.grip_rate_n_s * 2.0 * self.friction / (c.grip_safety * self.robot.lift_kp_n_m))
-        self._goal = min(self.top_m, self._goal + (speed * dt_s if carry > 0 else 0.0))
-        self.lift_target = self._goal
+        speed = lift.transfer_speed_m_s(c.lift_speed_m_s, self.grip_rate_n_s, self.friction, c.grip_safety)
+        lift.climb(speed if carry > 0 else 0.0, dt_s)
         # While the pads hold the object on the table the lift cannot follow its goal (the
         # load grows by kp per metre of goal instead); a lift that follows it carries the
         # object in the air, or its pads slide up the object at the friction limit.
-        self._track.append((self._goal, obs.lift_pos_m, self._raw_load_n))
-        if len(self._track) > self.plateau_steps:
-            self._track.pop(0)
-        follows = len(self._track) == self.plateau_steps and self._follows()
+        follows = lift.record(lift.goal_m, obs.lift_pos_m) and lift.follows()
         if self._check is None:
             if follows and applied > 0.0:
-                self._check = (t, applied, self._window_load_n())
-                self._check_pace = self._pace()
+                self._check = (t, applied, lift.window_load_n())
+                self._check_pace = lift.pace()
             return
         t0, g0, l0 = self._check
         grip_gain = applied / g0 - 1.0
         risen = grip_gain >= 0.5 * (c.grip_safety - 1.0) or self.grip_n >= self.grip_cap_n
-        window_load = self._window_load_n()
+        window_load = lift.window_load_n()
         if risen and window_load > l0 * (1.0 + 0.5 * grip_gain):
             # The load grew with the grip: the object still rests on the table, held or
             # sliding.  The grip keeps the raise (a ratchet), so every check that finds the
@@ -476,34 +473,14 @@ class MultimodeGrasp:
             if self._check_pace >= self.cfg.sliding_pace:
                 self._sliding_ratio = min(self._sliding_ratio, max(l0, 1e-12) / (2.0 * g0))
             self._check = None
-            self._track.clear()
+            lift.window.clear()
             if self.grip_n >= self.grip_cap_n:
                 self._pads_slide_at_cap(t, l0)
         elif risen and t - t0 >= self._check_window_s(g0) and follows and window_load >= self.robot.min_load_n:
             self._check = None
-            self.stage = Stage.RAISE
+            self.raising = True
             self._start_carry(obs)
             self._event(t, "carried", f"load {load:.3g} N does not follow the grip ({g0:.3g} -> {applied:.3g} N): the object is carried")
-
-    def _window_load_n(self) -> float:
-        """The raw load averaged over the plateau window, N.
-
-        The friction check compares loads over the window in which the lift followed its goal,
-        so a load taken on before that window (at lift-off) is wholly in the first average; a
-        low-pass would still be rising toward it and read its own rise as the load following
-        the grip (the 50 ms filter has caught only 70 % of a step after the 60 ms window).
-        Averaged over the window, because sliding pads stick and slip and one reading of a
-        small load is mostly that noise."""
-        return sum(entry[2] for entry in self._track) / len(self._track)
-
-    def _pace(self) -> float:
-        """How far the lift moved over the plateau window, as a share of how far its goal did."""
-        (g0, q0, _), (g1, q1, _) = self._track[0], self._track[-1]
-        return (q1 - q0) / (g1 - g0) if g1 - g0 > 1e-7 else 0.0
-
-    def _follows(self) -> bool:
-        """The lift has moved by at least half as much as its goal over the plateau window."""
-        return self._pace() > 0.5
 
     def _check_window_s(self, g0: float) -> float:
         """How long the friction check waits: the grip's ramp by the safety factor, then three of
@@ -512,23 +489,22 @@ class MultimodeGrasp:
         return ramp + 3.0 * self.robot.lift_kv_n_s_m / self.robot.lift_kp_n_m
 
     def _start_carry(self, obs: Observation) -> None:
-        self._speed = 0.0
+        self.lift.speed_m_s = 0.0
         self._reference_pa = {pad: sel.estimate_pa for pad, sel in self.selectors.items() if sel.status == "ok"}
 
     def _raise(self, obs: Observation, t: float, dt_s: float) -> None:
-        c = self.cfg
-        self._speed = self._profile(self.top_m - self._goal, c.lift_speed_m_s, 0.0, dt_s)
-        self._goal = min(self.top_m, self._goal + self._speed * dt_s)
+        lift = self.lift
+        lift.rise(self.cfg.lift_speed_m_s, dt_s)
         self._follow_load(t, dt_s)
-        self.lift_target = self._servo_target(self._load_n, self._speed)
-        moving = abs(obs.lift_vel_m_s) > 1e-3
-        if self._goal >= self.top_m and abs(obs.lift_pos_m - self.top_m) < 0.002 and not moving:
-            self._held_load_n = self._load_n
-            self._enter(Phase.HOLD, t, f"carrying {self._load_n:.3g} N with {self.grip_n:.3g} N of grip")
+        lift.target_m = lift.servo_target(lift.load_n, lift.speed_m_s)
+        if lift.arrived_at_top(obs.lift_pos_m, obs.lift_vel_m_s):
+            lift.held_load_n = lift.load_n
+            self._enter(Phase.HOLD, t, f"carrying {lift.load_n:.3g} N with {self.grip_n:.3g} N of grip")
 
     def _hold(self, obs: Observation, t: float, dt_s: float) -> None:
-        self._speed = 0.0
-        if self._carried_checks(obs, t):
+        lift = self.lift
+        lift.speed_m_s = 0.0
+        if self._carried_checks(obs, t, True):
             return
         self._follow_load(t, dt_s)
         # The lift has stopped and its filtered load forgotten the braking after six filter time
@@ -538,55 +514,42 @@ class MultimodeGrasp:
         # load takes to show the answer).
         settle = 6.0 * self.cfg.load_filter_s
         if t - self._t_phase < settle:
-            self._held_load_n = self._load_n
-        elif self._load_n < self.cfg.table_load_fraction * self._held_load_n:
-            held = self._held_load_n
-            self._give_up(t, "lost", f"the lift's load fell to {self._load_n:.3g} N of the {held:.3g} N held", Phase.RELEASE)
+            lift.held_load_n = lift.load_n
+        elif lift.load_n < self.cfg.table_load_fraction * lift.held_load_n:
+            held = lift.held_load_n
+            self._give_up(t, "lost", f"the lift's load fell to {lift.load_n:.3g} N of the {held:.3g} N held", Phase.RELEASE)
             return
         else:
-            # Stationary, the raw load is clean (the filter would cost 50 ms of sliding); two
-            # readings in a row below the held load by more than the lift's acceleration explains.
-            low = self._raw_load_n < (1.0 - 2.0 * self.load_noise_fraction) * self._held_load_n
-            self._low_steps = self._low_steps + 1 if low else 0
-            self._low_sum_n = self._low_sum_n + self._raw_load_n if low else 0.0
-            if self._low_steps >= 2 and t - self._last_slip_s >= settle:
+            sliding_n = lift.read_sliding_load_n()
+            if sliding_n is not None and t - self._last_slip_s >= settle:
                 # Sliding, the pads carry their friction limit 2 mu G: the held weight over it is
-                # the grip the weight needs, over the grip there is.  The limit is the mean of the
-                # low readings: single readings of a slide just begun scatter widely (stick-slip,
-                # the lift recoiling: 0.23 then 0.80 N where the limit was 0.67 N), and the last
-                # one alone left a box whose friction fell to 0.3 sliding at 4 % over its weight.
-                sliding_n = self._low_sum_n / self._low_steps
-                deficit = self._held_load_n / max(sliding_n, 1e-9 * self._held_load_n)
-                self._slip(t, f"the lift's load fell to {sliding_n:.3g} N from {self._held_load_n:.3g} N", deficit)
-        self.lift_target = self._servo_target(self._held_load_n, 0.0)
+                # the grip the weight needs, over the grip there is.
+                held = lift.held_load_n
+                deficit = held / max(sliding_n, 1e-9 * held)
+                self._slip(t, f"the lift's load fell to {sliding_n:.3g} N from {held:.3g} N", deficit)
+        lift.target_m = lift.servo_target(lift.held_load_n, 0.0)
         if t - self._t_phase >= self.cfg.hold_s:
             self._enter(Phase.PLACE, t)
 
     def _place(self, obs: Observation, t: float, dt_s: float) -> None:
-        c = self.cfg
-        if self.gave_up is None and self._carried_checks(obs, t):
+        c, lift = self.cfg, self.lift
+        if self.gave_up is None and self._carried_checks(obs, t, True):
             return
         touchdown = self.robot.home_lift_m
         # Full speed, braking at the lift's acceleration to the touchdown speed by
         # ``touchdown_margin_m`` above where the object rested, then the touchdown speed.
-        distance = self._goal - touchdown - c.touchdown_margin_m
-        self._speed = self._profile(distance, c.lift_speed_m_s, c.touchdown_speed_m_s, dt_s)
-        self._goal -= self._speed * dt_s
-        self.lift_target = self._servo_target(self._held_load_n, -self._speed)
-        # The load is judged only at the steady touchdown speed: while the lift brakes, the
-        # gripper's own inertia (it is far heavier than a light object) blurs it.
-        self._steady_steps = self._steady_steps + 1 if self._speed == c.touchdown_speed_m_s else 0
-        on_table = self._steady_steps >= self.plateau_steps and self._raw_load_n < c.table_load_fraction * self._held_load_n
-        self._table_steps = self._table_steps + 1 if on_table else 0
+        lift.lower(lift.goal_m - touchdown - c.touchdown_margin_m, c.lift_speed_m_s, c.touchdown_speed_m_s, dt_s)
+        lift.target_m = lift.servo_target(lift.held_load_n, -lift.speed_m_s)
+        table_has_weight = lift.table_took_weight(c.touchdown_speed_m_s, c.table_load_fraction)
         below = obs.lift_pos_m < touchdown - c.touchdown_margin_m
         # Nothing carried (a give-up during the transfer): back down to where the lift was.
-        home = self._held_load_n < self.robot.min_load_n and obs.lift_pos_m <= touchdown + 1e-4
-        if self._table_steps >= 2 or below or home:
+        home = lift.held_load_n < self.robot.min_load_n and obs.lift_pos_m <= touchdown + 1e-4
+        if table_has_weight or below or home:
             # Stop where the lift is: its servo carries nothing more, the table the rest.
-            self._goal = self.lift_target = obs.lift_pos_m
+            lift.goal_m = lift.target_m = obs.lift_pos_m
             why = (
-                f"load {self._raw_load_n:.3g} N of {self._held_load_n:.3g} N: the table has the weight"
-                if self._table_steps >= 2
+                f"load {lift.raw_load_n:.3g} N of {lift.held_load_n:.3g} N: the table has the weight"
+                if table_has_weight
                 else "the lift is back where the object rested"
                 if home
                 else "the lift is below where the object rested"
@@ -622,31 +585,13 @@ class MultimodeGrasp:
 
     # -- shared by the carried phases -------------------------------------------------
 
-    def _profile(self, distance_m: float, top_speed: float, end_speed: float, dt_s: float) -> float:
-        """The next speed of a trapezoidal move, m/s: up at the lift's acceleration to
-        ``top_speed``, braking so as to reach ``end_speed`` after ``distance_m`` (then holding
-        it; 0 stops there).  Speed steps would load the pads with m a."""
-        a = self.cfg.lift_accel_m_s2
-        allowed = math.sqrt(end_speed * end_speed + 2.0 * a * max(distance_m, 0.0))
-        wanted = min(top_speed, allowed)
-        if end_speed == 0.0 and distance_m <= 0.0:
-            return 0.0
-        return min(wanted, self._speed + a * dt_s) if self._speed < wanted else max(wanted, self._speed - a * dt_s)
-
-    def _servo_target(self, load_n: float, speed_m_s: float) -> float:
-        """The lift target that puts the lift on its goal: the servo sags by load / kp under the
-        object and lags by kv v / kp in motion (the robot knows its gains), both fed forward."""
-        return self._goal + (load_n + self.robot.lift_kv_n_s_m * speed_m_s) / self.robot.lift_kp_n_m
-
-    def _ratchet_grip(self, wanted: float, dt_s: float) -> None:
-        """Grip toward ``wanted`` at the grip rate, never down while carrying, never over the cap."""
-        target = min(wanted, self.grip_cap_n)
-        self.grip_n = max(self.grip_n, min(target, self.grip_n + self.grip_rate_n_s * dt_s))
-
     def _follow_load(self, t: float, dt_s: float) -> None:
-        wanted = max(self.grip_floor_n, self.cfg.grip_safety * max(self._load_n, 0.0) / (2.0 * self.friction))
-        if not self._over_cap(t, wanted, self._load_n, carried=True):
-            self._ratchet_grip(wanted, dt_s)
+        """The grip follows the lift's filtered load at the friction (:func:`~.lift.grip_for_load_n`),
+        never down; a load that needs more than the cap is a give-up (:meth:`_over_cap`)."""
+        load_n = self.lift.load_n
+        wanted = grip_for_load_n(load_n, self.friction, self.cfg.grip_safety, self.grip_floor_n)
+        if not self._over_cap(t, wanted, load_n, carried=True):
+            self.grip_n = ratchet_grip_n(self.grip_n, wanted, self.grip_cap_n, self.grip_rate_n_s, dt_s)
 
     def _pads_slide_at_cap(self, t: float, load_n: float) -> None:
         """Give up: the pads slide at ``load_n`` N of load with the grip at its cap (``blind``
@@ -673,8 +618,9 @@ class MultimodeGrasp:
             self._give_up(t, kind, f"load {load:.3g} N needs {wanted:.3g} N of grip; the gripper allows {self.max_grip_n:.3g} N", then)
         return True
 
-    def _carried_checks(self, obs: Observation, t: float) -> bool:
-        """Loss and fingertip slip while the object may be off the table; True if the phase ended."""
+    def _carried_checks(self, obs: Observation, t: float, carried: bool) -> bool:
+        """Loss and fingertip slip while the object may be off the table (``carried``: raised, held
+        or placed; else still moving onto the pads); True if the phase ended."""
         phase = self.phase
         # Proprioception, unless the fingertips contradict it: with the object between them the
         # fingers close at most to its width less the two pads' travel (under a grip near the
@@ -683,7 +629,6 @@ class MultimodeGrasp:
         # fingertips' own loss: a fingertip "settling" (just after a mode switch, or a load
         # step) is not one reading empty, and both can settle at once while a high grip has the
         # fingers a millimetre past that width (seen at 25 N and 62 N); an object gone stays gone.
-        carried = self.phase is not _LIFT or self.stage is _RAISE
         shut_m = self._width_m - 2.0 * self.robot.pad_travel_m - obs.opening_m
         watched = carried or self.shut_check_in_transfer
         if watched and shut_m > 0 and not any(sel.trusted and sel.status == "ok" for sel in self.selectors.values()):
@@ -702,11 +647,14 @@ class MultimodeGrasp:
                 return True
         else:
             self._empty_s = 0.0
-        if self.phase is _LIFT and self.stage is not _RAISE:
+        if not carried:
             return False
-        if t < self._slip_watch_from_s:
-            # The grip is still settling on the pads (a subclass lowers it as the raise begins):
-            # the pressures it brings are no slip's reference yet.
+        if t < self._slip_watch_from_s or t - self._last_slip_s < 6.0 * self.cfg.load_filter_s:
+            # The grip is still settling on the pads (a subclass lowers it as the raise begins, a
+            # slip's answer raises it): the pressures it brings are no slip's reference yet.  A
+            # slip is answered at most once per six load-filter time constants, the time the
+            # load check gives an answer to show (the fingertips see it sooner, but a raised
+            # grip rings in the fingers, and a ring's trough is no slip: tests/test_slip_answers.py).
             self._reference_pa = {}
             return False
         for pad, sel in self.selectors.items():
@@ -733,7 +681,7 @@ class MultimodeGrasp:
         factor the load fell short by), within the cap."""
         self._last_slip_s = t
         wanted = self.grip_n * self.cfg.grip_safety * max(deficit, 1.0)
-        if self._over_cap(t, wanted, self._load_n, carried=True):
+        if self._over_cap(t, wanted, self.lift.load_n, carried=True):
             return
         self._event(t, "slip", f"{why}: grip {self.grip_n:.3g} -> {min(wanted, self.grip_cap_n):.3g} N")
         self.grip_n = min(wanted, self.grip_cap_n)

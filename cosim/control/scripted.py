@@ -2,12 +2,15 @@
 
 from __future__ import annotations
 
-from piezotip.scenarios.config import ControllerConfig
+from piezotip.controllers import register
+from piezotip.scenarios.config import ScenarioConfig, ScriptedConfig
+from piezotip.sensor import Fingertip
 
-from .interface import Command, Event, Observation, RobotLimits
+from .interface import Command, Event, Observation, RobotLimits, pad_names
 from .phases import Phase
 
 
+@register("scripted", config=ScriptedConfig)
 class ScriptedGrasp:
     """Approach, close, lift, hold, put back and open with fixed targets.
 
@@ -22,7 +25,12 @@ class ScriptedGrasp:
     #: is reached at the closing speed's end of travel (no touch sensing to cut it short).
     SETTLE_S = 0.3
 
-    def __init__(self, config: ControllerConfig, robot: RobotLimits, pads: tuple[str, ...]) -> None:
+    @classmethod
+    def from_scenario(cls, config: ScenarioConfig, robot: RobotLimits, fingertip: Fingertip) -> ScriptedGrasp:
+        """The scripted grasp of ``config``'s scenario (it reads no fingertip)."""
+        return cls(config.controller, robot, pad_names(config.sensor.pads))
+
+    def __init__(self, config: ScriptedConfig, robot: RobotLimits, pads: tuple[str, ...]) -> None:
         self.cfg = config
         self.robot = robot
         self.pads = pads
@@ -65,7 +73,7 @@ class ScriptedGrasp:
         if self.phase is Phase.RELEASE:
             # From where the fingers are (the squeeze's target lies inside the object).
             self._opening = min(home.home_opening_m, max(self._opening, obs.opening_m) + cfg.opening_speed_m_s * dt_s)
-            grip = min(grip, cfg.drive_margin * home.finger_damping_n_s_m * cfg.opening_speed_m_s)
+            grip = min(grip, cfg.drive_margin * (home.finger_damping_n_s_m * cfg.opening_speed_m_s + home.finger_friction_n))
             if obs.opening_m >= home.home_opening_m - 0.002:
                 self._enter(Phase.DONE, t)
         modes = {pad: cfg.modes[0] for pad in self.pads}

@@ -1,4 +1,5 @@
-"""`bench --throughput`: its report's shape and verdicts (the timing itself is bench's, not a test's)."""
+"""benchmarks/throughput.py and the revisions it runs (benchmarks/revisions.py): the report's
+shape and text, a revision's tree (the timing itself is the benchmark's, not a test's)."""
 
 import statistics
 import subprocess
@@ -7,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-from piezotip.analysis import throughput
+from benchmarks import revisions, throughput
 
 
 def _report(**changes):
@@ -37,17 +38,12 @@ def _report(**changes):
     return report
 
 
-def test_the_text_gives_each_ratio_against_its_target():
+def test_the_text_gives_each_ratio_with_what_it_compares():
     text = throughput.format_throughput(_report())
-    assert "4.00x" in text and "1.82x" in text and "ratio 0.97" in text and "ratio 0.96" in text
-    assert text.count("  ok") == 3 and "NO" not in text
-    # Against a serial, uncached run of the present code the ratio is a lower bound of the
-    # speed-up over the code the target was set on: met if it meets it, not judged below it.
-    below = throughput.format_throughput(_report(experiment_speedup=2.0))
-    assert "NO" not in below and "2.00x  (a lower bound" in below and below.count("  ok") == 2
-    # The long-run target is judged on the hold against the hold, not on the whole runs.
-    assert throughput.format_throughput(_report(hold_rt_ratio=0.8)).count("NO") == 1
-    assert "NO" not in throughput.format_throughput(_report(long_run_rt_ratio=0.8))
+    assert "4.00x  (the caches' and workers' share" in text and "1.82x  (on 2 cores)" in text
+    assert "ratio 0.97  (mostly hold against mostly free motion)" in text and "ratio 0.96  (hold against hold" in text
+    # The measurements are reported, not judged: no verdict in any line.
+    assert " ok" not in text and "NO" not in text and "target" not in text
     windows = {"long_hold_window_s": 10.0, "long_hold_window_rt_factors": [24.0, 15.0, 26.0], "long_hold_rt_factor_mean": 21.0}
     text = throughput.format_throughput(_report(**windows, hold_rt_ratio_mean=21.0 / 25.0))
     assert "median of 3 windows of 10 s: slowest 15.0x, fastest 26.0x" in text and "ratio 0.84)" in text
@@ -113,15 +109,13 @@ def test_the_sweep_speedup_is_the_median_of_paired_rounds(tmp_path, monkeypatch)
     assert report["sweep_points"] == 96 and report["small_sweep_points"] == 24
     text = throughput.format_throughput(_report(**{k: v for k, v in report.items() if "sweep" in k}))
     assert "median of 3 pairs of runs: 8.0 s / 5.0 s = 1.60x, 12.0 s / 5.0 s = 2.40x, 8.5 s / 5.0 s = 1.70x" in text
-    # Only the judged sweep carries a verdict: the small one below the target is no failure.
-    assert "1.55x" in text and "NO" not in text and text.count("  ok") == 3
-    assert throughput.format_throughput(_report(**{**report, "sweep_speedup_2_vs_1": 1.6})).count("NO") == 1
+    assert "1.55x  (about 1 s of each command is start-up)" in text and "1.70x  (on 2 cores)" in text
 
 
 def test_the_sweep_grids_are_valid_and_the_users_scale():
-    """The judged sweep varies objects, controllers and sensor designs (the issue's users' axes)
+    """The users' sweep varies objects, controllers and sensor designs (the issue's users' axes)
     and runs about a hundred points; every point is a valid configuration."""
-    from piezotip.analysis.sweep import check_points, grid_points, parse_grid
+    from piezotip.analysis.sweep_grid import check_points, grid_points, parse_grid
 
     grid = parse_grid(list(throughput.SWEEP_GRID))
     assert {key.split(".")[0] for key in grid} == {"object", "controller", "sensor"}
@@ -131,7 +125,7 @@ def test_the_sweep_grids_are_valid_and_the_users_scale():
 
 
 def _git_checkout() -> bool:
-    proc = subprocess.run(["git", "-C", str(throughput.REPO), "rev-parse", "HEAD"], capture_output=True)
+    proc = subprocess.run(["git", "-C", str(revisions.REPO), "rev-parse", "HEAD"], capture_output=True)
     return proc.returncode == 0
 
 
@@ -140,7 +134,7 @@ needs_git = pytest.mark.skipif(not _git_checkout(), reason="needs a git checkout
 
 @needs_git
 def test_a_revision_runs_its_own_code_not_this_checkouts(tmp_path):
-    run_from, env = throughput.revision_tree("HEAD", tmp_path)
+    run_from, env = revisions.revision_tree("HEAD", tmp_path)
     code = (
         "import sys, piezotip.sensor.channel as c, piezotip.cli as cli, piezotip.cosim.loop; print(c.__file__); print(cli.__file__); "
         "print(*sorted(m.__file__ for m in list(sys.modules.values())"
@@ -151,25 +145,28 @@ def test_a_revision_runs_its_own_code_not_this_checkouts(tmp_path):
     assert len(files) > 20 and all(f.startswith(str(run_from)) for f in files)
     # the symbolic links lead into the revision's extracted tree, never into this checkout
     # (no compiled twin of this checkout's either: the revision's own are not built)
-    assert all(not Path(f).resolve().is_relative_to(throughput.REPO) for f in files)
-    listed = subprocess.run([sys.executable, "run_sim.py", "list"], cwd=run_from, env=env, capture_output=True, text=True)
+    assert all(not Path(f).resolve().is_relative_to(revisions.REPO) for f in files)
+    # Its run_sim.py too: Python puts a script's folder, its links resolved, first on sys.path
+    # (a linked run_sim.py put the extracted tree's piezotip/ there, whose subpackages this
+    # checkout's editable install then served).  -v names the file of every module it loads, last on its line.
+    listed = subprocess.run([sys.executable, "-v", "run_sim.py", "list"], cwd=run_from, env=env, capture_output=True, text=True)
     assert listed.returncode == 0 and "grasp" in listed.stdout
+    loaded = [line.split()[-1].strip("'") for line in listed.stderr.splitlines() if line.startswith("# ") and "/" in line]
+    ours = [f for f in loaded if "/.venv" not in f and Path(f).resolve().is_relative_to(revisions.REPO)]
+    assert any(f.startswith(str(run_from)) for f in loaded) and ours == []
 
 
 @needs_git
 def test_an_unknown_revision_is_an_error_naming_it(tmp_path):
     with pytest.raises(ValueError, match="no-such-revision"):
-        throughput.revision_tree("no-such-revision", tmp_path)
+        revisions.revision_tree("no-such-revision", tmp_path)
 
 
-def test_the_baseline_line_gives_its_ratio_against_the_target():
+def test_the_baseline_line_gives_its_ratio():
     report = _report(baseline_rev="abc1234", baseline_experiment_s=30.0, experiment_with_plot_s=10.0, baseline_speedup=3.0)
     text = throughput.format_throughput(report)
-    assert "at abc1234" in text and "3.00x" in text
-    assert text.count("NO") == 1
-    # The judged figure is the revision's: the serial ratio below 4x says what it measures.
-    text = throughput.format_throughput({**report, "experiment_speedup": 1.8, "baseline_speedup": 4.2})
-    assert "NO" not in text and "1.80x  (the caches' and workers' share; the 4x target: against abc1234 below)" in text
+    assert "at abc1234" in text and "(as that revision ran it)" in text
+    assert "3.00x  (the whole speed-up since abc1234)" in text and "NO" not in text
 
 
 @needs_git
@@ -177,8 +174,8 @@ def test_a_revisions_imports_read_compiled_bytecode(tmp_path):
     """After compile_bytecode, the revision's imports (through its linked layout, a linked
     subpackage folder among them) find their bytecode cached and compile nothing, even with
     PYTHONDONTWRITEBYTECODE set."""
-    run_from, env = throughput.revision_tree("HEAD", tmp_path / "baseline")
-    assert throughput.compile_bytecode(tmp_path / "baseline")
+    run_from, env = revisions.revision_tree("HEAD", tmp_path / "baseline")
+    assert revisions.compile_bytecode(tmp_path / "baseline")
     code = (
         "import importlib.util, sys, piezotip.cosim.control.multimode as m, piezotip.sensor.channel as c;"
         "print(all(importlib.util.cache_from_source(x.__file__) == x.__cached__ for x in (m, c)));"
@@ -192,24 +189,24 @@ def test_a_revisions_imports_read_compiled_bytecode(tmp_path):
 
 def test_compiling_says_when_a_module_does_not_compile(tmp_path):
     (tmp_path / "good.py").write_text("x = 1\n")
-    assert throughput.compile_bytecode(tmp_path)
+    assert revisions.compile_bytecode(tmp_path)
     (tmp_path / "bad.py").write_text("def broken(:\n")
-    assert not throughput.compile_bytecode(tmp_path)
+    assert not revisions.compile_bytecode(tmp_path)
     assert (tmp_path / "__pycache__").is_dir()
 
 
 @pytest.mark.parametrize("rev", ["--output=F", "-h", "", "HEAD\n--output=F"])
 def test_a_revision_that_reads_as_an_option_is_refused_before_git_sees_it(tmp_path, rev):
     """``bench --baseline=--output=F`` used to reach ``git archive`` as an option (which wrote F)."""
-    with pytest.raises(ValueError, match="--baseline"):
-        throughput.revision_tree(rev, tmp_path)
+    with pytest.raises(ValueError, match="is not a revision"):
+        revisions.revision_tree(rev, tmp_path)
     assert not (Path.cwd() / "F").exists() and list(tmp_path.iterdir()) == []
 
 
 def test_a_revision_resolves_to_its_commit():
-    head = throughput.resolve_revision("HEAD")
-    assert len(head) == 40 and throughput.resolve_revision(head[:12]) == head
+    head = revisions.resolve_revision("HEAD")
+    assert len(head) == 40 and revisions.resolve_revision(head[:12]) == head
     with pytest.raises(ValueError, match="no-such-revision"):
-        throughput.resolve_revision("no-such-revision")
-    with pytest.raises(ValueError, match="--baseline"):
+        revisions.resolve_revision("no-such-revision")
+    with pytest.raises(ValueError, match="is not a revision"):
         throughput.throughput_report(baseline="--output=F")

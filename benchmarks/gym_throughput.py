@@ -1,6 +1,6 @@
 """Throughput of the Gymnasium environment: environment steps per second, one and two environments.
 
-    python -m piezotip.analysis.gym_bench [--steps N] [--preset NAME]
+    python -m benchmarks.gym_throughput [--steps N] [--preset NAME]
 
 Four numbers per preset: one environment driven by a constant action (the fingers and lift held
 at home: the environment's own cost), one driven by the multimode controller wrapped as a policy
@@ -79,6 +79,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--steps", type=int, default=4000, help="environment steps per measurement (default 4000)")
     parser.add_argument("--preset", action="append", help="fidelity preset(s) (default: fast and the scenario's own)")
     args = parser.parse_args(argv)
+    if args.steps < 1:
+        parser.error(f"--steps must be at least 1, got {args.steps}")
     presets = args.preset or ["fast", None]
     rows = []
     for preset in presets:

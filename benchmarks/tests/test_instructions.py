@@ -1,10 +1,10 @@
-"""`bench --instructions`: the loop's instructions per control step, counted by callgrind."""
+"""benchmarks/instructions.py: the loop's instructions per control step, counted by callgrind."""
 
 import shutil
 
 import pytest
 
-from piezotip.analysis import instructions
+from benchmarks import instructions
 
 ANNOTATION = """\
 --------------------------------------------------------------------------------

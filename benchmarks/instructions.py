@@ -1,5 +1,6 @@
-"""The loop's own cost in instructions: a measure no neighbour on a shared machine disturbs
-(``bench --instructions``).
+"""The loop's own cost in instructions: a measure no neighbour on a shared machine disturbs.
+
+    python -m benchmarks.instructions [--scenario NAME] [--set KEY=VALUE ...] [--preset NAME] [--steps N] [--json]
 
 Timed ratios on a shared VM swing by several percent from one run to the next, more than a
 change to the loop's Python moves them.  Counted instructions do not: valgrind's callgrind
@@ -25,6 +26,8 @@ them, and the project's bytecode compiled, so that neither compiles a module.
 
 from __future__ import annotations
 
+import argparse
+import json
 import os
 import re
 import shutil
@@ -32,6 +35,11 @@ import subprocess
 import sys
 import tempfile
 from pathlib import Path
+
+if not __package__:  # run as a file (python benchmarks/instructions.py): its siblings by their package's name
+    sys.path.append(str(Path(__file__).resolve().parents[1]))  # last: the installed piezotip comes first
+
+from benchmarks.revisions import compile_bytecode, source_folders
 
 #: The counted runs' script: the scenario's simulation, stepped ``n`` control steps (argv: n,
 #: scenario, overrides...).
@@ -80,7 +88,7 @@ def instruction_counts(scenario: str = "grasp", overrides: list[str] | None = No
         raise ValueError(f"steps and warmup_steps must be at least 1, got {steps} and {warmup_steps}")
     missing = [tool for tool in ("valgrind", "callgrind_annotate") if shutil.which(tool) is None]
     if missing:
-        raise RuntimeError(f"bench --instructions needs {' and '.join(missing)} on the PATH (valgrind's package)")
+        raise RuntimeError(f"counting instructions needs {' and '.join(missing)} on the PATH (valgrind's package)")
     overrides = list(overrides or [])
     # One hash seed for both runs: string hashes, and so dict and set probing, differ from
     # process to process otherwise (a few thousand instructions a step).
@@ -89,9 +97,7 @@ def instruction_counts(scenario: str = "grasp", overrides: list[str] | None = No
     env = {**os.environ, "MPLBACKEND": "Agg", "PYTHONHASHSEED": "0", **blas}
     # Bytecode compiled first: a module imported between the two runs' ends would otherwise be
     # compiled inside the counted steps (under PYTHONDONTWRITEBYTECODE, by every run).
-    from .throughput import REPO, SOURCE_FOLDERS, compile_bytecode
-
-    compile_bytecode(*(REPO / folder for folder in SOURCE_FOLDERS))
+    compile_bytecode(*source_folders())
     with tempfile.TemporaryDirectory(prefix="piezotip-instructions-") as tmp:
         work = Path(tmp)
         # The set-up tables on disk first: neither counted run computes them.
@@ -125,3 +131,30 @@ def format_instructions(report: dict) -> str:
             f"  ratio (loop + mj_step) / mj_step  {report['instruction_ratio']:.3f}",
         ]
     )
+
+
+def main(argv: list[str] | None = None) -> int:
+    from piezotip.scenarios.presets import PRESETS, preset_overrides
+
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--scenario", default="grasp", help="the scenario whose loop is counted (default grasp)")
+    parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="override a config value (repeatable)")
+    parser.add_argument("--preset", choices=tuple(PRESETS), help="fidelity preset (default: the scenario's own settings)")
+    parser.add_argument("--steps", type=int, default=1000, help="control steps counted (default 1000)")
+    parser.add_argument("--warmup-steps", type=int, default=200, help="control steps before the counted ones (default 200)")
+    parser.add_argument("--json", action="store_true", help="print the counts as JSON")
+    args = parser.parse_args(argv)
+    overrides = [*preset_overrides(args.preset), *args.set]
+    try:
+        counts = instruction_counts(args.scenario, overrides, steps=args.steps, warmup_steps=args.warmup_steps)
+    except ValueError as err:
+        parser.error(str(err))
+    except RuntimeError as err:  # valgrind missing, or a counted run failed
+        print(f"error: {err}", file=sys.stderr)
+        return 1
+    print(json.dumps(counts, indent=2) if args.json else format_instructions(counts))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

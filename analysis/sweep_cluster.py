@@ -1,0 +1,263 @@
+"""Where a sweep's points run when not in this process: a Dask client on a local cluster (started
+and stopped here) or on a scheduler someone started (``--scheduler tcp://host:8786``), and the
+signals around it.
+
+The command line starts the local cluster's worker server first (:func:`start_worker_server`):
+its workers are forked from a process that has their imports done, which it did while the
+command imported and checked the points.  A Ctrl-C while the local cluster starts waits until
+it is up, then closes it (:class:`dask_client`); the worker server says nothing of a Ctrl-C or
+of its command being gone (:func:`_quiet_interrupt`).  Nothing here imports Dask until a
+cluster is asked for.
+"""
+
+from __future__ import annotations
+
+import atexit
+import json
+import os
+import sys
+
+#: What a point imports in its worker process, its first point paying for them otherwise (about
+#: 0.5 s: Dask, MuJoCo, the sensor's modules).
+#: The worker server imports them once, before any worker exists (:func:`start_worker_server`).
+WORKER_MODULES = (
+    "piezotip.analysis.sweep_cluster",  # first: in the server it sets the import path (see below)
+    "piezotip.analysis.sweep",  # where the workers' task, run_point, lives
+    "distributed",
+    "tqdm",
+    "piezotip.analysis.runner",
+    "piezotip.analysis.run_report",
+    "piezotip.cosim.loop",
+)
+
+#: What Dask's nanny puts in the environment before it starts a worker process (its
+#: ``distributed.nanny.pre-spawn-environ`` defaults and its hash seed).  A worker forked from the
+#: worker server has the server's environment, so the server starts with these; a value already
+#: in this process's environment wins, as with Dask.
+WORKER_ENV = {
+    "MALLOC_TRIM_THRESHOLD_": "65536",
+    "OMP_NUM_THREADS": "1",
+    "MKL_NUM_THREADS": "1",
+    "OPENBLAS_NUM_THREADS": "1",
+    "PYTHONHASHSEED": "6640",
+}
+
+_worker_server = False
+
+#: Set in the worker server's environment alone (this process's id and import path, as JSON):
+#: the server's import of this module sees it (below) and takes it out (the workers forked later
+#: do not have it).
+_SERVER_FLAG = "PIEZOTIP_WORKER_SERVER_OF"
+
+
+def _exit_now() -> None:
+    """The worker server's exit (when the process that started it is gone; the workers are
+    gone too, each watches that process): at once, without the clean-up of an interpreter
+    that has Dask and MuJoCo loaded (0.15 s, which the command's caller waits for: the server
+    holds its output pipes too)."""
+    for stream in (sys.stdout, sys.stderr):
+        try:
+            stream.flush()
+        except (AttributeError, OSError, ValueError):
+            pass
+    os._exit(0)
+
+
+def _in_worker_server() -> bool:
+    """Whether this process is the worker server that this module's parent process started."""
+    try:
+        parent = json.loads(os.environ.pop(_SERVER_FLAG, "null"))
+    except ValueError:
+        return False
+    if not isinstance(parent, dict) or parent.get("pid") != os.getppid():
+        return False
+    # Python 3.11's forkserver ignores the import path it is given: the parent's, as a spawned
+    # worker has it (the server's own would put the current folder first), before any other import.
+    sys.path[:] = parent["path"]
+    global _command_pid
+    _command_pid = parent["pid"]
+    atexit.register(_exit_now)
+    # A Ctrl-C while it imports, or a worker it forks failing because the command is gone:
+    # the command says "interrupted", once.  The forkserver reports a fork's error through
+    # sys.excepthook.
+    sys.excepthook = _quiet_interrupt
+    return True
+
+
+#: In the worker server (and the workers it forks): the process id of the command that started it.
+_command_pid: int | None = None
+
+
+def _command_gone() -> bool:
+    """Whether the command that started this worker server has exited."""
+    if _command_pid is None:
+        return False
+    try:
+        os.kill(_command_pid, 0)
+    except ProcessLookupError:
+        return True
+    except OSError:  # it exists (and belongs to another user: not ours, but alive)
+        return False
+    return False
+
+
+def _quiet_interrupt(kind, value, tb) -> None:
+    """The worker server's last word on an exception: none for Ctrl-C or once the command is
+    gone (a worker forked as it was interrupted cannot reach it), the usual otherwise."""
+    if not (issubclass(kind, KeyboardInterrupt) or _command_gone()):
+        sys.__excepthook__(kind, value, tb)
+
+
+_in_worker_server()
+
+
+def start_worker_server() -> bool:
+    """Start, in the background, the process this process's local clusters fork their workers
+    from (multiprocessing's forkserver, :data:`WORKER_MODULES` imported), and return whether
+    they will (False where there is no forkserver: they then start workers as Dask does, each
+    a fresh interpreter that imports everything itself).
+
+    Call it as early as possible (the command line does, before its own imports and checks):
+    the server's imports then run beside this process's work, and each worker starts in
+    milliseconds, imports done, instead of a second; it also exits without an interpreter's
+    clean-up.  The server is single-threaded when it forks (the point of a forkserver: this
+    process has threads, a fork of it could deadlock); it exits when this process does.
+    Without this call the local cluster spawns its workers (Dask's default), which leaves
+    multiprocessing's global forkserver alone for a program that uses the API."""
+    global _worker_server
+    if _worker_server:
+        return True
+    import multiprocessing
+    from multiprocessing import forkserver
+
+    if "forkserver" not in multiprocessing.get_all_start_methods():
+        return False
+    multiprocessing.get_context("forkserver").set_forkserver_preload(list(WORKER_MODULES))
+    parent = json.dumps({"pid": os.getpid(), "path": sys.path})
+    server_env = {**{key: os.environ.get(key, value) for key, value in WORKER_ENV.items()}, _SERVER_FLAG: parent}
+    saved = {key: os.environ.get(key) for key in server_env}
+    os.environ.update(server_env)
+    try:
+        forkserver.ensure_running()  # starts it and returns; the server imports while we go on
+    except OSError:
+        return False
+    finally:
+        for key, value in saved.items():
+            if value is None:
+                os.environ.pop(key, None)
+            else:
+                os.environ[key] = value
+    _worker_server = True
+    return True
+
+
+class _interrupts_deferred:
+    """Inside, Ctrl-C (SIGINT) and SIGTERM are held: the first raises on leaving the block
+    (KeyboardInterrupt, or RunInterrupted for SIGTERM: exit 143), not in the middle of it.  Only
+    in the main thread, for a signal whose handler is Python's own or the command line's (with a
+    handler a program set, nothing changes)."""
+
+    def __enter__(self):
+        import signal
+        import threading
+
+        from .runner import sigterm_as_interrupt
+
+        self.caught, self.previous = None, {}
+        if threading.current_thread() is threading.main_thread():
+            for signum, ours in ((signal.SIGINT, signal.default_int_handler), (signal.SIGTERM, sigterm_as_interrupt)):
+                if signal.getsignal(signum) is ours:
+                    self.previous[signum] = signal.signal(signum, self._hold)
+        return self
+
+    def _hold(self, signum, frame) -> None:
+        if self.caught is None:
+            self.caught = signum
+
+    def __exit__(self, kind, value, tb) -> None:
+        import signal
+
+        from .runner import RunInterrupted
+
+        for signum, previous in self.previous.items():
+            signal.signal(signum, previous)
+        if self.caught is not None and kind is None:
+            raise KeyboardInterrupt if self.caught == signal.SIGINT else RunInterrupted(self.caught)
+
+
+#: Dask settings of the local cluster, each as (Dask's default, this cluster's): the servers'
+#: periodic wake-ups, which in a worker take the GIL from the run in its thread (the event
+#: loop's lag measured every 20 ms, a statistical profiler sampling every 10 ms, the system
+#: monitor's resource readings every 0.5 s), feed only Dask's dashboard and its "event loop
+#: was unresponsive" warning; this cluster has neither.  Measured on the 96-grasp sweep of
+#: ``bench --throughput``, 2 workers, three alternating pairs: 3-5 % less wall time, the runs
+#: 5-6 % less.  A setting a user has changed from Dask's default stays theirs.
+LOCAL_CLUSTER_CONFIG = {
+    "distributed.admin.tick.interval": ("20ms", "1s"),
+    "distributed.worker.profile.enabled": (True, False),
+    "distributed.admin.system-monitor.interval": ("500ms", "5s"),
+}
+
+
+def local_cluster_config() -> dict:
+    """The settings of :data:`LOCAL_CLUSTER_CONFIG` to set now: those still at Dask's default,
+    and the multiprocessing method (a fork from the worker server, when this process started
+    one and the method is Dask's default, "spawn")."""
+    import dask
+    import distributed  # noqa: F401  (its defaults join dask.config on import)
+
+    config = {key: ours for key, (default, ours) in LOCAL_CLUSTER_CONFIG.items() if dask.config.get(key, None) == default}
+    method = "distributed.worker.multiprocessing-method"
+    if _worker_server and dask.config.get(method) == "spawn":
+        config[method] = "forkserver"
+    return config
+
+
+class dask_client:
+    """A Dask client on a local cluster of ``workers`` processes (closed on exit), or on the
+    scheduler at ``address``.  The local cluster's workers are forked from the worker server
+    when this process started one (:func:`start_worker_server`), with the settings of
+    :func:`local_cluster_config` (held while the cluster lives: its workers get them from their
+    nanny, and a worker the nanny restarts starts the same way)."""
+
+    def __init__(self, workers: int | None, address: str | None) -> None:
+        self.workers, self.address = workers, address
+        self.cluster = self.client = self.config = None
+
+    def __enter__(self):
+        import dask
+        from dask.distributed import Client, LocalCluster
+
+        if self.address is not None:
+            try:
+                self.client = Client(self.address, timeout="10s")
+            except OSError as err:
+                raise ValueError(f"--scheduler {self.address}: cannot reach a Dask scheduler there ({err})") from None
+            return self.client
+        n = self.workers if self.workers is not None else (os.cpu_count() or 1)
+        self.config = dask.config.set(local_cluster_config())
+        try:
+            # A cluster interrupted half-started cannot be closed (Dask's own close at exit then
+            # fails with a traceback): a Ctrl-C waits until it is up (well under a second), then
+            # closes it.
+            with _interrupts_deferred():
+                # One thread per process: the loop holds the GIL; processes run side by side.
+                self.cluster = LocalCluster(
+                    n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None, silence_logs=50, memory_limit=0
+                )
+                self.client = Client(self.cluster)
+        except BaseException:
+            self.__exit__(None, None, None)
+            raise
+        return self.client
+
+    def __exit__(self, *exc) -> None:
+        try:
+            if self.client is not None:
+                self.client.close()
+            if self.cluster is not None:
+                self.cluster.close()
+        finally:
+            if self.config is not None:
+                self.config.__exit__(None, None, None)
+                self.config = None

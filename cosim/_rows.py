@@ -1,0 +1,191 @@
+"""One control step's recorded row, and a chunk of rows as one array (see :mod:`cosim.rows`).
+
+A kernel (:mod:`piezotip.sensor.compiled`): this module runs as Python and, where built,
+compiled (``_rows.pxd`` types it: MuJoCo's arrays bound once as typed memoryviews).  The row's
+columns and their units are documented in :mod:`cosim.rows`.
+"""
+
+from __future__ import annotations
+
+from array import array
+from operator import attrgetter
+
+import numpy as np
+
+from piezotip.cosim.control.interface import Observation, PadSignal
+from piezotip.sensor import _kernel_helpers as kh
+from piezotip.sensor.estimator import Estimate
+from piezotip.sensor.resonator import Reading
+
+# The fields a row reads of each record, read together (compiled: from the record's slots
+# where it is one of its class, a load each; by name otherwise): the names, where each is
+# (kh.slot_offsets) and the getter by name.
+_OBSERVATION = ("pads", "lift_pos_m", "opening_m", "grip_force_n", "lift_force_n")
+_SIGNAL = ("reading", "estimate")
+_READING = ("mode", "v1", "v1_true", "settled")
+_ESTIMATE = ("pressure_pa", "uncertainty_pa", "status")
+_OBSERVATION_AT, _OBSERVATION_GET = kh.slot_offsets(Observation, 5, _OBSERVATION), attrgetter(*_OBSERVATION)
+_SIGNAL_AT, _SIGNAL_GET = kh.slot_offsets(PadSignal, 2, _SIGNAL), attrgetter(*_SIGNAL)
+_READING_AT, _READING_GET = kh.slot_offsets(Reading, 4, _READING), attrgetter(*_READING)
+_ESTIMATE_AT, _ESTIMATE_GET = kh.slot_offsets(Estimate, 3, _ESTIMATE), attrgetter(*_ESTIMATE)
+
+
+class RowBuilder:
+    """The recorded row of a control step (:mod:`cosim.rows`).
+
+    Parameters
+    ----------
+    pads : the instrumented pads, in the record's order.
+    contact_adr : per pad, the ``sensordata`` address of its finger's normal force on the object.
+    finger_adr : (left, right): the fingers' normal-force addresses in ``sensordata``.
+    table_adr : the address of the object-table contact force; its normal is ``table_adr + 2``.
+    track_peaks : whether the row carries the fingers' peak forces (an object with a crush limit).
+    cell_fractions : each coverage cell's share of the coverage's length.
+    stop_pressure_pa : the pressure at which the gel sits on its housing stop, Pa.
+    status_index : each estimate status's number in the record.
+    """
+
+    __slots__ = (
+        "_args",
+        "_bound",
+        "_contact_adr",
+        "_fractions",
+        "_left",
+        "_pads",
+        "_qvel",
+        "_right",
+        "_sensordata",
+        "_status_index",
+        "_stop_pa",
+        "_table_normal",
+        "_track_peaks",
+        "_xpos",
+    )
+
+    def __init__(self, pads, contact_adr, finger_adr, table_adr, track_peaks, cell_fractions, stop_pressure_pa, status_index) -> None:
+        self._args = (pads, contact_adr, finger_adr, table_adr, track_peaks, cell_fractions, stop_pressure_pa, status_index)
+        self._pads = list(pads)
+        contact_adr, finger_adr = [int(a) for a in contact_adr], [int(a) for a in finger_adr]
+        if len(contact_adr) != len(self._pads) or len(finger_adr) != 2:
+            raise ValueError("a row needs one contact address per pad and two fingers' addresses")
+        self._contact_adr = array("q", contact_adr)
+        self._left, self._right = finger_adr
+        self._table_normal = int(table_adr) + 2
+        self._track_peaks = bool(track_peaks)
+        self._fractions = array("d", [float(f) for f in cell_fractions])
+        self._stop_pa = float(stop_pressure_pa)
+        self._status_index = {str(k): float(v) for k, v in status_index.items()}
+        self._bound = False
+
+    def bind(self, object_xpos, object_qvel, sensordata) -> None:
+        """Read these live arrays from now on: the object's position (3), its velocity (6:
+        linear, then angular) and MuJoCo's ``sensordata`` (float64, 1-D, contiguous)."""
+        views = [memoryview(a) for a in (object_xpos, object_qvel, sensordata)]
+        if not all(v.c_contiguous and v.ndim == 1 and v.format == "d" for v in views):
+            raise ValueError("the row's arrays must be contiguous 1-D float64 views of the simulation's own (never copies)")
+        if len(views[0]) != 3 or len(views[1]) != 6:
+            raise ValueError(f"the object's position needs 3 values and its velocity 6, got {len(views[0])} and {len(views[1])}")
+        used = [*list(self._contact_adr), self._left, self._right, self._table_normal]
+        if not all(0 <= a < len(views[2]) for a in used):
+            raise ValueError(f"sensordata addresses {used} are outside its {len(views[2])} values")
+        self._xpos, self._qvel, self._sensordata = views
+        self._bound = True
+
+    def row(self, time_s, obs, command, profiles, cells, finger_peaks) -> list[float]:
+        """The row's values in column order (Python floats).  ``obs`` and ``command`` are the
+        step's Observation and Command, ``profiles`` and ``cells`` each pad's element and
+        coverage pressures (Pa), ``finger_peaks`` the fingers' peak forces (N; read only with
+        ``track_peaks``)."""
+        if not self._bound:
+            raise RuntimeError("bind() the arrays first")
+        if len(profiles) != len(self._pads) or len(cells) != len(self._pads):
+            raise ValueError(f"{len(self._pads)} pads, {len(profiles)} profiles and {len(cells)} cell lists")
+        signals, lift_pos_m, opening_m, grip_force_n, lift_force_n = kh.fields(obs, Observation, _OBSERVATION_AT, 5, _OBSERVATION_GET)
+        vx, vy, vz = self._qvel[0], self._qvel[1], self._qvel[2]
+        wx, wy, wz = self._qvel[3], self._qvel[4], self._qvel[5]
+        row = [
+            time_s,
+            float(command.phase),
+            lift_pos_m,
+            opening_m,
+            grip_force_n,
+            lift_force_n,
+            self._xpos[2],
+            self._xpos[0],
+            self._xpos[1],
+            vz,
+            kh.sqrt(vx * vx + vy * vy + vz * vz),
+            kh.sqrt(wx * wx + wy * wy + wz * wz),
+            abs(self._sensordata[self._table_normal]),
+            abs(self._sensordata[self._left]),
+            abs(self._sensordata[self._right]),
+        ]
+        if self._track_peaks:
+            row += finger_peaks
+        for k in range(len(self._pads)):
+            profile, covered = profiles[k], cells[k]
+            reading, estimate = kh.fields(signals[self._pads[k]], PadSignal, _SIGNAL_AT, 2, _SIGNAL_GET)
+            mode, v1, v1_true, settled = kh.fields(reading, Reading, _READING_AT, 4, _READING_GET)
+            pressure_pa, uncertainty_pa, status = kh.fields(estimate, Estimate, _ESTIMATE_AT, 3, _ESTIMATE_GET)
+            top = profile[0]  # max(profile): the first of the largest
+            for i in range(1, len(profile)):
+                p = profile[i]
+                if p > top:
+                    top = p
+            if len(covered) == 1:
+                cell = covered[0]
+            else:  # the cells weighted by their shares, summed in order from 0.0 (as sum() does)
+                if len(covered) != len(self._fractions):
+                    raise ValueError(f"{len(covered)} coverage cells for {len(self._fractions)} fractions")
+                cell = 0.0
+                for i in range(len(covered)):
+                    p = covered[i]
+                    cell += self._fractions[i] * p
+            row += (
+                profile[0] if len(profile) == 1 else float(np.mean(profile)),
+                cell,
+                abs(self._sensordata[self._contact_adr[k]]),
+                pressure_pa,
+                uncertainty_pa,
+                self._status_index[status],
+                float(mode),
+                v1,
+                v1_true,
+                float(settled),
+                # The gel is on its housing stop under the element: the pressure there is the
+                # stop's, and the housing carries the rest (the sensor model is told, here).
+                1.0 if top >= self._stop_pa else 0.0,
+            )
+            row += profile
+        return row
+
+    def __reduce__(self):  # a copy is unbound: its owner binds it to its own arrays
+        return type(self), self._args
+
+
+def stack_rows(rows, n_columns: int) -> np.ndarray:
+    """The recorder's pending rows as one float64 array of shape (len(rows), n_columns): what
+    ``numpy.asarray(rows, dtype=float)`` gives.  Rows that are lists of ``n_columns`` floats are
+    copied value by value (compiled: in C); anything else goes to numpy, with its errors."""
+    for row in rows:
+        if type(row) is not list or len(row) != n_columns:
+            return _numpy_rows(rows, n_columns)
+    table = np.empty((len(rows), n_columns))
+    out = table
+    for i in range(len(rows)):
+        row = rows[i]
+        for j in range(n_columns):
+            value = row[j]
+            if type(value) is not float:
+                return _numpy_rows(rows, n_columns)
+            out[i, j] = value
+    return table
+
+
+def _numpy_rows(rows, n_columns: int) -> np.ndarray:
+    table = np.asarray(rows, dtype=float)
+    if table.size == 0:
+        return table.reshape(0, n_columns)
+    if table.ndim != 2 or table.shape[1] != n_columns:
+        raise ValueError(f"rows of {n_columns} values expected, got an array of shape {table.shape}")
+    return table

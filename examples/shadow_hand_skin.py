@@ -1,0 +1,563 @@
+"""A skin on a hand: a piezotip fingertip on each of the five fingertips of the Shadow Hand.
+
+    pip install -e ".[hand]"          # Gymnasium-Robotics: only its Shadow Hand model is used
+    python examples/shadow_hand_skin.py
+    python examples/shadow_hand_skin.py --out out/shadow-hand --seconds 4
+
+Gymnasium-Robotics' Shadow Hand (``envs/assets/hand/reach.xml``: the hand palm up on its
+mount, read from the installed package, never copied) gets a box site on the palm side of each
+distal phalanx (first, middle, ring and little finger, thumb); ``piezotip.attach`` puts a gel
+pad, its element and readout on each.  An 80 mm ball of 100 g is dropped onto the palm, the
+thumb closes beside it and the fingers close over it with the hand's own position actuators,
+and the hand holds it.  Every control period (5 ms) the script records what each fingertip
+reads (estimate, sigma, status, mode, voltage) and the truth the readout never sees; each
+fingertip's drive mode follows the pressure with the house multimode controller's selector
+(up a mode when saturated or past its switch pressure, down when below detection).
+
+Writes ``readings.npz`` and ``readings.csv`` (units in the column names) and ``skin.png``
+(five panels: the true pressure, the estimate with its 3-sigma band where the status is "ok",
+the status along the bottom, the hold shaded) into ``--out``, and prints per fingertip the peak
+true pressure and the share of its "ok" readings whose 3-sigma band holds the truth (over the
+run, and in the hold).  Headless (matplotlib's Agg).
+
+Three of the hand's options change before attaching, each one the pads need:
+
+- ``timestep`` 2 ms -> 1 ms: a fingertip's period (5 ms, the readout's sample) is a whole number
+  of the model's steps, and 2 ms does not divide 5 ms (``attach`` refuses it, naming both).  1 ms
+  is the house gripper's step, the one the pads' hard contacts are tuned at (models/README.md).
+- ``integrator`` Euler -> discrete (implicit in position): the gel stiffens 180x towards its
+  housing stop, which explicit Euler integrates stably only below 0.14 ms; ``attach`` refuses
+  the hand's Euler with exactly that message.
+- ``cone`` pyramidal -> elliptic, the house gripper's (models/README.md: "a held object does not
+  creep down as with pyramidal cones").  ``attach`` leaves the model's cone alone, but under the
+  hand's pyramidal cone the same grasp loses the ball: the fingertips touch it 12-79 % of the
+  hold, and the true pressure of three of them jumps by 100-220 % from one period to the next.
+
+The readings to judge the readout by are those of the hold (:func:`hold_from_s`): from the hand
+closed, its servos settled (five time constants, 0.5 s) and one readout inference window on
+(``sensor.inference.WINDOW_S``, 0.5 s), 2.8 s.  While the fingers close and settle, their pads
+stick and slip on the ball (the true pressure saws by 20-60 % at 50-70 Hz); the readout averages
+that over its ring-up and still reads "ok" now and then, with a 1-5 % sigma, and those readings
+miss the instantaneous truth by up to 22 sigma.
+
+Everything else of the hand (its geoms, contacts, joints, tendons, servos and their gains) is
+as shipped.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import importlib.util
+import math
+import sys
+from dataclasses import dataclass
+from pathlib import Path
+
+import mujoco
+import numpy as np
+
+import piezotip
+from piezotip.cosim.control import ModeSelector
+from piezotip.cosim.control.selector import allowed_ranges
+from piezotip.cosim.rows import STATUS_CODES
+from piezotip.sensor.inference import WINDOW_S
+
+# ---------------------------------------------------------------------------------------
+# The hand and its pads.
+# ---------------------------------------------------------------------------------------
+
+#: The hand's model inside the Gymnasium-Robotics package.
+HAND_SCENE = Path("envs", "assets", "hand", "reach.xml")
+
+FINGERTIPS = ("ff", "mf", "rf", "lf", "th")
+FINGER_NAMES = {"ff": "first finger", "mf": "middle finger", "rf": "ring finger", "lf": "little finger", "th": "thumb"}
+
+#: The pads' half-sizes, m: 16 mm along the distal phalanx by 12 mm across it, the same on all
+#: five.  Across: a finger's distal phalanx is a capsule 14.1 mm thick (radius 7.05 mm, the
+#: thumb's 18.4 mm), so a 12 mm flat pad keeps the gel within the finger's outline.  Along: the
+#: phalanx's cylinder is 24 mm long (the thumb's 26 mm); 16 mm centred on it stays 4 mm clear
+#: of the joint and of the tip's dome.  The 7.5 x 5 mm element fits with 4.25 mm of gel guard
+#: at each end.  The house pad is 20 x 20 mm, wider than these fingers.
+PAD_HALF_LENGTH_M = 0.008
+PAD_HALF_WIDTH_M = 0.006
+
+#: Each pad site in its distal body: (body, origin on the phalanx's palm-side surface at the
+#: middle of its cylinder, m; xyaxes).  The distal bodies run along their +z from the joint; a
+#: finger's palm side is its body's -y (the capsule's radius 7.05 mm), the thumb's its -x (radius
+#: 9.18 mm, the side its touch sensor marks).  The site's +x points along the phalanx towards its
+#: joint (the element's clamped root, as on the house finger), its +z out of the palm side.
+PAD_SITES = {
+    "ff": ("robot0:ffdistal", (0.0, -0.00705, 0.012), (0, 0, -1, 1, 0, 0)),
+    "mf": ("robot0:mfdistal", (0.0, -0.00705, 0.012), (0, 0, -1, 1, 0, 0)),
+    "rf": ("robot0:rfdistal", (0.0, -0.00705, 0.012), (0, 0, -1, 1, 0, 0)),
+    "lf": ("robot0:lfdistal", (0.0, -0.00705, 0.012), (0, 0, -1, 1, 0, 0)),
+    "th": ("robot0:thdistal", (-0.00918, 0.0, 0.013), (0, 0, -1, 0, -1, 0)),
+}
+
+#: The ball: radius, m, and mass, kg (80 mm and 100 g: between a tennis ball and a softball).
+BALL_RADIUS_M = 0.04
+BALL_MASS_KG = 0.1
+#: Where it is let go, m (world): over the palm's centre line, just proximal of the knuckles
+#: (y = 0.865), its bottom 1 mm above the palm (the palm's face is at z = 0.1511).  The wrist's
+#: servo sags 5 degrees under the hand's weight, tilting the palm towards the fingers: the ball
+#: rolls onto the curled fingers' proximal phalanges and rests there.
+BALL_START_M = (0.99, 0.90, 0.1511 + BALL_RADIUS_M + 0.001)
+
+
+def hand_assets() -> Path | None:
+    """Gymnasium-Robotics' Shadow Hand scene (reach.xml) if the package is installed, else None.
+
+    Found without importing the package (its import registers environments and needs what the
+    hand model does not)."""
+    spec = importlib.util.find_spec("gymnasium_robotics")
+    if spec is None or not spec.submodule_search_locations:
+        return None
+    for root in spec.submodule_search_locations:
+        scene = Path(root) / HAND_SCENE
+        if scene.is_file():
+            return scene
+    return None
+
+
+def build_scene(scene: Path) -> mujoco.MjSpec:
+    """The hand, its five pad sites, the ball, and the two options the pads need (module docstring)."""
+    try:
+        spec = mujoco.MjSpec.from_file(str(scene))
+    except ValueError as err:  # Gymnasium-Robotics 1.4.0 and 1.4.1 set <option apirate>, which MuJoCo refuses
+        raise ValueError(f"the Shadow Hand's {scene} does not load ({err}); it needs gymnasium-robotics>=1.4.2") from err
+    spec.option.timestep = 0.001
+    spec.option.integrator = mujoco.mjtIntegrator.mjINT_DISCRETE
+    spec.option.cone = mujoco.mjtCone.mjCONE_ELLIPTIC
+    for tip, (body, pos, xyaxes) in PAD_SITES.items():
+        site = spec.body(body).add_site(name=f"{tip}_pad", type=mujoco.mjtGeom.mjGEOM_BOX, pos=list(pos))
+        site.size = [PAD_HALF_LENGTH_M, PAD_HALF_WIDTH_M, 0.0005]  # z: not used, a thin box to show
+        site.alt.type = mujoco.mjtOrientation.mjORIENTATION_XYAXES
+        site.alt.xyaxes = list(xyaxes)
+    ball = spec.worldbody.add_body(name="ball", pos=list(BALL_START_M))
+    ball.add_freejoint(name="ball_free")
+    ball.add_geom(name="ball", type=mujoco.mjtGeom.mjGEOM_SPHERE, size=[BALL_RADIUS_M, 0, 0], mass=BALL_MASS_KG, rgba=[0.9, 0.4, 0.2, 1])
+    return spec
+
+
+# ---------------------------------------------------------------------------------------
+# The grasp: a scripted closing of the hand's position servos.
+# ---------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class GraspScript:
+    """When and where the hand's position servos go (joint targets, rad; times, s).
+
+    The fingers start curled at the knuckle (J2) so the ball rests against them.  The thumb
+    closes beside the ball first: to where its pad meets the ball resting there (a kinematic
+    search: the pad's normal through the ball's centre, the gel's surface on it: THJ4..THJ0 =
+    -0.291, 1.177, -0.115, -0.432, -0.604), pressed in by 2 N along the pad's normal through its
+    Jacobian (J^T n = 0.052, 0.004, 0, -0.039, -0.013 N m per N) at the servos' kp = 1 N m/rad:
+    THJ4, THJ1 and THJ0 move on by 0.10, -0.08 and -0.03 rad (THJ3's 0.008 left out).
+    Then the fingers curl J2 and J1 (J1 drives J0 through the hand's coupling tendon) towards
+    targets past the ball: each stops on it, and its servos turn the remaining error into the
+    squeeze (the middle and ring finger stop near J2 = 1.17, J1 = 0.73-0.80: 0.1-0.2 N m).
+    They push the ball towards the wrist and off the thumb, which then stands beside it
+    untouched.  Each move is a smooth step (3 s^2 - 2 s^3).
+
+    Attributes
+    ----------
+    finger_open : the fingers' (J2, J1) at the start, rad.
+    finger_closed : their targets (J2, J1), rad.
+    thumb_closed : the thumb's (THJ4, THJ3, THJ2, THJ1, THJ0) closed, rad (open: all 0).
+    thumb_from_s, thumb_for_s : when the thumb starts closing and how long it takes, s.
+    fingers_from_s, fingers_for_s : the same for the fingers, s.
+    """
+
+    finger_open: tuple[float, float] = (1.2, 0.0)
+    finger_closed: tuple[float, float] = (1.35, 0.9)
+    thumb_closed: tuple[float, ...] = (-0.19, 1.177, -0.115, -0.51, -0.63)
+    thumb_from_s: float = 0.4
+    thumb_for_s: float = 0.6
+    fingers_from_s: float = 1.0
+    fingers_for_s: float = 0.8
+
+    @property
+    def closed_s(self) -> float:
+        """When the hand is closed, s."""
+        return max(self.thumb_from_s + self.thumb_for_s, self.fingers_from_s + self.fingers_for_s)
+
+    def targets(self, t: float) -> dict[str, float]:
+        """Every scripted servo's target at time ``t``, rad, by joint name (``FFJ2``, ``THJ4``, ...)."""
+        fingers = _smooth_step((t - self.fingers_from_s) / self.fingers_for_s)
+        thumb = _smooth_step((t - self.thumb_from_s) / self.thumb_for_s)
+        out = {}
+        for finger in ("FF", "MF", "RF", "LF"):
+            for joint, start, end in zip(("J2", "J1"), self.finger_open, self.finger_closed, strict=True):
+                out[f"{finger}{joint}"] = start + (end - start) * fingers
+        for joint, end in zip(("THJ4", "THJ3", "THJ2", "THJ1", "THJ0"), self.thumb_closed, strict=True):
+            out[joint] = end * thumb
+        return out
+
+
+#: Servo time constants after the hand closed before its fingers count as settled: e^-5, the
+#: last 0.7 % of a first-order step left.
+SETTLED_TIME_CONSTANTS = 5
+
+
+def hold_from_s(model: mujoco.MjModel, script: GraspScript) -> float:
+    """Where the hold's readings start, s: the hand closed, its scripted joints settled (five
+    of their servos' slowest time constant, damping / kp: 0.1 s on this hand), and then one
+    readout inference window (``WINDOW_S``), so that every reading of the hold infers from
+    loads the settled hand put on its fingertip."""
+    servo_s = 0.0
+    for joint in script.targets(0.0):
+        actuator = model.actuator(f"robot0:A_{joint}").id
+        dof = model.jnt_dofadr[model.joint(f"robot0:{joint}").id]
+        servo_s = max(servo_s, float(model.dof_damping[dof] / model.actuator_gainprm[actuator, 0]))
+    return script.closed_s + SETTLED_TIME_CONSTANTS * servo_s + WINDOW_S
+
+
+def _smooth_step(s: float) -> float:
+    s = min(max(s, 0.0), 1.0)
+    return s * s * (3.0 - 2.0 * s)
+
+
+def _start_open(model: mujoco.MjModel, data: mujoco.MjData, targets: dict[str, float]) -> dict[str, int]:
+    """Put the hand in the script's open pose (joints and their servos) and return each
+    scripted servo's actuator index by joint name."""
+    actuators = {}
+    for joint, value in targets.items():
+        actuators[joint] = model.actuator(f"robot0:A_{joint}").id
+        data.ctrl[actuators[joint]] = value
+        data.qpos[model.jnt_qposadr[model.joint(f"robot0:{joint}").id]] = value
+    mujoco.mj_forward(model, data)
+    return actuators
+
+
+# ---------------------------------------------------------------------------------------
+# The run: what each fingertip reads.
+# ---------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class SkinRecord:
+    """What the fingertips read, one row per control period, one column per fingertip.
+
+    Attributes
+    ----------
+    fingertips : the column names ("ff", "mf", "rf", "lf", "th").
+    time_s : the end of each period, s.
+    estimate_pa, sigma_pa : the readout's estimate and its one-sigma uncertainty, Pa (NaN where unknown).
+    status : the readout's status, an index into :data:`STATUS_CODES`.
+    mode : the vibration mode that period's reading was driven in.
+    voltage_v : the sensed amplitude, V.
+    true_pressure_pa : the gel's mean pressure on the element's coverage, Pa (the truth).
+    touching : whether a strip of the pad touched the ball at the period's end (MuJoCo's contacts).
+    detection_limit_pa : mode 1's detection limit, Pa (the lowest pressure any mode reads).
+    closed_s, hold_from_s : when the hand closed and where the hold's readings start, s.
+    """
+
+    fingertips: tuple[str, ...]
+    time_s: np.ndarray
+    estimate_pa: np.ndarray
+    sigma_pa: np.ndarray
+    status: np.ndarray
+    mode: np.ndarray
+    voltage_v: np.ndarray
+    true_pressure_pa: np.ndarray
+    touching: np.ndarray
+    detection_limit_pa: float
+    closed_s: float
+    hold_from_s: float
+
+    @property
+    def hold(self) -> np.ndarray:
+        """The periods of the hold (per row)."""
+        return self.time_s >= self.hold_from_s
+
+    def ok(self) -> np.ndarray:
+        """Where the status is "ok" and the estimate finite (the readings the contract covers)."""
+        return (self.status == STATUS_CODES.index("ok")) & np.isfinite(self.estimate_pa) & np.isfinite(self.sigma_pa)
+
+    def within_3_sigma(self) -> np.ndarray:
+        """Where an "ok" reading's estimate +- 3 sigma holds the truth (False elsewhere)."""
+        with np.errstate(invalid="ignore"):
+            return self.ok() & (np.abs(self.estimate_pa - self.true_pressure_pa) <= 3.0 * self.sigma_pa)
+
+
+class _Estimate:
+    """A :class:`TipReading` as the mode selector reads a readout estimate."""
+
+    __slots__ = ("pressure_pa", "status", "uncertainty_pa")
+
+    def __init__(self, reading) -> None:
+        self.pressure_pa, self.uncertainty_pa, self.status = reading.estimate_pa, reading.sigma_pa, reading.status
+
+
+def _touching(model: mujoco.MjModel, data: mujoco.MjData, strip_pad: dict[int, int], ball_geom: int, count: int) -> np.ndarray:
+    """Per pad, whether one of its strips touches the ball now."""
+    out = np.zeros(count, dtype=bool)
+    for contact in data.contact[: data.ncon]:
+        g1, g2 = int(contact.geom[0]), int(contact.geom[1])
+        other = g2 if g1 == ball_geom else g1 if g2 == ball_geom else -1
+        pad = strip_pad.get(int(model.geom_bodyid[other]), -1) if other >= 0 else -1
+        if pad >= 0:
+            out[pad] = True
+    return out
+
+
+def run(scene: Path, seconds: float, script: GraspScript = GraspScript()) -> SkinRecord:
+    """Close the hand on the ball for ``seconds`` of simulated time and record every fingertip."""
+    spec = build_scene(scene)
+    tips = piezotip.attach(spec, sites=[f"{tip}_pad" for tip in FINGERTIPS])
+    model = spec.compile()
+    data = mujoco.MjData(model)
+    sim = tips.bind(model, data)
+    actuators = _start_open(model, data, script.targets(0.0))
+
+    # The house multimode controller's selector (its switch pressures are the fingertip's own).
+    modes = tuple(sorted(tips.config.sensor.modes))
+    selectors = {name: ModeSelector(tips.fingertip, modes) for name in sim.names}
+    _, _, p_min_pa, _ = allowed_ranges(tips.fingertip, modes)
+    strip_pad = {model.body(strip).id: k for k, pad in enumerate(tips.pads) for strip in pad.strips}
+    ball_geom = model.geom("ball").id
+
+    periods = round(seconds / sim.period_s)
+    shape = (periods, len(FINGERTIPS))
+    columns = {key: np.full(shape, np.nan) for key in ("estimate_pa", "sigma_pa", "voltage_v", "true_pressure_pa")}
+    status, mode, touching = np.zeros(shape, dtype=np.int8), np.zeros(shape, dtype=np.int8), np.zeros(shape, dtype=bool)
+    for k in range(periods):
+        for joint, target in script.targets(k * sim.period_s).items():
+            data.ctrl[actuators[joint]] = target
+        sim.step()
+        readings = sim.readings()
+        for j, name in enumerate(sim.names):
+            r = readings[name]
+            columns["estimate_pa"][k, j], columns["sigma_pa"][k, j] = r.estimate_pa, r.sigma_pa
+            columns["voltage_v"][k, j], columns["true_pressure_pa"][k, j] = r.voltage, r.true_pressure_pa
+            status[k, j], mode[k, j] = STATUS_CODES.index(r.status), r.mode
+            drive, _ = selectors[name].update(_Estimate(r))
+            if drive != r.mode:
+                sim.set_mode(name, drive)
+        touching[k] = _touching(model, data, strip_pad, ball_geom, len(FINGERTIPS))
+    return SkinRecord(
+        fingertips=tuple(name.removesuffix("_pad") for name in sim.names),
+        time_s=sim.period_s * np.arange(1, periods + 1),
+        status=status,
+        mode=mode,
+        touching=touching,
+        detection_limit_pa=p_min_pa[modes[0]],
+        closed_s=script.closed_s,
+        hold_from_s=hold_from_s(model, script),
+        **columns,
+    )
+
+
+# ---------------------------------------------------------------------------------------
+# What it writes and prints.
+# ---------------------------------------------------------------------------------------
+
+#: The per-fingertip columns of the CSV and the npz: (record field, column name with its unit).
+COLUMNS = (
+    ("estimate_pa", "estimate_pa"),
+    ("sigma_pa", "sigma_pa"),
+    ("status", "status"),
+    ("mode", "mode"),
+    ("voltage_v", "voltage_v"),
+    ("true_pressure_pa", "true_pressure_pa"),
+    ("touching", "touching_ball"),
+)
+
+
+def save_readings(record: SkinRecord, out: Path) -> tuple[Path, Path]:
+    """``readings.npz`` (arrays: time x fingertip; the status as an index into ``status_names``)
+    and ``readings.csv`` (one row per period and fingertip; the status by name)."""
+    npz = out / "readings.npz"
+    np.savez(
+        npz,
+        time_s=record.time_s,
+        fingertips=np.array(record.fingertips),
+        status_names=np.array(STATUS_CODES),
+        detection_limit_pa=record.detection_limit_pa,
+        closed_s=record.closed_s,
+        hold_from_s=record.hold_from_s,
+        **{column: getattr(record, field) for field, column in COLUMNS},
+    )
+    path = out / "readings.csv"
+    status = [column for _, column in COLUMNS].index("status")
+    with path.open("w", newline="") as handle:
+        writer = csv.writer(handle)
+        writer.writerow(["time_s", "fingertip", *(column for _, column in COLUMNS)])
+        for k, t in enumerate(record.time_s):
+            for j, tip in enumerate(record.fingertips):
+                row = [_csv_value(getattr(record, field)[k, j]) for field, _ in COLUMNS]
+                row[status] = STATUS_CODES[int(record.status[k, j])]
+                writer.writerow([f"{t:.3f}", tip, *row])
+    return npz, path
+
+
+def _csv_value(value) -> str:
+    if isinstance(value, np.bool_ | np.integer):
+        return str(int(value))
+    return f"{value:.6g}" if math.isfinite(value) else ""
+
+
+@dataclass(frozen=True)
+class TipSummary:
+    """One fingertip over the run and over the hold.
+
+    Attributes
+    ----------
+    fingertip : its name.
+    peak_true_pa : the largest true pressure of the run, Pa.
+    touched, holds : whether it touched the ball at all, and in the hold (at any period of it).
+    ok, within : its "ok" readings and how many held the truth within 3 sigma, over the run.
+    hold_ok, hold_within : the same in the hold.
+    """
+
+    fingertip: str
+    peak_true_pa: float
+    touched: bool
+    holds: bool
+    ok: int
+    within: int
+    hold_ok: int
+    hold_within: int
+
+
+def summarize(record: SkinRecord) -> list[TipSummary]:
+    """Per fingertip, what the run and its hold read (:class:`TipSummary`)."""
+    ok, held, hold = record.ok(), record.within_3_sigma(), record.hold
+    return [
+        TipSummary(
+            fingertip=tip,
+            peak_true_pa=float(np.max(record.true_pressure_pa[:, j])),
+            touched=bool(record.touching[:, j].any()),
+            holds=bool(record.touching[hold, j].any()),
+            ok=int(ok[:, j].sum()),
+            within=int(held[:, j].sum()),
+            hold_ok=int(ok[hold, j].sum()),
+            hold_within=int(held[hold, j].sum()),
+        )
+        for j, tip in enumerate(record.fingertips)
+    ]
+
+
+def _share(within: int, ok: int) -> str:
+    return f"{100 * within / ok:.1f} % of {ok}" if ok else f"- of {ok}"
+
+
+#: How each status is drawn along the bottom of a panel (the run plot's colours, analysis/run_report.py).
+STATUS_STYLE = {"ok": ("tab:green", 0.8), "below_detection": ("0.7", 0.5), "saturated": ("tab:red", 0.8), "settling": ("gold", 0.6)}
+#: The pressure axis's floor, Pa (log scale; a band reaching zero runs off it).
+PRESSURE_FLOOR_PA = 0.1
+
+
+#: How far the error strip under each panel reaches, sigmas (errors beyond are drawn at its edge).
+ERROR_STRIP_SIGMA = 10.0
+
+
+def plot_skin(record: SkinRecord, path: Path) -> Path:
+    """``skin.png``: per fingertip a panel of the truth against the "ok" estimates and their
+    3-sigma band (mode 1's detection limit, the status along the bottom, the modes driven), and
+    under it a strip of each "ok" reading's error in its own sigmas against the +-3 sigma band
+    (on the pressure panel's log scale a 1-5 % sigma is too thin to see)."""
+    from matplotlib.figure import Figure
+    from matplotlib.patches import Patch
+
+    from piezotip.analysis.plotting import PNG_COMPRESS_LEVEL
+
+    t, n = record.time_s, len(record.fingertips)
+    fig = Figure(figsize=(10, 2.9 * n + 0.8), layout="constrained")
+    axes = []
+    for panel in fig.subfigures(n, 1):  # per fingertip its pressure and error axes, one time axis for all
+        grid = panel.add_gridspec(2, 1, height_ratios=[3.0, 1.0])
+        for row in (0, 1):
+            axes.append(panel.add_subplot(grid[row], sharex=axes[0] if axes else None))
+    ok, summary = record.ok(), summarize(record)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        error = np.where(ok, (record.estimate_pa - record.true_pressure_pa) / record.sigma_pa, np.nan)
+    top = max(10 * PRESSURE_FLOOR_PA, float(np.nanmax(np.where(ok, record.estimate_pa + 3 * record.sigma_pa, record.true_pressure_pa))))
+    for j, s in enumerate(summary):
+        ax, strip = axes[2 * j], axes[2 * j + 1]
+        for a in (ax, strip):
+            a.axvspan(record.hold_from_s, t[-1], color="0.93", lw=0, zorder=0)
+            a.axvline(record.closed_s, color="0.6", lw=0.8, ls="--")
+        truth = record.true_pressure_pa[:, j]
+        ax.plot(t, np.where(truth > 0, truth, np.nan), color="tab:blue", lw=2.5, alpha=0.45, label="true pressure")
+        est, sigma = np.where(ok[:, j], record.estimate_pa[:, j], np.nan), np.where(ok[:, j], record.sigma_pa[:, j], np.nan)
+        low = np.maximum(np.nan_to_num(est - 3 * sigma), 0.5 * PRESSURE_FLOOR_PA)
+        band = "estimate $\\pm 3\\sigma$"
+        ax.fill_between(t, low, np.nan_to_num(est + 3 * sigma), where=ok[:, j], color="tab:orange", alpha=0.5, lw=0, label=band)
+        ax.plot(t, est, ".", ms=2.5, color="saddlebrown", label='estimate (status "ok")')
+        ax.axhline(record.detection_limit_pa, color="0.4", ls=":", lw=1, label="detection limit (mode 1)")
+        for code, name in enumerate(STATUS_CODES):
+            color, alpha = STATUS_STYLE[name]
+            spans = [(t[a] - (t[1] - t[0]), t[b - 1] - t[a] + (t[1] - t[0])) for a, b in _runs(record.status[:, j] == code)]
+            ax.broken_barh(spans, (0, 0.05), transform=ax.get_xaxis_transform(), color=color, alpha=alpha, lw=0)
+        for k in np.flatnonzero(np.diff(record.mode[:, j])) + 1:
+            where = (t[k], 1.0)
+            ax.annotate(
+                f"m{record.mode[k, j]}", where, xycoords=("data", "axes fraction"), fontsize=7, ha="center", va="bottom", color="0.3"
+            )
+        ax.set_yscale("log")
+        ax.set_ylim(PRESSURE_FLOOR_PA, 3 * top)
+        ax.set_ylabel("pressure [Pa]")
+        touch = "holds the ball" if s.holds else "touches the ball, not in the hold" if s.touched else "never touches the ball"
+        ax.set_title(
+            f"{FINGER_NAMES[s.fingertip]} ({s.fingertip}): {touch}; peak {s.peak_true_pa / 1e3:.3g} kPa; "
+            f"ok readings within 3$\\sigma$: {_share(s.within, s.ok)} (hold: {_share(s.hold_within, s.hold_ok)})",
+            fontsize=9,
+            loc="left",
+            pad=9,
+        )
+        strip.axhspan(-3, 3, color="tab:orange", alpha=0.25, lw=0)
+        strip.plot(t, np.clip(error[:, j], -ERROR_STRIP_SIGMA, ERROR_STRIP_SIGMA), ".", ms=2, color="saddlebrown")
+        strip.set_ylim(-ERROR_STRIP_SIGMA * 1.1, ERROR_STRIP_SIGMA * 1.1)
+        strip.set_yticks([-ERROR_STRIP_SIGMA, -3, 3, ERROR_STRIP_SIGMA])
+        strip.tick_params(axis="y", labelsize=7)
+        strip.set_ylabel("error\n[$\\sigma$]", fontsize=8)
+    for a in axes[:-1]:
+        a.tick_params(labelbottom=False)
+    axes[-1].set_xlabel("time [s]   (dashed: the hand closed; grey: the hold; m2, m3: the mode driven from there)")
+    handles, _ = axes[0].get_legend_handles_labels()
+    handles += [Patch(facecolor=c, alpha=a, label=f"status: {n.replace('_', ' ')}") for n, (c, a) in STATUS_STYLE.items()]
+    fig.legend(handles=handles, loc="outside upper center", ncol=4, fontsize=8, frameon=False)
+    fig.savefig(path, dpi=120, format="png", pil_kwargs={"compress_level": PNG_COMPRESS_LEVEL})
+    return path
+
+
+def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
+    """The (first, stop) index pairs of ``mask``'s runs of True."""
+    edges = np.diff(np.concatenate([[0], mask.astype(np.int8), [0]]))
+    return list(zip(np.flatnonzero(edges == 1).tolist(), np.flatnonzero(edges == -1).tolist(), strict=True))
+
+
+def print_summary(record: SkinRecord) -> None:
+    print(f"ok readings within 3 sigma of the truth: over the run, and in the hold (from {record.hold_from_s:g} s)")
+    print(f"{'fingertip':<15} {'touches':>15} {'peak true (Pa)':>15} {'run':>15} {'hold':>15}")
+    for s in summarize(record):
+        touch = "in the hold" if s.holds else "before the hold" if s.touched else "never"
+        run, hold = _share(s.within, s.ok), _share(s.hold_within, s.hold_ok)
+        print(f"{FINGER_NAMES[s.fingertip]:<15} {touch:>15} {s.peak_true_pa:15.1f} {run:>15} {hold:>15}")
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0], formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--out", type=Path, default=Path("out/shadow-hand"), help="output folder (default out/shadow-hand)")
+    parser.add_argument("--seconds", type=float, default=4.0, help="simulated time, s (default 4; the hold's readings start at 2.8 s)")
+    args = parser.parse_args(argv)
+    script = GraspScript()
+    if not script.closed_s < args.seconds <= 60:
+        parser.error(f"--seconds must be in ({script.closed_s:g}, 60] (the hand is closed at {script.closed_s:g} s), got {args.seconds!r}")
+    scene = hand_assets()
+    if scene is None:
+        print("the Shadow Hand needs Gymnasium-Robotics: pip install -e '.[hand]'", file=sys.stderr)
+        return 2
+    args.out.mkdir(parents=True, exist_ok=True)
+    record = run(scene, args.seconds, script)
+    files = [*save_readings(record, args.out), plot_skin(record, args.out / "skin.png")]
+    print_summary(record)
+    print("wrote " + ", ".join(str(f) for f in files))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

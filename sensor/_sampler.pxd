@@ -1,0 +1,33 @@
+# The C types of _sampler.py (its one source; sensor/compiled.py explains the kernels).
+cimport cython
+
+cimport piezotip.sensor._kernel_helpers as kh
+
+cdef double _SETTLE_TAUS
+cdef Py_ssize_t _READING_AT[10]
+
+
+@cython.final
+cdef class ModeSampler:
+    cdef readonly int mode
+    cdef public Py_ssize_t lookups, unloaded_samples
+    cdef double _omega, _sigma, _c, _rho_a
+    cdef bint _envelope, _skip_unloaded
+    cdef double[::1] _weights, _log_p, _log_k, _log_c
+    cdef Py_ssize_t _n
+    cdef double _p0, _k0, _c0
+    cdef double complex _u_steady, _u_rate, _u_decay
+    cdef double _u_tau, _u_dt
+    cdef object _args  # the constructor's arguments, for copies
+
+    @cython.locals(log_k=double, log_c=double)
+    cdef (double, double) _at(self, double p) except *
+
+    @cython.locals(omega=double, c=double, jk="double complex", steady="double complex", rate="double complex")
+    cdef (double complex, double complex, double) _response(self, double kappa, double gamma) except *
+
+    @cython.locals(
+        i=Py_ssize_t, k_e=double, c_e=double, kappa=double, gamma=double, tau=double, settled=bint, v1_true=double, phase=double,
+        steady="double complex", rate="double complex", decay="double complex", noise="double complex", iq="double complex",
+    )
+    cpdef tuple sample(self, pressure_cells_pa, double complex envelope, double dt_s, double time_in_mode_s, noise_iq)
