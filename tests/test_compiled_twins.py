@@ -368,7 +368,7 @@ def test_every_kernel_is_built_and_runs():
     classes += [pad_kernels.GelForces, pad_kernels.PadPressures, pad_kernels.UniformPairTable, selector.TouchDetector]
     heap = [cls.__qualname__ for cls in classes if cls.__flags__ & (1 << 9)]  # Py_TPFLAGS_HEAPTYPE: a Python class
     assert not heap, f"compiled without their .pxd (Python classes, no C types): {heap}"
-    assert pad_kernels.PAD_KERNELS_COMPILED and rows.ROWS_COMPILED and selector.SELECTOR_COMPILED and interface.INTERFACE_COMPILED
+    assert pad_kernels.PAD_KERNELS_COMPILED and rows.ROWS_COMPILED and selector.SELECTOR_COMPILED
     from piezotip import scenarios
     from piezotip.cosim.loop import CoSimulation
 
@@ -599,10 +599,10 @@ def test_the_records_made_by_slots_are_the_dataclasses(run):
     estimate = Estimate(120.0, 3.0, "ok")
     pads = {"left_pad": None}
     made = {
-        "signal": ((reading, estimate), PadSignal, [interface.py_make_pad_signal, interface.make_pad_signal, control.make_pad_signal]),
-        "observation": ((1.5, pads, 0.02, 0.05, 3.0, 2.0, -0.01), Observation, [interface.py_make_observation, control.make_observation]),
-        "default velocity": ((1.5, pads, 0.02, 0.05, 3.0, 2.0), Observation, [interface.make_observation, control.make_observation]),
-        "command": ((0.03, 0.0, 4.0, {"left_pad": 2}, Phase.LIFT, "squeeze"), Command, [interface.py_make_command, control.make_command]),
+        "signal": ((reading, estimate), PadSignal, [control.make_pad_signal]),
+        "observation": ((1.5, pads, 0.02, 0.05, 3.0, 2.0, -0.01), Observation, [control.make_observation]),
+        "default velocity": ((1.5, pads, 0.02, 0.05, 3.0, 2.0), Observation, [control.make_observation]),
+        "command": ((0.03, 0.0, 4.0, {"left_pad": 2}, Phase.LIFT, "squeeze"), Command, [control.make_command]),
         "reading": (tuple(getattr(reading, f.name) for f in dataclasses.fields(reading)), Reading, [resonator._reading]),
         "estimate": ((120.0, 3.0, "ok"), Estimate, [estimator._estimate]),
     }

@@ -14,6 +14,7 @@ Each controller registers itself (:func:`piezotip.controllers.register`) with it
 (scenarios/config.py) under its ``controller.kind``: importing this package registers them.
 """
 
+from ._control import make_command, make_observation, make_pad_signal
 from .gentle import GentleGrasp
 from .interface import (
     Command,
@@ -23,9 +24,6 @@ from .interface import (
     PadSignal,
     RobotLimits,
     Why,
-    make_command,
-    make_observation,
-    make_pad_signal,
     pad_names,
 )
 from .multimode import MultimodeGrasp, grip_floor_n

@@ -12,7 +12,6 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Protocol, runtime_checkable
 
-from piezotip.sensor.compiled import record_maker, twin
 from piezotip.sensor.estimator import Estimate
 from piezotip.sensor.resonator import Reading
 
@@ -186,30 +185,3 @@ class Why:
         """'pad: why; pad: why', lazily."""
         return cls(None, *pairs)
 
-
-#: The records made from every field in order, through their slots (sensor.compiled.record_maker).
-_pad_signal, _observation, _command = record_maker(PadSignal), record_maker(Observation), record_maker(Command)
-
-
-def py_make_pad_signal(reading: Reading, estimate: Estimate) -> PadSignal:
-    """``PadSignal(reading, estimate)`` for the per-step path: a frozen dataclass's __init__
-    sets each field through object.__setattr__; this sets each slot through its descriptor (the
-    result is an ordinary, equal, frozen instance; tests check it).  The reference of the
-    compiled :func:`make_pad_signal` (``cosim/control/_control.pyx``), as are the two below."""
-    return _pad_signal(reading, estimate)
-
-
-def py_make_observation(time_s, pads, lift_pos_m, opening_m, lift_force_n, grip_force_n, lift_vel_m_s=0.0) -> Observation:
-    """``Observation(...)`` for the per-step path (see :func:`py_make_pad_signal`)."""
-    return _observation(time_s, pads, lift_pos_m, opening_m, lift_force_n, grip_force_n, lift_vel_m_s)
-
-
-def py_make_command(lift_m, opening_m, grip_force_limit_n, modes, phase, reason) -> Command:
-    """``Command(...)`` for the per-step path (see :func:`py_make_pad_signal`)."""
-    return _command(lift_m, opening_m, grip_force_limit_n, modes, phase, reason)
-
-
-#: The compiled twins of the three above where built (the slots written in C), else they.
-make_pad_signal, INTERFACE_COMPILED = twin("piezotip.cosim.control._control", "make_pad_signal", py_make_pad_signal)
-make_observation, _ = twin("piezotip.cosim.control._control", "make_observation", py_make_observation)
-make_command, _ = twin("piezotip.cosim.control._control", "make_command", py_make_command)

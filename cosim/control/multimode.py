@@ -59,7 +59,8 @@ from piezotip.scenarios.config import MultimodeConfig, ScenarioConfig
 from piezotip.sensor import Fingertip
 from piezotip.sensor.cache import disk_cached
 
-from .interface import Command, Event, Observation, RobotLimits, Why, make_command, pad_names
+from ._control import make_command
+from .interface import Command, Event, Observation, RobotLimits, Why, pad_names
 from .lift import LiftPlan, grip_for_load_n, ratchet_grip_n
 from .phases import FINISHED, Phase
 from .selector import ModeSelector, TouchDetector
