@@ -124,16 +124,6 @@ def compiled_kernels() -> dict[str, bool]:
     return {name: is_compiled(importlib.import_module(name)) for name in KERNELS}
 
 
-def twin(module: str, name: str, reference: Callable) -> tuple[Callable, bool]:
-    """(what to use, whether it is compiled): ``name`` from the kernel ``module`` (e.g.
-    ``"piezotip.cosim.control._control"``) where it runs compiled, else ``reference``, a Python
-    function doing the same (:mod:`cosim.control.interface`'s record makers)."""
-    kernel = importlib.import_module(module)
-    if not is_compiled(kernel):
-        return reference, False
-    return getattr(kernel, name), True
-
-
 def slot_descriptors(cls: type, names: tuple[str, ...] = ()) -> list:
     """The slot descriptor of each field of the dataclass ``cls``, in the fields' order (or of
     each of the attributes ``names`` of a class with ``__slots__``): what :func:`record_maker`
