@@ -76,6 +76,13 @@ def pass_rule_controllers() -> tuple[str, ...]:
     return tuple(name for name in controllers.names() if controllers.get(name).experiment)
 
 
+def passes(rows) -> bool:
+    """The experiment's pass rule: every controller held to it (:func:`pass_rule_controllers`)
+    succeeds on exactly the objects the gripper can carry (``feasible``), and on no other."""
+    held = pass_rule_controllers()
+    return all(r["success"] == r["feasible"] for r in rows if r["controller"] in held)
+
+
 def __getattr__(name: str):
     # CONTROLLERS: the registry's experiment controllers as they are now (one registered after
     # this module was imported is in it).

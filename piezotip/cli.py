@@ -263,7 +263,7 @@ def _cmd_experiment(args: argparse.Namespace) -> int:
         raise ValueError(f"unknown experiment {args.name!r}; valid experiments: grasp-range")
     if not args.video:  # with --video each worker loads MuJoCo's GL backend itself, never a forked one
         _start_workers_early(args)
-    from piezotip.analysis.experiment import format_table, pass_rule_controllers, run_experiment, write_outputs
+    from piezotip.analysis.experiment import format_table, passes, run_experiment, write_outputs
     from piezotip.analysis.runner import check_out_dir
 
     out = check_out_dir(Path(args.out or "out/grasp-range"))
@@ -287,11 +287,7 @@ def _cmd_experiment(args: argparse.Namespace) -> int:
             f"{result.skipped} of {len(rows)} runs were done before in {out} and not run again (a new --out runs them all)",
             file=sys.stderr,
         )
-    # Success: the controllers registered for the experiment (multimode, gentle) carry every
-    # object the gripper can, and nothing it cannot.
-    held = pass_rule_controllers()
-    expected = all(r["success"] == r["feasible"] for r in rows if r["controller"] in held)
-    return 0 if expected else 1
+    return 0 if passes(rows) else 1
 
 
 def _check_workers(args: argparse.Namespace) -> None:

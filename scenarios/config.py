@@ -23,6 +23,8 @@ import math
 import re
 import types
 import typing
+from contextlib import contextmanager
+from contextvars import ContextVar
 from dataclasses import dataclass, field
 
 OBJECT_SHAPES = ("box", "cylinder", "sphere", "egg")
@@ -69,8 +71,32 @@ MAX_VALUE_DEPTH = 4
 _MAX_EXPRESSION_DEPTH = 3 * MAX_VALUE_DEPTH
 
 
+#: While set, a section's checks wait (with_overrides sets it while it applies a batch of ``--set``
+#: assignments one at a time: physics.timestep_s and physics.control_period_s, or gripper.mjcf and
+#: gripper.fingertips, are only consistent together), and run once the batch is applied.
+_CHECKS_DEFERRED: ContextVar[bool] = ContextVar("piezotip_checks_deferred", default=False)
+
+
+@contextmanager
+def _deferred_checks():
+    token = _CHECKS_DEFERRED.set(True)
+    try:
+        yield
+    finally:
+        _CHECKS_DEFERRED.reset(token)
+
+
+class _CheckedOnConstruction:
+    """A config section whose values are checked when it is made (its ``validate``), so that a
+    bad value cannot exist, except inside a batch of overrides (:func:`with_overrides`)."""
+
+    def __post_init__(self) -> None:
+        if not _CHECKS_DEFERRED.get():
+            self.validate()
+
+
 @dataclass(frozen=True)
-class ObjectConfig:
+class ObjectConfig(_CheckedOnConstruction):
     """The object on the table.
 
     Attributes
@@ -109,7 +135,7 @@ class ObjectConfig:
 
 
 @dataclass(frozen=True)
-class PhysicsConfig:
+class PhysicsConfig(_CheckedOnConstruction):
     """The physics engine's fidelity knobs.
 
     Attributes
@@ -164,7 +190,7 @@ class PhysicsConfig:
 
 
 @dataclass(frozen=True)
-class SensorConfig:
+class SensorConfig(_CheckedOnConstruction):
     """What the fingertips observe, and how faithfully.
 
     Attributes
@@ -556,7 +582,7 @@ class GentleConfig(MultimodeConfig):
 
 
 @dataclass(frozen=True)
-class GripperConfig:
+class GripperConfig(_CheckedOnConstruction):
     """The gripper the scene hangs from the lift: the house gripper (models/gripper.xml), or
     another from its MJCF file (cosim/gripper_mount.py; docs/grippers.md).
 
@@ -959,11 +985,12 @@ def with_overrides(config: ScenarioConfig, assignments: list[str]) -> ScenarioCo
             raise ValueError(f"--set takes key=value, got {_short(assignment)}")
         pairs.append((key, text))
     pairs.sort(key=lambda pair: pair[0] != CONTROLLER_KIND_KEY)  # stable: the kinds in their order, then the rest
-    for key, text in pairs:
-        try:
-            config = apply_override(config, key, parse_value(text.strip(), key))
-        except KeyError:
-            raise ValueError(unknown_key_message(config, key)) from None
+    with _deferred_checks():
+        for key, text in pairs:
+            try:
+                config = apply_override(config, key, parse_value(text.strip(), key))
+            except KeyError:
+                raise ValueError(unknown_key_message(config, key)) from None
     return config.validate()
 
 

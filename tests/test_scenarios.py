@@ -71,3 +71,29 @@ def test_a_list_given_as_text_in_a_mapping_says_a_list_is_needed():
 def test_valid_keys_cover_nested_fields():
     keys = valid_keys(scenarios.get("grasp"))
     assert {"object.mass_kg", "physics.timestep_s", "sensor.dynamics", "controller.modes"} <= set(keys)
+
+
+@pytest.mark.parametrize(
+    ("section", "values", "key"),
+    [
+        ("ObjectConfig", {"mass_kg": -0.1}, "object.mass_kg"),
+        ("PhysicsConfig", {"timestep_s": 0.0015}, "physics.control_period_s"),  # 5 ms is no whole multiple of 1.5 ms
+        ("SensorConfig", {"coverage_mm": (7.0, 7.1)}, "sensor.coverage_mm"),
+        ("GripperConfig", {"fingertips": ("a", "b")}, "gripper.fingertips"),
+    ],
+)
+def test_a_section_is_checked_when_it_is_made(section, values, key):
+    """Validation on construction: a bad value cannot exist (it used to wait for validate())."""
+    from piezotip.scenarios import config as config_module
+
+    with pytest.raises(ValueError, match=key.replace(".", r"\.")):
+        getattr(config_module, section)(**values)
+
+
+def test_a_batch_of_overrides_is_checked_once_applied():
+    """Assignments that are consistent only together (the timestep and the control period) are
+    checked after the batch, not one by one."""
+    cfg = scenarios.get("grasp", ["physics.timestep_s=0.0015", "physics.control_period_s=0.003"])
+    assert cfg.physics.substeps == 2
+    with pytest.raises(ValueError, match=r"physics\.control_period_s"):
+        scenarios.get("grasp", ["physics.timestep_s=0.0015"])
