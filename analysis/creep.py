@@ -98,12 +98,15 @@ QUICK = {"masses_kg": (0.003, 0.1), "frictions": (1.0,), "shapes": ("box",), "ho
 #: tendon's and servos' coupling).  impratio 10: MuJoCo's advice for grasping with soft contacts.
 #: dampratio 1.5: the pad contacts' normal rows over-damped (solref "0.002 1.5": the same damping
 #: 2 / tc, a 2.25x lower stiffness), the measured remedy for the light point contacts' chatter
-#: (the sphere and the egg of 1 g: see the module's notes).
+#: (the sphere and the egg of 1 g: see the module's notes).  compliant: ``physics.pad_contact=
+#: compliant`` (cosim.pad_model.apply_pad_contact), the impedance ramped over the first 10 um of
+#: depth and impratio 50, which stops sliding pads chattering (:func:`sliding_chatter`).
 CONTACT_VARIANTS: dict[str, dict[str, object]] = {
     "current": {},
     "noslip": {"noslip_iterations": 10},
     "impratio10": {"impratio": 10.0},
     "dampratio1.5": {"pad_dampratio": 1.5},
+    "compliant": {"set": ("physics.pad_contact=compliant",)},
 }
 
 #: Object widths across the fingers by mass, m: (mass up to, kg; width, m), everyday objects of
@@ -499,6 +502,44 @@ def _numbers(outcome: str, creep: float, creep_z: float, lift_slip: float, rise:
         "hold_s": hold,
         "wall_time_s": wall,
     }
+
+
+def sliding_chatter(
+    shape: str,
+    mass_kg: float,
+    friction: float,
+    contact: str = "current",
+    grip_factor: float = 0.6,
+    slide_speed_m_s: float = 0.001,
+    size_m: float = 0.04,
+    measure_s: float = 0.5,
+    overrides: Iterable[str] = (),
+) -> float:
+    """How much a sliding pad's pressure chatters: the pads grip an object resting on the table
+    with ``grip_factor`` x m g / (2 mu) (below 1 they cannot lift it) and the lift pulls them up
+    it at ``slide_speed_m_s``; over ``measure_s`` of that slide (after 0.5 s of it), the left
+    fingertip's coverage pressure each control period against its running median (21 periods),
+    as a relative standard deviation, -.  A smooth slide at a fixed grip gives 0; MuJoCo's hard
+    pad contacts give 0.25-0.3 (models/README.md, "Sliding pads")."""
+    import numpy as np
+    from scipy.ndimage import median_filter
+
+    sim = _simulation(shape, mass_kg, friction, size_m, (*variant_settings(contact), *overrides))
+    apply_contact(sim.model, contact)
+    grip = grip_factor * needed_grip_n(mass_kg, friction, sim.robot.gravity_m_s2)
+    distance_m = slide_speed_m_s * (1.0 + measure_s) + 0.001
+    harness = FixedGripHarness(sim.robot, size_m, grip, lift_height_m=distance_m, hold_s=0.1, lift_speed_m_s=slide_speed_m_s)
+    sim.controller = harness
+    pressures = []
+    while not harness.finished and len(pressures) < round(measure_s / sim.dt):
+        sim.advance()
+        if harness.phase is Phase.LIFT and sim.time_s - harness.t_phase_s > 0.5:
+            pressures.append(float(sim.coverage_pressures()[0].mean()))
+    p = np.asarray(pressures)
+    if p.size < 21 or not np.all(p > 0.0):
+        raise RuntimeError(f"the pads did not press the {shape} while sliding ({p.size} periods measured)")
+    base = median_filter(p, 21, mode="nearest")
+    return float(np.std((p - base) / base))
 
 
 # ---------------------------------------------------------------------------------------

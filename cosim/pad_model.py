@@ -244,6 +244,38 @@ def pad_time_constant_s(timestep: float) -> float:
     return max(PAD_CONTACT_TIMECONST_S, 2 * timestep)
 
 
+#: The compliant pad contact's impedance (MuJoCo solimp: d0, dwidth, width m, midpoint, power):
+#: d ramps from 0.8 at first touch to MuJoCo's maximum 0.9999 over the first 10 um of depth, so a
+#: loaded contact rests some micrometres deep.  The width is the depth one step of sliding can
+#: open: MuJoCo's convex contacts separate a sliding contact at mu |v_t| (the velocity lies in the
+#: friction cone's dual), and at the rating's mu 1.5, slip bursts of 5 mm/s and a 1 ms step that
+#: is 7.5 um.  A hard contact rests nanometres deep, so one such step opens it and the gel throws
+#: the strip half a millimetre before the contact returns (models/README.md, "Sliding pads").
+COMPLIANT_PAD_SOLIMP = (0.8, 0.9999, 1.0e-5, 0.5, 2.0)
+#: The compliant contact's ratio of friction to normal impedance (MuJoCo impratio): the ramp
+#: leaves a loaded contact's impedance at d = 0.98-0.99, whose friction rows are 100-200x softer
+#: than the hard contact's (regularization (1 - d) / d: 1-2e-2 against 1e-4); impratio divides the
+#: friction rows' regularization, and 50 brings a held object's creep back under 0.1 mm/s of hold
+#: at 1.2x its needed grip on every object of the creep grid that was measured (analysis/creep.py).
+COMPLIANT_IMPRATIO = 50.0
+
+
+def apply_pad_contact(model: mujoco.MjModel, kind: str) -> None:
+    """Write the pad contact ``kind`` into a compiled model: "hard" leaves models/gripper.xml's
+    (solimp 0.9999 at any depth, impratio 1); "compliant" writes :data:`COMPLIANT_PAD_SOLIMP` into
+    every pad strip's geom and :data:`COMPLIANT_IMPRATIO` into the model's options.  The gel law
+    and the pressure the element carries are the same with both in statics (the strip's gel force
+    equals its contact force); "compliant" adds its few micrometres of depth to the object's
+    position, and keeps a sliding pad's pressure from chattering (models/README.md)."""
+    if kind == "hard":
+        return
+    if kind != "compliant":
+        raise ValueError(f"physics.pad_contact must be one of hard, compliant; got {kind!r}")
+    pad_geoms = [g for g in range(model.ngeom) if model.geom(g).name.endswith("_geom") and "_pad_" in model.geom(g).name]
+    model.geom_solimp[pad_geoms] = COMPLIANT_PAD_SOLIMP
+    model.opt.impratio = COMPLIANT_IMPRATIO
+
+
 def _remap_keys(old: mujoco.MjModel, new: mujoco.MjModel) -> None:
     """Write the keyframes of ``old`` into ``new`` joint by joint (joints new to ``new`` keep qpos0)."""
     for k in range(new.nkey):

@@ -29,6 +29,8 @@ from dataclasses import dataclass, field
 
 OBJECT_SHAPES = ("box", "cylinder", "sphere", "egg")
 INTEGRATORS = ("discrete", "implicitfast", "implicit", "Euler", "RK4")
+#: The pad contacts (cosim.pad_model.apply_pad_contact; models/README.md, "Sliding pads").
+PAD_CONTACTS = ("hard", "compliant")
 SENSOR_DYNAMICS = ("steady", "envelope", "carrier")
 LOAD_SPREADS = ("layer", "none")
 """sensor.load_spread: the gel layer spreads a face pressure over the element (sensor/spread.py), or not."""
@@ -152,6 +154,9 @@ class PhysicsConfig(_CheckedOnConstruction):
     control_period_s : sensor sample and controller period, s; a whole number of timesteps.
         5 ms (200 Hz): a gripper controller's rate and a lock-in amplifier's output bandwidth;
         the envelope update is exact over any period, so it costs no sensor accuracy.
+    pad_contact : "hard" (models/gripper.xml's pad contacts, nanometres deep) or "compliant"
+        (their impedance ramped over the first 10 um of depth, friction rows stiffened by
+        impratio 50: sliding pads do not chatter; cosim.pad_model.apply_pad_contact).
     """
 
     timestep_s: float = 0.001
@@ -159,9 +164,11 @@ class PhysicsConfig(_CheckedOnConstruction):
     pad_segments: int = 1
     control_period_s: float = 0.005
     gel_update: str = "control"
+    pad_contact: str = "hard"
 
     def validate(self) -> None:
         _one_of("physics.gel_update", self.gel_update, ("substep", "control"))
+        _one_of("physics.pad_contact", self.pad_contact, PAD_CONTACTS)
         _positive("physics.timestep_s", self.timestep_s)
         if not MIN_TIMESTEP_S <= self.timestep_s <= MAX_TIMESTEP_S:
             raise ValueError(
@@ -617,6 +624,9 @@ class GripperConfig(_CheckedOnConstruction):
             return
         if not isinstance(self.mjcf, str) or not self.mjcf.strip():
             raise ValueError(f"gripper.mjcf must be the path of an MJCF file, got {_short(self.mjcf)}")
+        for key, names in (("fingertips", self.fingertips), ("actuators", self.actuators)):
+            if not names:  # the file alone: say which file wants them
+                raise ValueError(f"gripper.mjcf={_short(self.mjcf)} needs gripper.{key} too: the {key} in that file, by name")
         _names_once("gripper.fingertips", self.fingertips)
         if len(self.fingertips) != 2:
             raise ValueError(f"gripper.fingertips must name two fingertips (the left and the right pad's), got {len(self.fingertips)}")

@@ -685,6 +685,9 @@ class GelModel:
         """
         d = np.asarray(indentation_m, float)
         lam = 1.0 - np.clip(d, 0.0, None) / self.params.thickness_m
-        if np.any(lam <= self.params.locking_stretch):
+        # The lock is where Gent's denominator J_m - (I_1 - 3) vanishes; locking_stretch is its
+        # root rounded, so a stretch an ulp above it can still leave the denominator at 0.
+        locked = (lam <= self.params.locking_stretch) | (self.params.gent_jm - (lam**2 + 2.0 / lam - 3.0) <= 0.0)
+        if np.any(locked):
             raise ValueError(f"indentation {float(np.max(d))!r} m reaches the gel's locking thickness")
         return gent_pressure_pa(lam, self.params)

@@ -207,3 +207,26 @@ def test_cli_creep_quick_json(tmp_path):
     assert report["files"] == [str(tmp_path / "creep.json")]
     written = _strict_json((tmp_path / "creep.json").read_text())
     assert written["summary"] == report["summary"]
+
+
+# Sliding pads (models/README.md, "Sliding pads"): MuJoCo's convex contacts open a sliding hard
+# contact within a step, the gel throws the strip and the pressure chatters; the compliant pad
+# contact (physics.pad_contact=compliant) rests deep enough not to open.
+@pytest.mark.parametrize("obj", [("box", 0.5, 0.5), ("sphere", 0.1, 1.0)])
+def test_sliding_pads_chatter_with_hard_contacts_and_not_with_compliant_ones(obj):
+    from piezotip.analysis.creep import sliding_chatter
+
+    assert sliding_chatter(*obj) > 0.1
+    assert sliding_chatter(*obj, contact="compliant") < 0.01
+
+
+def test_compliant_pad_contacts_hold_a_box_within_the_creep_limit():
+    r = measure_creep("box", 0.1, 1.0, 1.2, contact="compliant", hold_s=0.5)
+    assert r.outcome == "held" and r.creep_mm_s <= CREEP_LIMIT_MM_S
+
+
+def test_an_unknown_pad_contact_is_refused_naming_the_key():
+    from piezotip import scenarios
+
+    with pytest.raises(ValueError, match=r"physics\.pad_contact"):
+        scenarios.get("grasp", ["physics.pad_contact=soft"])

@@ -296,7 +296,8 @@ def test_indentation_to_pressure_and_back_is_the_indentation(gel, share):
     the lock; at or past it the forward law refuses (the housing must take the load)."""
     h0 = gel.params.thickness_m
     d = share * _lock_indentation_m(gel)
-    if 1.0 - d / h0 <= gel.params.locking_stretch:
+    lam = 1.0 - d / h0
+    if lam <= gel.params.locking_stretch or gel.params.gent_jm - (lam**2 + 2.0 / lam - 3.0) <= 0.0:  # at the lock, to an ulp
         with pytest.raises(ValueError, match="locking thickness"):
             gel.pressure_from_indentation(d)
         return
@@ -328,7 +329,10 @@ def test_more_pressure_more_indentation(gel, share, log_step):
     d_lo = share * _lock_indentation_m(gel)
     d_hi = d_lo + 10.0**log_step * _lock_indentation_m(gel)
     assume(1.0 - d_hi / gel.params.thickness_m > gel.params.locking_stretch)
-    p_lo, p_hi = (float(gel.pressure_from_indentation(d)) for d in (d_lo, d_hi))
+    try:
+        p_lo, p_hi = (float(gel.pressure_from_indentation(d)) for d in (d_lo, d_hi))
+    except ValueError:  # within an ulp of the lock, where the law refuses (its denominator is 0)
+        assume(False)
     assert p_lo <= p_hi
     strain_lo, strain_hi = (float(gel.state(p).strain) for p in (p_lo, p_hi))
     assert strain_lo <= strain_hi

@@ -271,7 +271,7 @@ def test_the_house_gripper_is_the_default_and_takes_no_gripper_keys():
             {"gripper.actuators": ["left_servo", "wrist"]},
             r"gripper.actuators: 'wrist' is not an actuator of the file \(its actuators: left_servo",
         ),
-        ({"gripper.actuators": []}, r"gripper.actuators must name at least one"),
+        ({"gripper.actuators": []}, r"needs gripper\.actuators too"),
         ({"gripper.approach_axis": [1.0, 0.0, 0.0]}, r"gripper.approach_axis \[1.0, 0.0, 0.0\] lies along the line between the fingertips"),
         ({"gripper.approach_axis": [0.0, 0.0, 0.0]}, r"gripper.approach_axis must be a nonzero 3-vector"),
     ],
