@@ -44,7 +44,7 @@ from piezotip.sensor.unit_channel import UnitChannel
 from .loop import SimulationDiverged, coverage_cells, coverage_weights, make_fingertip, make_unit
 from .pad_bridge import PadBridge, PadReading, _GelTable, check_gel_integration
 from .pad_geometry import PadGeometry
-from .pad_model import PadPlacement, _remap_keys, add_pad_strips, copy_pad_class, pad_time_constant_s
+from .pad_model import HARD_PAD_SOLIMP, PadPlacement, _remap_keys, add_pad_strips, copy_pad_class, pad_time_constant_s
 from .scene import finite_state
 
 __all__ = ["PREFIX", "AttachedPad", "FingertipLoop", "Fingertips", "TipReading", "attach", "fingertip_pads"]
@@ -427,8 +427,11 @@ def attach(
         pads.append(AttachedPad(name, patch.source, patch.body, placement, geometry, geometry.strip_body_names(f"{PREFIX}{name}/")))
     _check_options(spec.option, pads, gel)
 
-    # The house's class `pad` (hard contacts, housing stop), its time constant at this model's step.
+    # The house's class `pad` (contacts, housing stop), its time constant at this model's step.
+    # Hard contacts: the house's compliant ones need impratio 50 to hold without creep, and the
+    # user's options are the user's (cosim.pad_model.resolve_pad_contact; models/README.md).
     pad_class = copy_pad_class(spec, PAD_CLASS, GEL_MATERIAL)
+    pad_class.geom.solimp = list(HARD_PAD_SOLIMP)
     constant = pad_time_constant_s(spec.option.timestep)
     pad_class.geom.solref = [constant, pad_class.geom.solref[1]]
     pad_class.joint.solref_limit = [constant, pad_class.joint.solref_limit[1]]

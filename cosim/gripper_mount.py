@@ -49,7 +49,7 @@ from piezotip.sensor.gel import GelParams
 from .attach import fingertip_pads
 from .control.interface import RobotLimits
 from .pad_geometry import PAD_SIDES, PadGeometry
-from .pad_model import PadPlacement, add_pad_strips, apply_pad_contact, build_model
+from .pad_model import PadPlacement, add_pad_strips, apply_pad_contact, build_model, resolve_pad_contact
 from .scene import (
     _INTEGRATORS,
     PAD_CENTRE_AT_ZERO_LIFT_M,
@@ -878,7 +878,7 @@ def mount_gripper(config: ScenarioConfig, gel: GelParams | None = None) -> Mount
     phys = config.physics
     model = build_model(SCENE_FILE, timestep=phys.timestep_s, edit=_mount_edit(config, parts, geometry, gel))
     model.opt.integrator = _INTEGRATORS[phys.integrator]
-    apply_pad_contact(model, phys.pad_contact)
+    apply_pad_contact(model, resolve_pad_contact(phys.pad_contact, mounted=True))
     actuators = [model.actuator(PREFIX + a.name).id for a in parts.actuators]
     joints = _gripper_joints(model)
     motors = [i for i, a in enumerate(parts.actuators) if a.kind == "motor"]

@@ -244,36 +244,51 @@ def pad_time_constant_s(timestep: float) -> float:
     return max(PAD_CONTACT_TIMECONST_S, 2 * timestep)
 
 
-#: The compliant pad contact's impedance (MuJoCo solimp: d0, dwidth, width m, midpoint, power):
-#: d ramps from 0.8 at first touch to MuJoCo's maximum 0.9999 over the first 10 um of depth, so a
-#: loaded contact rests some micrometres deep.  The width is the depth one step of sliding can
+#: The pad contact's impedance (MuJoCo solimp: d0, dwidth, width m, midpoint, power), as
+#: models/gripper.xml's class ``pad`` has it: d ramps from 0.8 at first touch to MuJoCo's maximum
+#: 0.9999 over the first 10 um of depth (most of the way in the first 1-2 um: midpoint 0.1, power
+#: 3), so a loaded contact rests micrometres deep.  The width is the depth one step of sliding can
 #: open: MuJoCo's convex contacts separate a sliding contact at mu |v_t| (the velocity lies in the
-#: friction cone's dual), and at the rating's mu 1.5, slip bursts of 5 mm/s and a 1 ms step that
-#: is 7.5 um.  A hard contact rests nanometres deep, so one such step opens it and the gel throws
-#: the strip half a millimetre before the contact returns (models/README.md, "Sliding pads").
-COMPLIANT_PAD_SOLIMP = (0.8, 0.9999, 1.0e-5, 0.5, 2.0)
-#: The compliant contact's ratio of friction to normal impedance (MuJoCo impratio): the ramp
-#: leaves a loaded contact's impedance at d = 0.98-0.99, whose friction rows are 100-200x softer
-#: than the hard contact's (regularization (1 - d) / d: 1-2e-2 against 1e-4); impratio divides the
-#: friction rows' regularization, and 50 brings a held object's creep back under 0.1 mm/s of hold
-#: at 1.2x its needed grip on every object of the creep grid that was measured (analysis/creep.py).
+#: friction cone's dual); at the rating's mu 1.5, slip bursts of 5 mm/s and a 1 ms step that is
+#: 7.5 um.  The shape was measured (models/README.md, "Sliding pads"): a midpoint of 0.5 left a
+#: 1 g object squeezed at 30-80 N vibrating; a d0 of 0.95 let a 100 g box's sliding pads chatter.
+COMPLIANT_PAD_SOLIMP = (0.8, 0.9999, 1.0e-5, 0.1, 3.0)
+#: The ratio of friction to normal impedance (MuJoCo impratio) with that contact: the ramp leaves
+#: a loaded contact at d = 0.98-0.99, whose friction rows are 100-200x softer than at 0.9999
+#: (regularization (1 - d) / d: 1-2e-2 against 1e-4); impratio divides the friction rows'
+#: regularization, and 50 brings a held object's creep under 0.1 mm/s of hold at 1.2x its needed
+#: grip on the whole creep grid (analysis/creep.py).
 COMPLIANT_IMPRATIO = 50.0
+#: The hard pad contact (``physics.pad_contact=hard``, the model before): 0.9999 from first touch.
+HARD_PAD_SOLIMP = (0.9999, 0.9999, 0.001, 0.5, 2.0)
+HARD_IMPRATIO = 1.0
+PAD_CONTACT_SETTINGS = {"compliant": (COMPLIANT_PAD_SOLIMP, COMPLIANT_IMPRATIO), "hard": (HARD_PAD_SOLIMP, HARD_IMPRATIO)}
+
+
+def resolve_pad_contact(kind: str, mounted: bool) -> str:
+    """``physics.pad_contact`` made concrete: "auto" is "compliant" on the house gripper and
+    "hard" on a mounted (``gripper.mjcf``) one.  On robosuite's Rethink gripper the compliant
+    pads' smooth slide at light grips reads to the multimode controller's friction check as a
+    load that does not follow the grip (a false "carried": never lifted); the hard ones grasp
+    there, so a third-party gripper keeps them until that check is measured on it."""
+    if kind == "auto":
+        return "hard" if mounted else "compliant"
+    return kind
 
 
 def apply_pad_contact(model: mujoco.MjModel, kind: str) -> None:
-    """Write the pad contact ``kind`` into a compiled model: "hard" leaves models/gripper.xml's
-    (solimp 0.9999 at any depth, impratio 1); "compliant" writes :data:`COMPLIANT_PAD_SOLIMP` into
-    every pad strip's geom and :data:`COMPLIANT_IMPRATIO` into the model's options.  The gel law
-    and the pressure the element carries are the same with both in statics (the strip's gel force
-    equals its contact force); "compliant" adds its few micrometres of depth to the object's
-    position, and keeps a sliding pad's pressure from chattering (models/README.md)."""
-    if kind == "hard":
-        return
-    if kind != "compliant":
-        raise ValueError(f"physics.pad_contact must be one of hard, compliant; got {kind!r}")
+    """Write the pad contact ``kind`` (:data:`PAD_CONTACT_SETTINGS`) into a compiled model: the
+    impedance of every pad strip's geom and the model's impratio.  "compliant" is
+    models/gripper.xml's own; "hard" is MuJoCo's maximum impedance from first touch, the model
+    before, kept for comparison (its sliding pads chatter, models/README.md).  The gel law and the
+    pressure the element carries are the same with both in statics (the strip's gel force equals
+    its contact force); "compliant" adds its few micrometres of depth to the object's position."""
+    if kind not in PAD_CONTACT_SETTINGS:
+        raise ValueError(f"physics.pad_contact must be one of {', '.join(PAD_CONTACT_SETTINGS)}; got {kind!r}")
+    solimp, impratio = PAD_CONTACT_SETTINGS[kind]
     pad_geoms = [g for g in range(model.ngeom) if model.geom(g).name.endswith("_geom") and "_pad_" in model.geom(g).name]
-    model.geom_solimp[pad_geoms] = COMPLIANT_PAD_SOLIMP
-    model.opt.impratio = COMPLIANT_IMPRATIO
+    model.geom_solimp[pad_geoms] = solimp
+    model.opt.impratio = impratio
 
 
 def _remap_keys(old: mujoco.MjModel, new: mujoco.MjModel) -> None:

@@ -20,7 +20,7 @@ from piezotip.sensor.gel import GelParams
 
 from .control.interface import RobotLimits
 from .pad_geometry import PadGeometry
-from .pad_model import MODELS_DIR, apply_pad_contact, build_model
+from .pad_model import MODELS_DIR, apply_pad_contact, build_model, resolve_pad_contact
 
 SCENE_FILE = MODELS_DIR / "scene_grasp.xml"
 #: Height of the pad centres above the palm joint's zero, m (gripper.xml: palm at 0.35 m,
@@ -108,7 +108,7 @@ def build_scene(config: ScenarioConfig, gel: GelParams | None = None) -> mujoco.
         edit=_edit_object(config.object),
     )
     model.opt.integrator = _INTEGRATORS[phys.integrator]
-    apply_pad_contact(model, phys.pad_contact)
+    apply_pad_contact(model, resolve_pad_contact(phys.pad_contact, mounted=False))
     return model
 
 

@@ -30,7 +30,7 @@ from dataclasses import dataclass, field
 OBJECT_SHAPES = ("box", "cylinder", "sphere", "egg")
 INTEGRATORS = ("discrete", "implicitfast", "implicit", "Euler", "RK4")
 #: The pad contacts (cosim.pad_model.apply_pad_contact; models/README.md, "Sliding pads").
-PAD_CONTACTS = ("hard", "compliant")
+PAD_CONTACTS = ("auto", "compliant", "hard")
 SENSOR_DYNAMICS = ("steady", "envelope", "carrier")
 LOAD_SPREADS = ("layer", "none")
 """sensor.load_spread: the gel layer spreads a face pressure over the element (sensor/spread.py), or not."""
@@ -154,9 +154,11 @@ class PhysicsConfig(_CheckedOnConstruction):
     control_period_s : sensor sample and controller period, s; a whole number of timesteps.
         5 ms (200 Hz): a gripper controller's rate and a lock-in amplifier's output bandwidth;
         the envelope update is exact over any period, so it costs no sensor accuracy.
-    pad_contact : "hard" (models/gripper.xml's pad contacts, nanometres deep) or "compliant"
-        (their impedance ramped over the first 10 um of depth, friction rows stiffened by
-        impratio 50: sliding pads do not chatter; cosim.pad_model.apply_pad_contact).
+    pad_contact : "compliant" (models/gripper.xml's pad contacts: their impedance ramped over
+        the first 10 um of depth, friction rows stiffened by impratio 50; sliding pads do not
+        chatter), "hard" (MuJoCo's maximum impedance from first touch, the model before: sliding
+        pads chatter), or "auto": compliant on the house gripper, hard on a ``gripper.mjcf``
+        gripper (where it is measured to work; models/README.md); cosim.pad_model.
     """
 
     timestep_s: float = 0.001
@@ -164,7 +166,7 @@ class PhysicsConfig(_CheckedOnConstruction):
     pad_segments: int = 1
     control_period_s: float = 0.005
     gel_update: str = "control"
-    pad_contact: str = "hard"
+    pad_contact: str = "auto"
 
     def validate(self) -> None:
         _one_of("physics.gel_update", self.gel_update, ("substep", "control"))

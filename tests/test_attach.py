@@ -16,7 +16,7 @@ import pytest
 
 import piezotip
 from piezotip.cosim.attach import PREFIX, attach
-from piezotip.cosim.pad_model import build_model
+from piezotip.cosim.pad_model import apply_pad_contact, build_model
 from piezotip.scenarios import SensorConfig
 from piezotip.sensor.gel import GelParams, stretch_from_pressure, winkler_stiffness_n_m3
 
@@ -255,11 +255,14 @@ def test_the_users_model_is_unchanged_but_for_prefixed_additions():
 
 
 def test_the_pads_are_the_house_grippers():
-    """The strips' contact, housing stop, stiffness and damping per area are gripper.xml's."""
+    """The strips' contact (the hard one), housing stop, stiffness and damping per area are gripper.xml's."""
     spec = mujoco.MjSpec.from_string(scene_xml())
     attach(spec, sites=["pressed"], config={"physics.pad_segments": 5})
     ours = spec.compile()
     house = build_model("grasp")  # N = 5 as the file holds it, at its 1 ms step
+    # attach's contacts are the house's hard ones: its compliant ones need impratio 50, and the
+    # user's model keeps its own options (cosim.pad_model.resolve_pad_contact).
+    apply_pad_contact(house, "hard")
     for strip in ("guard_lower", "seg0", "seg4", "guard_upper"):
         mine, theirs = f"{PREFIX}pressed/{strip}", f"left_pad_{strip}"
         for field in ("size", "solref", "solimp", "friction", "priority", "condim", "contype", "conaffinity"):

@@ -263,7 +263,10 @@ def test_squeeze_follows_the_gel_law_for_any_mass(mass):
             np.testing.assert_allclose(bridge.strip_pressures(data)[i], contact_pressure, rtol=1e-3)
             assert reading.mean_pressure_pa == pytest.approx(force / GEOMETRY.pad_area_m2, rel=1e-2)
             assert reading.contact_area_m2 == pytest.approx(GEOMETRY.pad_area_m2)
-            np.testing.assert_allclose(reading.indentation_m, d, atol=2e-6)  # the contact itself is hard
+            # The contact rests at most its impedance's width deep (models/gripper.xml, class pad):
+            # the gel's indentation is the object's less that depth.
+            width_m = float(model.geom_solimp[model.geom(f"{side}_pad_seg0_geom").id, 2])
+            assert np.all(reading.indentation_m <= d + 1e-9) and np.all(reading.indentation_m >= d - width_m)
 
 
 @pytest.mark.parametrize("segments", [1, 2, 8])
