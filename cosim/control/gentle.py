@@ -19,10 +19,12 @@ neither mass nor friction and measures both:
   margin people keep (10-40 %, Johansson and Westling 1984), and is raised only on evidence of
   a slip (the multimode controller's slip checks, from the fingertips and the lift's load).
 
-Its price: the pads slide up the object while the probe measures the friction (1-3 mm), and
-sliding pads chatter in MuJoCo's contacts (the finger force swings by 25-30 % at a 1 ms step),
-faster than the fingertip's resonator follows, so "ok" readings taken during the probe can miss
-the pressure of the instant (README, Limits).
+Its price: the pads slide up the object while the probe measures the friction (1-3 mm).  On
+MuJoCo's hard pad contacts (``physics.pad_contact=hard``: mounted grippers) sliding pads chatter
+(the element's pressure swings by 25-30 % at a 1 ms step), faster than the fingertip's resonator
+follows, so "ok" readings taken during the probe can miss the pressure of the instant, and the
+friction it reads is the stick-slip's, 10-15 % low; the house pads' ramped contacts slide
+smoothly (models/README.md, "Sliding pads").
 """
 
 from __future__ import annotations
