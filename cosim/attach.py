@@ -428,7 +428,7 @@ def attach(
     _check_options(spec.option, pads, gel)
 
     # The house's class `pad` (contacts, housing stop), its time constant at this model's step.
-    # Hard contacts: the house's compliant ones need impratio 50 to hold without creep, and the
+    # Hard contacts: the house's compliant ones need impratio 100 to hold without creep, and the
     # user's options are the user's (cosim.pad_model.resolve_pad_contact; models/README.md).
     pad_class = copy_pad_class(spec, PAD_CLASS, GEL_MATERIAL)
     pad_class.geom.solimp = list(HARD_PAD_SOLIMP)

@@ -245,20 +245,21 @@ def pad_time_constant_s(timestep: float) -> float:
 
 
 #: The pad contact's impedance (MuJoCo solimp: d0, dwidth, width m, midpoint, power), as
-#: models/gripper.xml's class ``pad`` has it: d ramps from 0.8 at first touch to MuJoCo's maximum
-#: 0.9999 over the first 10 um of depth (midpoint 0.1, power 3: 0.82 at 1 um, 0.97 at 5 um, 0.998
-#: at 8 um), so a loaded contact rests micrometres deep.  The width is the depth one step of sliding can
-#: open: MuJoCo's convex contacts separate a sliding contact at mu |v_t| (the velocity lies in the
-#: friction cone's dual); at the rating's mu 1.5, slip bursts of 5 mm/s and a 1 ms step that is
-#: 7.5 um.  The shape was measured (models/README.md, "Sliding pads"): a midpoint of 0.5 left a
-#: 1 g object squeezed at 30-80 N vibrating; a d0 of 0.95 let a 100 g box's sliding pads chatter.
-COMPLIANT_PAD_SOLIMP = (0.8, 0.9999, 1.0e-5, 0.1, 3.0)
+#: models/gripper.xml's class ``pad`` has it: d ramps from 0.1 at first touch to MuJoCo's maximum
+#: 0.9999 over the first 30 um of depth (midpoint 0.1, power 3: 0.36 at 5 um, 0.67 at 10 um, 0.96 at
+#: 20 um), so a contact carrying a milli-newton rests about 10 um deep and a loaded one 12-25 um.
+#: That is deeper than one step of sliding can open: MuJoCo's convex contacts separate a sliding
+#: contact at mu |v_t| (the velocity lies in the friction cone's dual); at the rating's mu 1.5, slip
+#: bursts of 5 mm/s and a 1 ms step that is 7.5 um.  The shape was measured (models/README.md,
+#: "Sliding pads"): from d0 0.8 (10 um) pads at grips under 0.3 N still chatter; from d0 0.1 over
+#: 20 um a 1 g object squeezed at 80 N never comes to rest; a midpoint of 0.5 leaves it vibrating.
+COMPLIANT_PAD_SOLIMP = (0.1, 0.9999, 3.0e-5, 0.1, 3.0)
 #: The ratio of friction to normal impedance (MuJoCo impratio) with that contact: the ramp leaves
-#: a loaded contact at d = 0.98-0.99, whose friction rows are 100-200x softer than at 0.9999
-#: (regularization (1 - d) / d: 1-2e-2 against 1e-4); impratio divides the friction rows'
-#: regularization, and 50 brings a held object's creep under 0.1 mm/s of hold at 1.2x its needed
+#: a loaded contact at d = 0.96-0.995, whose friction rows are 50-400x softer than at 0.9999
+#: (regularization (1 - d) / d: 0.005-0.04 against 1e-4); impratio divides the friction rows'
+#: regularization, and 100 brings a held object's creep under 0.1 mm/s of hold at 1.2x its needed
 #: grip on the whole creep grid (analysis/creep.py).
-COMPLIANT_IMPRATIO = 50.0
+COMPLIANT_IMPRATIO = 100.0
 #: The hard pad contact (``physics.pad_contact=hard``, the model before): 0.9999 from first touch.
 HARD_PAD_SOLIMP = (0.9999, 0.9999, 0.001, 0.5, 2.0)
 HARD_IMPRATIO = 1.0

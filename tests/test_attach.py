@@ -260,7 +260,7 @@ def test_the_pads_are_the_house_grippers():
     attach(spec, sites=["pressed"], config={"physics.pad_segments": 5})
     ours = spec.compile()
     house = build_model("grasp")  # N = 5 as the file holds it, at its 1 ms step
-    # attach's contacts are the house's hard ones: its compliant ones need impratio 50, and the
+    # attach's contacts are the house's hard ones: its compliant ones need impratio 100, and the
     # user's model keeps its own options (cosim.pad_model.resolve_pad_contact).
     apply_pad_contact(house, "hard")
     for strip in ("guard_lower", "seg0", "seg4", "guard_upper"):
