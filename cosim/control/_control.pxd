@@ -34,8 +34,8 @@ cdef class ModeSelector:
 cdef class TouchDetector:
     cdef public double sigma, drift_sigma, alarm_sigma, single_sigma, baseline, score
     cdef public bint touched
-    cdef readonly double _sum
-    cdef readonly Py_ssize_t _count
+    cdef readonly double _sum, _armed_sum
+    cdef readonly Py_ssize_t _count, _armed_count
 
     cpdef learn(self, double v1)
 

@@ -405,7 +405,7 @@ class MultimodeGrasp:
                 )
                 return
             for pad in self.pads:
-                self.touch[pad].rearm()
+                self.touch[pad].rearm_unloaded()  # the fingertips read nothing: the closing's readings were unloaded
             self.opening_target, self._finger_speed = obs.opening_m, 0.0
             self.grip_n = self.moving_force_n
             self._event(t, "false_touch", f"{', '.join(empty)} read no pressure at the grip floor: closing on")
