@@ -674,7 +674,7 @@ class ScenarioConfig:
     object: ObjectConfig = field(default_factory=ObjectConfig)
     physics: PhysicsConfig = field(default_factory=PhysicsConfig)
     sensor: SensorConfig = field(default_factory=SensorConfig)
-    controller: ControllerConfig = field(default_factory=MultimodeConfig)
+    controller: ControllerConfig = field(default_factory=GentleConfig)
     gripper: GripperConfig = field(default_factory=GripperConfig)
 
     def validate(self) -> ScenarioConfig:

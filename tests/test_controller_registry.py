@@ -113,7 +113,7 @@ def test_a_key_the_chosen_controller_lacks_names_the_key_the_controller_and_its_
     assert "'controller.persist'" in message and "scripted controller (ScriptedConfig)" in message
     assert "the multimode, gentle controllers have it" in message
     assert "controller.grip_force_n" in message and "controller.hysteresis" not in message.split("its valid keys:")[1]
-    with pytest.raises(ValueError, match=r"'controller\.wait_s' for the multimode controller.*mytest controller has it"):
+    with pytest.raises(ValueError, match=r"'controller\.wait_s' for the gentle controller.*mytest controller has it"):
         piezotip.run("grasp", overrides={"controller.wait_s": 1.0}, preset="fast")
     with pytest.raises(ValueError, match=r"'controller\.friction_max' for the mytest controller"):
         scenarios.get("grasp", {"controller.kind": "mytest", "controller.friction_max": 1.0})
@@ -162,8 +162,8 @@ def test_the_experiment_and_its_pass_rule_take_the_registered_controllers(monkey
     from piezotip.analysis import experiment
 
     assert experiment.CONTROLLERS == (
-        ("multimode", ("controller.modes=[1, 2, 3, 4]",)),
-        ("gentle", ("controller.kind=gentle", "controller.modes=[1, 2, 3, 4]")),
+        ("multimode", ("controller.kind=multimode", "controller.modes=[1, 2, 3, 4]")),
+        ("gentle", ("controller.modes=[1, 2, 3, 4]",)),
         ("mode 1 only", ("controller.modes=[1]",)),
         ("mode 2 only", ("controller.modes=[2]",)),
         ("mode 3 only", ("controller.modes=[3]",)),

@@ -206,12 +206,13 @@ def test_heavy_object_held_without_losing_the_estimate(tmp_path):
 @pytest.mark.slow
 def test_single_mode_baselines_fail_where_the_multimode_succeeds(tmp_path):
     raspberry = ("object.shape=sphere", "object.mass_kg=0.004", "object.size_m=0.02", "object.friction=0.9", "object.crush_force_n=1.5")
-    late, _ = grasp(tmp_path / "a", "grasp", *raspberry, "controller.modes=[4]")
+    # The multimode controller restricted to one mode, against itself with every mode.
+    late, _ = grasp(tmp_path / "a", "grasp", *raspberry, "controller.kind=multimode", "controller.modes=[4]")
     assert late["crushed"] and not late["success"]
-    blind, _ = grasp(tmp_path / "b", "grasp-heavy", "controller.modes=[1]")
+    blind, _ = grasp(tmp_path / "b", "grasp-heavy", "controller.kind=multimode", "controller.modes=[1]")
     assert not blind["success"]
     assert any(e["kind"] == "blind" for e in blind["events"])
-    good, _ = grasp(tmp_path / "c", "grasp", *raspberry)
+    good, _ = grasp(tmp_path / "c", "grasp", *raspberry, "controller.kind=multimode")
     assert good["success"]
 
 

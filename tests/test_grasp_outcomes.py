@@ -49,7 +49,7 @@ def test_every_registered_scenario_is_a_success_a_watcher_would_agree_with(tmp_p
     ],
 )
 def test_objects_slipperier_than_assumed_are_still_carried(tmp_path, overrides):
-    summary, _ = grasp(tmp_path, "grasp", *overrides)
+    summary, _ = grasp(tmp_path, "grasp", *overrides, "controller.kind=multimode")  # its assumed friction
     assert summary["outcome"] == "success", summary["reason"]
     assert any(e["kind"] == "on_table" for e in summary["events"])  # the friction check found it
 
@@ -83,7 +83,7 @@ def test_a_friction_check_says_on_the_table_only_of_an_object_the_table_touched(
     every "on_table" verdict needs the table touching the object at some time during its check."""
     from piezotip.cosim.recorder import Recorder, read_recording
 
-    config = scenarios.get("grasp", scenarios.object_overrides(name))
+    config = scenarios.get("grasp", [*scenarios.object_overrides(name), "controller.kind=multimode"])  # its friction checks
     sim = CoSimulation(config)
     c = sim.controller
     table = sim._table_i + 2

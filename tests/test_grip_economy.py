@@ -157,7 +157,7 @@ def test_the_gentle_grasp_gives_up_when_the_fingers_close_on_nothing(tmp_path):
 def test_the_gentle_grasp_holds_the_catalogue_gentler_than_the_multimode_one():
     """On the default grasp (100 g box, friction 1) the multimode controller holds 2.25x what it
     needs (assumed friction 0.8, a friction check's raise); the gentle one within 1.5x."""
-    multimode = api.run("grasp", plot=False).summary
+    multimode = api.run("grasp", overrides={"controller.kind": "multimode"}, plot=False).summary
     gentle = api.run("grasp", overrides={"controller.kind": "gentle"}, plot=False).summary
     assert multimode["success"] and gentle["success"]
     assert gentle["grip_margin"] <= 1.5 < multimode["grip_margin"]
