@@ -664,7 +664,7 @@ class ScenarioConfig:
         the recording then goes on until the object rests, cosim.loop.REST_MIN_S).
     object, physics, sensor : the parts (their own docstrings).
     controller : the controller's config: the class its ``kind`` is registered with
-        (:mod:`piezotip.controllers`), the multimode controller's by default.
+        (:mod:`piezotip.controllers`), the gentle controller's by default (GentleConfig).
     gripper : the gripper on the lift (:class:`GripperConfig`): the house's by default.
     """
 

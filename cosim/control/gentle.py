@@ -1,5 +1,5 @@
-"""The gentle grasp: the multimode controller, finding the grip that holds instead of assuming a
-friction (``controller.kind=gentle``).
+"""The gentle grasp, the default controller: the multimode controller, finding the grip that
+holds instead of assuming a friction (``controller.kind=gentle``).
 
 :class:`GentleGrasp` is :class:`~.multimode.MultimodeGrasp` (the same touch, squeeze, mode
 switching, hold, place and release) with another lift.  The multimode controller grips at
