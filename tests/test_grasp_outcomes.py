@@ -56,7 +56,8 @@ def test_objects_slipperier_than_assumed_are_still_carried(tmp_path, overrides):
 
 _LOAD_LAG = pytest.mark.xfail(
     strict=True,
-    reason="known defect of the multimode controller (docs/cosimulation.md, "The friction check"): the lift's load estimate differentiates the lift's velocity over "
+    reason="known defect of the multimode controller (docs/cosimulation.md, 'The friction check'): the lift's load "
+    "estimate differentiates the lift's velocity over "
     "the 5 ms control period, which lags the gripper's inertia (1.06 kg) while the servo settles; on a 1-2 g "
     "object that lag (8 mN of a 20 mN weight just after lift-off) still reads as the load following the grip",
 )
