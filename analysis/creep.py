@@ -66,6 +66,7 @@ from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 
 from piezotip.cosim.control import Command, Event, Observation, Phase, RobotLimits
+from piezotip.cosim.pad_model import pad_geom_ids
 
 from .referee import needed_grip_n  # m g / (2 mu) per finger: the grip the creep is measured against
 
@@ -323,7 +324,7 @@ def apply_contact(model, contact: str) -> None:
     import mujoco
 
     variant = _variant(contact)  # an unknown name fails before the model is touched
-    pad_geoms = [g for g in range(model.ngeom) if "_pad_" in model.geom(g).name]
+    pad_geoms = pad_geom_ids(model)
     for name, value in variant.items():
         if name == "set":
             continue

@@ -266,6 +266,12 @@ HARD_IMPRATIO = 1.0
 PAD_CONTACT_SETTINGS = {"compliant": (COMPLIANT_PAD_SOLIMP, COMPLIANT_IMPRATIO), "hard": (HARD_PAD_SOLIMP, HARD_IMPRATIO)}
 
 
+def pad_geom_ids(model: mujoco.MjModel) -> list[int]:
+    """The ids of every pad strip's geom in a compiled model (``*_pad_*_geom``: the strips the
+    class ``pad`` makes, on the house gripper, a mounted one or an attached fingertip)."""
+    return [g for g in range(model.ngeom) if model.geom(g).name.endswith("_geom") and "_pad_" in model.geom(g).name]
+
+
 def resolve_pad_contact(kind: str, mounted: bool) -> str:
     """``physics.pad_contact`` made concrete: "auto" is "compliant" on the house gripper and
     "hard" on a mounted (``gripper.mjcf``) one.  On robosuite's Rethink gripper the compliant
@@ -287,7 +293,7 @@ def apply_pad_contact(model: mujoco.MjModel, kind: str) -> None:
     if kind not in PAD_CONTACT_SETTINGS:
         raise ValueError(f"physics.pad_contact must be one of {', '.join(PAD_CONTACT_SETTINGS)}; got {kind!r}")
     solimp, impratio = PAD_CONTACT_SETTINGS[kind]
-    pad_geoms = [g for g in range(model.ngeom) if model.geom(g).name.endswith("_geom") and "_pad_" in model.geom(g).name]
+    pad_geoms = pad_geom_ids(model)
     model.geom_solimp[pad_geoms] = solimp
     model.opt.impratio = impratio
 
@@ -323,7 +329,7 @@ def _set_timestep(model: mujoco.MjModel, timestep: float) -> None:
     if not (math.isfinite(timestep) and timestep > 0):
         raise ValueError(f"timestep must be positive and finite, got {timestep!r}")
     model.opt.timestep = timestep
-    pad_geoms = [g for g in range(model.ngeom) if model.geom(g).name.endswith("_geom") and "_pad_" in model.geom(g).name]
+    pad_geoms = pad_geom_ids(model)
     pad_joints = [j for j in range(model.njnt) if "_pad_" in model.joint(j).name]
     constant = pad_time_constant_s(timestep)
     model.geom_solref[pad_geoms, 0] = constant
