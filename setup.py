@@ -30,6 +30,7 @@ KERNELS = (
     ("sensor", "_estimator"),
     ("sensor", "_inference"),
     ("cosim", "_pad_kernels"),
+    ("cosim", "_period"),
     ("cosim", "_rows"),
     ("cosim/control", "_control"),
 )

@@ -11,6 +11,7 @@ numbers, numpy's per-call overhead would cost more than MuJoCo's step itself.
 
 from __future__ import annotations
 
+import functools
 import math
 import time
 from collections.abc import Callable
@@ -31,6 +32,7 @@ from piezotip.sensor.unit_channel import UnitChannel
 from .control import Command, Controller, Observation, PadSignal, RobotLimits, make_observation, make_pad_signal
 from .pad_bridge import PadBridge
 from .pad_geometry import PAD_NAMES, PAD_SIDES, PadGeometry
+from .period import PeriodPhysics
 from .recorder import Recorder
 from .rows import _STATUS_INDEX, RowBuilder, row_columns
 from .scene import build_scene, check_reach, finite_state, reset_home, robot_limits
@@ -254,10 +256,8 @@ class CoSimulation:
         "_actuator_force",
         "_qvel",
         "_sensordata",
-        "_ctrl",
         "_forcerange",
-        "_warning_number",
-        "_opt",
+        "_period",
         "_object_xpos",
         "_object_qvel",
         "_mj_step",
@@ -298,9 +298,7 @@ class CoSimulation:
         self._qpos, self._actuator_force = memoryview(d.qpos), memoryview(d.actuator_force)
         # Memoryviews: an item is read and set, and a list made, faster than through numpy.
         self._qvel, self._sensordata = memoryview(d.qvel), d.sensordata
-        self._ctrl, self._forcerange = memoryview(d.ctrl), memoryview(m.actuator_forcerange)
-        self._warning_number = memoryview(d.warning.number)  # a live view of the warnings' counters
-        self._opt = m.opt  # each m.opt builds a new wrapper (0.35 us): the loop sets its flags twice a period
+        self._forcerange = memoryview(m.actuator_forcerange)
         self._mj_step = mujoco.mj_step  # watch_mj_step puts an instrument in front of it (not copied)
         # The object's position and velocity as live views of their own (the record's).
         self._object_xpos = d.xpos[m.body("object").id]
@@ -308,6 +306,17 @@ class CoSimulation:
         self._lift_q, self._finger_q = int(self._lift_qpos), [int(a) for a in self._finger_qpos]
         self._object_dof_i, self._lift_dof_i = int(self._object_dof), int(self._lift_dof)
         self._finger_list, self._table_i = [int(a) for a in self._finger_adr], int(self._table_adr)
+        fingers = [self._finger_act] if self.mounted is None else self.mounted.drive.actuators
+        self._period = PeriodPhysics(
+            self.substeps,
+            self._lift_act,
+            [int(a) for a in fingers],
+            self._gel_every_substep,
+            self._track_peaks,
+            self._finger_list,
+            _NO_SENSORS,
+        )
+        self._bind_period()
         self.columns = row_columns(self.pads, geometry.segments, self._track_peaks)
         stop_pa = float(self.fingertip.gel.pressure_from_indentation(geometry.stop_m)) * (1 - 1e-9)  # the housing's stop
         self._row_builder = RowBuilder(
@@ -321,6 +330,14 @@ class CoSimulation:
             _STATUS_INDEX,
         )
         self._row_builder.bind(self._object_xpos, self._object_qvel, self._sensordata)
+
+    def _bind_period(self) -> None:
+        """(Re)bind the period's kernel to this model and data, through the step and gel-force
+        callables in place now (an instrument may stand in front of either: watch_mj_step,
+        wrap_stages)."""
+        instrument = vars(self.bridge).get("apply_gel_forces")  # wrap_stages's, on the instance
+        gel = functools.partial(instrument, self.data) if instrument is not None else self.bridge.gel_forces_on(self.data)
+        self._period.bind(self.model, self.data, self._mj_step, gel)
 
     # -- one control step --------------------------------------------------------------
 
@@ -364,47 +381,26 @@ class CoSimulation:
         return dict(zip(self.columns, self.advance(), strict=True))
 
     def _physics(self) -> None:
-        m, d, apply_gel_forces, mj_step = self.model, self.data, self.bridge.apply_gel_forces, self._mj_step
         # The servos interpolate their set-points over the period, as real servos do between a
         # controller's set-points: a lift target that jumped once per period would make the
         # servo's force ripple by kp v T (10 N at 0.1 m/s) and hide the load it carries, and
-        # fingers moved in jerks press their own gel on the pascal-sensitive element.
-        ctrl, act, start = self._ctrl, self._lift_act, self._lift_from
-        fingers, f_start = self._finger_act, self._fingers_from
-        delta = (self._lift_to - start) / self.substeps
-        f_delta = (self._fingers_to - f_start) / self.substeps
-        # MuJoCo's sensors (the referee's ground truth, read by _record alone) are computed in
-        # the period's last substep only: they never act on the dynamics.  For an object with a
-        # crush limit they run in every substep, for the fingers' peak force (PEAK_COLUMNS).
-        opt = self._opt
-        flags = opt.disableflags  # the model's own, between periods (kept in every substep)
-        track = self._track_peaks
-        inner = flags if track else flags | _NO_SENSORS  # the sensors of the period's other substeps
-        if track:
-            sensordata, (left_adr, right_adr) = self._sensordata, self._finger_list
-            left_peak = right_peak = 0.0
-        last = self.substeps
-        if last > 1 and inner != flags:
-            opt.disableflags = inner  # set twice a period, not every substep
-        # With gel_update=period the gel's law is linearized once per control period (k = 1):
-        # the bridge's tangent stiffness and offset force make MuJoCo apply
-        # -A P(q0) - A P'(q0) (q - q0) at every substep (implicitly), no gel law in Python between.
-        every_substep = self._gel_every_substep
-        for k in range(1, last + 1):
-            ctrl[act] = start + k * delta
-            ctrl[fingers] = f_start + k * f_delta
-            if k == 1 or every_substep:
-                apply_gel_forces(d)
-            if k == last:
-                opt.disableflags = flags
-            mj_step(m, d)
-            if track:
-                left_peak = max(left_peak, abs(sensordata[left_adr]))
-                right_peak = max(right_peak, abs(sensordata[right_adr]))
-        if track:
-            self._finger_peaks = (float(left_peak), float(right_peak))
+        # fingers moved in jerks press their own gel on the pascal-sensitive element.  With
+        # gel_update=period the gel's law is linearized once per control period: the bridge's
+        # tangent stiffness and offset force make MuJoCo apply -A P(q0) - A P'(q0) (q - q0) at
+        # every substep (implicitly), no gel law in Python between.  MuJoCo's sensors (the
+        # referee's ground truth, read by _record alone) are computed in the period's last
+        # substep only: they never act on the dynamics.  For an object with a crush limit they
+        # run in every substep, for the fingers' peak force (PEAK_COLUMNS).  (cosim/_period.py)
+        period = self._period
+        stable = period.run(self._lift_from, self._lift_to, self._fingers_from, self._fingers_to)
+        self._after_period(stable)
+
+    def _after_period(self, stable: bool) -> None:
+        if self._track_peaks:
+            self._finger_peaks = (self._period.left_peak, self._period.right_peak)
         self._lift_from, self._fingers_from = self._lift_to, self._fingers_to
-        self._check_stable()
+        if not stable:
+            self._check_stable()
         self.time_s += self.dt
         self.steps += 1
 
@@ -456,11 +452,9 @@ class CoSimulation:
             self.channels[pad].select_mode(mode)
 
     def _check_stable(self) -> None:
-        # The common case in two sums: no warning counted, and a finite sum of qpos and qvel
-        # (NaN and inf propagate through a sum; an overflow to inf is checked exactly).
-        if not any(self._warning_number.tolist()) and (
-            math.isfinite(sum(self._qpos.tolist()) + sum(self._qvel.tolist())) or finite_state(self.data)
-        ):
+        """SimulationDiverged, naming MuJoCo's warnings or the non-finite state, unless the
+        state is stable (:meth:`PeriodPhysics.stable`)."""
+        if self._period.stable():
             return
         d = self.data
         warned = [mujoco.mjtWarning(i).name for i in range(len(d.warning)) if d.warning[i].number > 0]
@@ -480,36 +474,8 @@ class CoSimulation:
     def _physics_mounted(self) -> None:
         """:meth:`_physics` with the mounted gripper's actuators: each one's command interpolated
         over the period from the drive's commands for the last opening target to the new one's."""
-        m, d, apply_gel_forces, mj_step = self.model, self.data, self.bridge.apply_gel_forces, self._mj_step
-        ctrl, act, start = d.ctrl, self._lift_act, self._lift_from
-        delta = (self._lift_to - start) / self.substeps
-        drive = zip(self.mounted.drive.actuators, self._fingers_from, self._fingers_to, strict=True)
-        fingers = [(a, s, (e - s) / self.substeps) for a, s, e in drive]
-        opt, flags, track = m.opt, m.opt.disableflags, self._track_peaks
-        inner = flags if track else flags | _NO_SENSORS
-        sensordata, (left_adr, right_adr) = d.sensordata, self._finger_adr
-        left_peak = right_peak = 0.0
-        last = self.substeps
-        if last > 1 and inner != flags:
-            opt.disableflags = inner
-        for k in range(1, last + 1):
-            ctrl[act] = start + k * delta
-            for a, f_start, f_delta in fingers:
-                ctrl[a] = f_start + k * f_delta
-            if k == 1 or self._gel_every_substep:
-                apply_gel_forces(d)
-            if k == last:
-                opt.disableflags = flags
-            mj_step(m, d)
-            if track:
-                left_peak = max(left_peak, abs(sensordata[left_adr]))
-                right_peak = max(right_peak, abs(sensordata[right_adr]))
-        if track:
-            self._finger_peaks = (float(left_peak), float(right_peak))
-        self._lift_from, self._fingers_from = self._lift_to, self._fingers_to
-        self._check_stable()
-        self.time_s += self.dt
-        self.steps += 1
+        stable = self._period.run_drive(self._lift_from, self._lift_to, self._fingers_from, self._fingers_to)
+        self._after_period(stable)
 
     def _observe_mounted(self, signals: dict[str, PadSignal]) -> Observation:
         """:meth:`_observe` with the opening and the grip read from the mounted gripper's drive."""
@@ -560,6 +526,7 @@ class CoSimulation:
                 owner_name, _, attr = path.rpartition(".")
                 owner = owners[owner_name]
                 setattr(owner, attr, wrap(stage, getattr(owner, attr)))
+        self._bind_period()  # the period's kernel calls the wrapped gel forces
 
     def watch_mj_step(self, before: Callable[[mujoco.MjModel, mujoco.MjData], None]) -> None:
         """Call ``before(model, data)`` before every ``mj_step`` of this simulation (the bench
@@ -571,6 +538,7 @@ class CoSimulation:
             step(m, d)
 
         self._mj_step = watched
+        self._bind_period()
 
     def model_settings(self) -> tuple[np.ndarray, np.ndarray, int]:
         """What the loop writes into the model as it runs, copied: the pad joints' stiffness

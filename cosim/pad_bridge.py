@@ -9,7 +9,8 @@ The strips are :mod:`cosim.pad_model`'s, their layout :mod:`cosim.pad_geometry`'
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+import copy
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 
 import mujoco
@@ -230,6 +231,14 @@ class PadBridge:
         if data is not self._views_of:
             self._data_views(data)
         self._gel_forces.apply()
+
+    def gel_forces_on(self, data: mujoco.MjData) -> Callable[[], None]:
+        """:meth:`apply_gel_forces` on ``data`` as a call without arguments, for a loop that
+        calls it every period (cosim/_period.py): a gel-force kernel of its own, bound to
+        ``data`` for good (whatever MjData :meth:`apply_gel_forces` is given later)."""
+        kernel = copy.copy(self._gel_forces)  # unbound (GelForces.__reduce__)
+        kernel.bind(data.qpos, data.qfrc_applied, self.model.jnt_stiffness)
+        return kernel.apply
 
     def __getstate__(self) -> dict:  # views are not copied: a copy makes its own
         return {k: v for k, v in self.__dict__.items() if k not in ("_views", "_views_of")}

@@ -12,6 +12,9 @@ a control step's.  Each lives in one Python module, its one source, the one to r
   steady-reading inference;
 - ``cosim/_pad_kernels.py``: :class:`cosim.pad_kernels.GelForces`, ``PadPressures`` and the
   gel law's lookup ``UniformPairTable``: the gel law on the pad joints, the pads' pressure read;
+- ``cosim/_period.py``: :class:`cosim.period.PeriodPhysics`, a control period's substeps (the
+  servos' interpolated set-points, the gel law, ``mj_step``, the fingers' peak force, the
+  stability check);
 - ``cosim/_rows.py``: :class:`cosim.rows.RowBuilder` and ``stack_rows``, a control step's
   recorded row;
 - ``cosim/control/_control.py``: :class:`cosim.control.selector.ModeSelector` and
@@ -64,6 +67,7 @@ KERNELS = (
     "piezotip.sensor._estimator",
     "piezotip.sensor._inference",
     "piezotip.cosim._pad_kernels",
+    "piezotip.cosim._period",
     "piezotip.cosim._rows",
     "piezotip.cosim.control._control",
 )

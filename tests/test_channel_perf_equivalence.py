@@ -235,16 +235,22 @@ def test_gel_forces_and_pressures_equal_the_numpy_formulas(segments):
 
 
 def _count_work(sim: CoSimulation):
-    """Count gel-force applications (one per physics step); the channels' samplers count their
-    table lookups per mode themselves (``ModeSampler.lookups``)."""
+    """Count gel-force applications (one per physics step, through the loop's own instrument
+    hook); the channels' samplers count their table lookups per mode themselves
+    (``ModeSampler.lookups``)."""
     counts = {"gel": 0}
-    apply = sim.bridge.apply_gel_forces
 
-    def counted_apply(data):
-        counts["gel"] += 1
-        apply(data)
+    def wrap(stage, method):
+        if stage != "gel_forces":
+            return method
 
-    sim.bridge.apply_gel_forces = counted_apply
+        def counted(data):
+            counts["gel"] += 1
+            method(data)
+
+        return counted
+
+    sim.wrap_stages(wrap)
 
     def lookups() -> dict[str, dict[int, int]]:
         return {pad: {m: s.lookups for m, s in ch._samplers.items()} for pad, ch in sim.channels.items()}

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import copy
 import dataclasses
+import functools
 import importlib
 import math
 import os
@@ -33,7 +34,7 @@ from types import SimpleNamespace as NS
 import numpy as np
 import pytest
 
-from piezotip.cosim import pad_kernels, rows
+from piezotip.cosim import pad_kernels, period, rows
 from piezotip.cosim.control import interface, selector
 from piezotip.cosim.pad_bridge import _GelTable
 from piezotip.cosim.pad_geometry import PadGeometry
@@ -227,6 +228,53 @@ def drive_pad_kernels(kernel, perturb: bool = False) -> list:
     return out
 
 
+_DRIVE_XML = """<mujoco><option timestep="0.001"/><worldbody><body><joint name="lift" type="slide" axis="0 0 1"/>
+<geom size=".01" mass=".1"/><body><joint name="l" type="slide" axis="1 0 0"/><geom size=".005" pos=".02 0 0" mass=".01"/></body>
+<body><joint name="r" type="slide" axis="1 0 0"/><geom size=".005" pos="-.02 0 0" mass=".01"/></body></body></worldbody>
+<actuator><position joint="lift" kp="100"/><position joint="l" kp="50"/><position joint="r" kp="50"/></actuator>
+<sensor><jointvel joint="l"/><jointvel joint="r"/></sensor></mujoco>"""
+
+
+def drive_period(kernel, perturb: bool = False) -> list:
+    """The period's substeps on a three-servo model (run_drive: two finger actuators, the gel
+    call counted, peaks tracked or not, the sensors' flag) and in the co-simulation (run: the
+    house gripper, a crush-tracking object, the gel law every substep); copies rebound."""
+    import mujoco
+
+    from piezotip import scenarios
+    from piezotip.cosim.loop import _NO_SENSORS, CoSimulation
+
+    out = []
+    model = mujoco.MjModel.from_xml_string(_DRIVE_XML)
+    for substeps, every, track in ((1, False, True), (4, False, True), (4, True, False), (3, False, False)):
+        data = mujoco.MjData(model)
+        calls: list[float] = []
+        gel = functools.partial(lambda d, seen: seen.append(d.time), data, calls)
+        period = kernel.PeriodPhysics(substeps, 0, [1, 2], every, track, [0, 1], _NO_SENSORS)
+        period.bind(model, data, mujoco.mj_step, gel)
+        fingers = [0.0, 0.0]
+        for k in range(40):
+            target = [0.01 * math.sin(0.3 * k), -0.01 * math.cos(0.2 * k) * (ULP if perturb else 1.0)]
+            stable = period.run_drive(0.001 * k, 0.001 * (k + 1), fingers, target)
+            fingers = target
+            out += [stable, period.left_peak, period.right_peak, data.qpos.copy(), data.qvel.copy(), data.ctrl.copy()]
+            out.append(int(model.opt.disableflags))
+            if k == 20:
+                period = copy.deepcopy(period)  # unbound: its owner binds it
+                period.bind(model, data, mujoco.mj_step, gel)
+        out.append(list(calls))
+        data.qvel[0] = math.nan
+        out.append(period.stable())
+    for overrides in ((), ("object.crush_force_n=0.5",), ("physics.gel_update=substep",)):
+        sim = CoSimulation(scenarios.get("grasp", list(overrides)))
+        sim._period = kernel.PeriodPhysics(*sim._period.__reduce__()[1])
+        sim._bind_period()
+        for _ in range(150):
+            out.append(sim.advance())
+            out.append((sim._period.left_peak, sim._period.right_peak))
+    return out
+
+
 #: Each case's row builder's inputs, captured from a simulation once (see _row_inputs).
 _ROW_INPUTS: dict[tuple, tuple] = {}
 
@@ -348,6 +396,7 @@ DRIVERS = {
     "piezotip.sensor._estimator": drive_estimator,
     "piezotip.sensor._inference": drive_inference,
     "piezotip.cosim._pad_kernels": drive_pad_kernels,
+    "piezotip.cosim._period": drive_period,
     "piezotip.cosim._rows": drive_rows,
     "piezotip.cosim.control._control": drive_control,
 }
@@ -365,19 +414,20 @@ def test_every_kernel_is_built_and_runs():
     assert all(built.values()), f"not built (reinstall with a C compiler: pip install -e .): {[k for k, v in built.items() if not v]}"
     assert sampler.SAMPLER_COMPILED and estimator.INVERSE_COMPILED and inference.COMPILED
     classes = [sampler.ModeSampler, estimator.InverseCore, inference.SteadyInference, rows.RowBuilder, selector.ModeSelector]
-    classes += [pad_kernels.GelForces, pad_kernels.PadPressures, pad_kernels.UniformPairTable, selector.TouchDetector]
+    classes += [pad_kernels.GelForces, pad_kernels.PadPressures, pad_kernels.UniformPairTable, selector.TouchDetector, period.PeriodPhysics]
     heap = [cls.__qualname__ for cls in classes if cls.__flags__ & (1 << 9)]  # Py_TPFLAGS_HEAPTYPE: a Python class
     assert not heap, f"compiled without their .pxd (Python classes, no C types): {heap}"
-    assert pad_kernels.PAD_KERNELS_COMPILED and rows.ROWS_COMPILED and selector.SELECTOR_COMPILED
+    assert pad_kernels.PAD_KERNELS_COMPILED and rows.ROWS_COMPILED and selector.SELECTOR_COMPILED and period.PERIOD_COMPILED
     from piezotip import scenarios
     from piezotip.cosim.loop import CoSimulation
 
     sim = CoSimulation(scenarios.get("grasp"))  # the loop runs them
-    kernels = [sim.bridge._gel_forces, sim._pressure_reader, sim._row_builder, *sim.channels.values()]
+    kernels = [sim.bridge._gel_forces, sim._pressure_reader, sim._row_builder, sim._period, *sim.channels.values()]
     kernels += [*next(iter(sim.channels.values()))._samplers.values()]
     kernels += [*sim.controller.selectors.values(), *sim.controller.touch.values()]
     assert all(is_compiled(sys.modules[type(k).__module__]) for k in kernels if type(k).__module__ in compiled.KERNELS)
-    assert {type(k).__module__ for k in kernels} >= {"piezotip.cosim._pad_kernels", "piezotip.cosim._rows", "piezotip.sensor._sampler"}
+    expected = {"piezotip.cosim._pad_kernels", "piezotip.cosim._period", "piezotip.cosim._rows", "piezotip.sensor._sampler"}
+    assert {type(k).__module__ for k in kernels} >= expected
 
 
 def test_pure_python_loads_every_kernel_from_its_source():
