@@ -324,8 +324,11 @@ def _parts(key: tuple, given: str, fingertips: tuple[str, ...], actuators: tuple
     untouched = tuple(tuple(sorted(model.body(b).name for b in tree - fingers[1 - i])) for i in range(2))
     found = tuple(_actuator(model, name, tree, given) for name in actuators)
     moved = {b for p in paths for b in p}
+    # Without equality constraints a joint moves a fingertip only from the fingertip's own chain;
+    # with them (a closed linkage: Robotiq's four-bar, driven on the branch beside the fingertip's)
+    # whether it does is measured on the free closing (GripperDrive: "do not open or close").
     for actuator in found:
-        if not any(int(model.jnt_bodyid[j]) in moved for j in actuator.joints):
+        if model.neq == 0 and not any(int(model.jnt_bodyid[j]) in moved for j in actuator.joints):
             raise ValueError(
                 f"gripper.actuators: {actuator.name!r} moves no joint between the gripper's top body and a fingertip "
                 f"(gripper.mjcf {given!r})"
@@ -561,6 +564,9 @@ class DrivePath:
         it closes from open down to there, m (the most over that part of the path).
     palm_above_m : how far above the pads' centre the rest of the gripper (what the fingers hang
         from) reaches down to, at home, m (inf: nothing).
+    centre_rise_m : how far the pads' centre lies above its home height there, m (0 for fingers
+        that slide; a linkage's fingertips swing along an arc: Robotiq's drop 9 mm from open to
+        a 44 mm grip).
     static_force : the force each actuator needs to hold the free fingers there (their springs;
         :func:`_static_force`), its units, shape (actuators, points): the drive's no-load
         profile, which its grip reading leaves out (a linkage's springs are no grip).
@@ -572,6 +578,7 @@ class DrivePath:
     lowest_m: np.ndarray
     static_force: np.ndarray
     palm_above_m: float
+    centre_rise_m: np.ndarray
 
     def slopes(self) -> np.ndarray:
         """d length / d opening of each actuator along the path, shape (actuators, points)."""
@@ -742,7 +749,10 @@ def _free_closing(model: mujoco.MjModel, parts: GripperParts, actuators: list[in
     reach = np.maximum.accumulate(np.array([home_centre - s[4] for s in samples])[order])
     lowest = np.interp(grid, opening[order][::-1], reach[::-1])
     palm_above = samples[0][5] - home_centre
-    return DrivePath(grid, lengths, qpos, lowest, _static_force(model, joints, grid, lengths, qpos), palm_above), open_ctrl
+    # Not smoothed: a slide's pads keep their height exactly (0.0), a linkage's follow its arc.
+    rise = np.interp(grid, opening[order][::-1], np.array([s[3] - home_centre for s in samples])[order][::-1])
+    path = DrivePath(grid, lengths, qpos, lowest, _static_force(model, joints, grid, lengths, qpos), palm_above, rise)
+    return path, open_ctrl
 
 
 def _static_force(model: mujoco.MjModel, joints: list[int], grid: np.ndarray, lengths: np.ndarray, qpos: np.ndarray) -> np.ndarray:
@@ -829,13 +839,15 @@ class MountedGripper:
     open_ctrl: np.ndarray
 
     def grasp_height_m(self, config: ScenarioConfig) -> float:
-        """Height of the pads' centre for the grasp, m: the object's centre (as the house
-        gripper's), but the gripper clear of the table wherever it closes down to the object's
-        width less the pads' travel, and its palm clear of the object's top (a tall object is
-        taken higher up); each TABLE_CLEARANCE_M clear."""
+        """Height of the pads' centre at home for the grasp, m: where, closed to the object's
+        width, they meet its centre (as the house gripper's; a linkage's pads rise or fall along
+        their arc on the way, :attr:`DrivePath.centre_rise_m`), but the gripper clear of the table
+        wherever it closes down to the object's width less the pads' travel, and its palm clear of
+        the object's top (a tall object is taken higher up); each TABLE_CLEARANCE_M clear."""
         path, rest = self.drive.path, object_shape(config.object).rest_height_m
         reach = float(np.interp(config.object.size_m - 2.0 * self.geometry.stop_m, path.opening_m, path.lowest_m))
-        return max(rest, reach + TABLE_CLEARANCE_M, 2.0 * rest + TABLE_CLEARANCE_M - path.palm_above_m)
+        rise = float(np.interp(config.object.size_m, path.opening_m, path.centre_rise_m))
+        return max(rest - rise, reach + TABLE_CLEARANCE_M, 2.0 * rest + TABLE_CLEARANCE_M - path.palm_above_m)
 
     def reset_home(self, data: mujoco.MjData, config: ScenarioConfig) -> dict[str, float]:
         """Put ``data`` in the home state (the fingers open, the pads' centre at the grasp
