@@ -573,7 +573,9 @@ class GentleConfig(MultimodeConfig):
         pads' silicone film (the rating's top, models/gripper.xml).  The gentle probe starts
         from the grip floor and measures the friction while the pads slide; until its first
         measurement this sets how fast the lift's goal rises while the grip grows (the sag
-        2 mu G / kp that a sliding grip adds), so the lift keeps rising on any friction below it.
+        2 mu G / kp that a sliding grip adds), so the lift keeps rising on any friction below it;
+        a friction the probe reads above it is taken as it (a misread grip: a mounted drive reads
+        light grips up to 2x off, docs/grippers.md).
     probe_speed_m_s : the lift's pace while the probe finds the grip, m/s: 0.001.  The pads
         slide up the object meanwhile; the probe lasts ln(grip / floor) / growth rate (one to
         three seconds from milli-newtons to tens of newtons), so they slide a millimetre or two,

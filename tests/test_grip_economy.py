@@ -111,6 +111,17 @@ def test_the_probe_measures_the_friction_of_slippery_objects_and_carries_them(ov
     assert s["grip_margin"] <= 1.5
 
 
+def test_a_friction_read_above_the_pads_highest_is_taken_as_that_bound():
+    """A probe that reads more friction than the pads can have (``controller.friction_max``) has
+    misread the grip (a mounted drive reads light grips up to 2x off), not the object: it holds
+    for friction_max.  With friction_max 0.5, the box of friction 1 is held at 1.25 x its weight
+    over 2 x 0.5: twice the grip the measured friction would set, a margin of 2 x 1.25."""
+    s = api.run("grasp", overrides={"controller.kind": "gentle", "controller.friction_max": 0.5}, preset="fast", plot=False).summary
+    assert s["outcome"] == "success", s["reason"]
+    assert _measured_friction(s["events"]) == 0.5
+    assert s["grip_margin"] == pytest.approx(2 * SAFETY, rel=0.03)
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("name", ["tissue-box-1g", "paper-ball-2g", "cube-3g", "box-100g", "can-500g"])
 def test_the_probe_says_carried_only_of_an_object_off_the_table(tmp_path, name):

@@ -164,7 +164,9 @@ class GentleGrasp(MultimodeGrasp):
             # so a sliding load reaches it without lag.  (A factor e^(-r kv/kp) for the servo's lag
             # was divided out here while the hard pad contacts stuck and slipped: it made up for
             # their 10-15 % lower mean friction, and read the smooth slide 9-18 % high.)
-            self.friction, self._slid = load_n / (2.0 * grip_n), True
+            # Past the highest friction the pads can have, the reading is the grip's error, not
+            # the object's (a mounted drive reads light grips through its levers, up to 2x off).
+            self.friction, self._slid = min(load_n / (2.0 * grip_n), c.friction_max), True
             return
         if not load_is_steady(last, self.steady_load_fraction):
             # The load did not follow the grip, but it is not a weight either: it scatters as
@@ -180,7 +182,7 @@ class GentleGrasp(MultimodeGrasp):
         friction at least load / 2 G there)."""
         c = self.cfg
         if not self._slid:
-            self.friction = weight_n / (2.0 * carried_from_n)
+            self.friction = min(weight_n / (2.0 * carried_from_n), c.friction_max)
         held_n = max(self.grip_floor_n, c.grip_safety * weight_n / (2.0 * self.friction))
         if self._over_cap(t, held_n, weight_n, carried=True):
             return
