@@ -361,6 +361,17 @@ def test_an_actuator_that_moves_no_fingertip_is_named(tmp_path):
             mount_gripper(config(keys(path, ("left_tip", "right_tip"), ["idle_servo"])))
 
 
+def assert_carried_and_felt(result) -> None:
+    """The referee's success, and both fingertips reading the grip at the top of the lift (the
+    true pressure and the estimate over 100 Pa)."""
+    assert result.outcome == "success", result.reason
+    data = result.data
+    top = data["lift_m"] >= data["lift_m"].max() - 1e-4
+    for side in ("left", "right"):
+        assert np.median(data[f"{side}_true_pressure_pa"][top]) > 100.0
+        assert np.nanmax(data[f"{side}_estimate_pa"][top]) > 100.0
+
+
 # -- robosuite's grippers (the `grippers` extra) ---------------------------------------------
 
 
@@ -390,12 +401,7 @@ def test_robosuite_grippers_grasp_the_default_box(gripper):
     path = _robosuite_grippers() / file
     result = piezotip.run("grasp", overrides=keys(path, tips, actuators), preset="fast")
     assert result.outcome in OUTCOMES
-    assert result.outcome == "success", result.reason
-    data = result.data
-    top = data["lift_m"] >= data["lift_m"].max() - 1e-4
-    for side in ("left", "right"):
-        assert np.median(data[f"{side}_true_pressure_pa"][top]) > 100.0
-        assert np.nanmax(data[f"{side}_estimate_pa"][top]) > 100.0
+    assert_carried_and_felt(result)
 
 
 # -- Robotiq's 2F-85 (dm_robotics' vendored model: `pip install --no-deps dm-robotics-moma`) -----
@@ -430,9 +436,4 @@ def test_robotiqs_four_bar_grasps_the_default_box(kind, obj):
     was counted."""
     overrides = keys(_robotiq_2f85(), *ROBOTIQ_2F85, **{"controller.kind": kind, **obj})
     result = piezotip.run("grasp", overrides=overrides, preset="fast")
-    assert result.outcome == "success", result.reason
-    data = result.data
-    top = data["lift_m"] >= data["lift_m"].max() - 1e-4
-    for side in ("left", "right"):
-        assert np.median(data[f"{side}_true_pressure_pa"][top]) > 100.0
-        assert np.nanmax(data[f"{side}_estimate_pa"][top]) > 100.0
+    assert_carried_and_felt(result)
