@@ -746,11 +746,12 @@ def _free_closing(model: mujoco.MjModel, parts: GripperParts, actuators: list[in
     # to each opening: the most of any sample at that opening or wider.
     home_centre = samples[0][3]
     order = np.argsort(-opening, kind="stable")
+    ascending = order[::-1]  # the samples by opening, narrowest first (np.interp's order)
     reach = np.maximum.accumulate(np.array([home_centre - s[4] for s in samples])[order])
-    lowest = np.interp(grid, opening[order][::-1], reach[::-1])
+    lowest = np.interp(grid, opening[ascending], reach[::-1])
     palm_above = samples[0][5] - home_centre
     # Not smoothed: a slide's pads keep their height exactly (0.0), a linkage's follow its arc.
-    rise = np.interp(grid, opening[order][::-1], np.array([s[3] - home_centre for s in samples])[order][::-1])
+    rise = np.interp(grid, opening[ascending], np.array([s[3] - home_centre for s in samples])[ascending])
     path = DrivePath(grid, lengths, qpos, lowest, _static_force(model, joints, grid, lengths, qpos), palm_above, rise)
     return path, open_ctrl
 
