@@ -11,7 +11,7 @@ import pytest
 
 from piezotip import api, scenarios
 from piezotip.analysis.referee import judge
-from piezotip.cosim.control.gentle import load_is_steady, probe_verdict
+from piezotip.cosim.control.gentle import carried_nothing_at_first, load_is_steady, probe_verdict
 from piezotip.cosim.loop import CoSimulation
 
 SAFETY = 1.25
@@ -47,6 +47,22 @@ def test_probe_verdict_error_grows_with_the_loads_scatter():
     clean = probe_verdict([(gi, 1.0) for gi in grips], SAFETY)[1]
     noisy = probe_verdict([(gi, 1.0 + (0.2 if k % 2 else -0.2)) for k, gi in enumerate(grips)], SAFETY)[1]
     assert clean == 0.0 and noisy > 0.1
+
+
+def test_a_span_whose_first_third_carried_nothing_is_told_apart_from_one_too_short():
+    """The lift's load tared on a ringing reading starts below zero: the verdict cannot read a
+    ratio of loads over such a span (probe_verdict's error is infinite however far the grip
+    grows), and the probe starts it again; a span too short, or loaded from its start, is not."""
+    grips = _ramp()
+    n = len(grips) // 3
+    offset = [(gi, -0.13 if k < n else 0.46) for k, gi in enumerate(grips)]  # the egg on Robotiq's 2F-85
+    assert math.isinf(probe_verdict(offset, SAFETY)[1])
+    assert carried_nothing_at_first(offset, SAFETY)
+    assert not carried_nothing_at_first([(gi, 0.46) for gi in grips], SAFETY)  # loaded throughout
+    short = _ramp(n=9, rate=1.01)
+    assert not carried_nothing_at_first([(gi, -0.13) for gi in short], SAFETY)  # too short to tell anyway
+    mixed = [(gi, (-0.13 if k % 2 else 0.2) if k < n else 0.46) for k, gi in enumerate(grips)]
+    assert not carried_nothing_at_first(mixed, SAFETY)  # a first third that carried some load on average
 
 
 def test_load_is_steady_only_within_the_fraction():

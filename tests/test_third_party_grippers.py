@@ -9,6 +9,7 @@ Rethink electric gripper, grasping the default 100 g box as the house gripper do
 
 from __future__ import annotations
 
+import dataclasses
 import importlib.util
 import math
 from pathlib import Path
@@ -424,16 +425,23 @@ ROBOTIQ_2F85 = (["left_pad_collision_geom", "right_pad_collision_geom"], ["finge
 
 
 RUBBER_BALL = {"object.shape": "sphere", "object.mass_kg": 0.05, "object.size_m": 0.05, "object.friction": 1.2}
+#: The catalogue's egg (crushed at 25 N), as override keys.
+EGG = {f"object.{name}": value for name, value in dataclasses.asdict(scenarios.OBJECTS["egg-60g"]).items()}
 
 
-@pytest.mark.parametrize(("kind", "obj"), [("gentle", {}), ("multimode", {}), ("gentle", RUBBER_BALL)])
+@pytest.mark.parametrize(
+    ("kind", "obj"),
+    [("gentle", {}), ("multimode", {}), ("gentle", RUBBER_BALL), ("gentle", EGG)],
+    ids=["gentle-box", "multimode-box", "gentle-rubber-ball", "gentle-egg"],
+)
 def test_robotiqs_four_bar_grasps_the_default_box(kind, obj):
     """A linkage nobody here wrote, driven on the link beside the fingertip's (its loops closed
     by connect equalities), given only its file, its pad boxes and its one servo: the default
     100 g box, success as the referee judges it, both fingertips reading the grip.  And the 50 g
     rubber ball, which the gentle probe dropped while the drive's light-grip reading made its
     friction 3.05 (docs/grippers.md), and pinched 2.3 mm under its equator before the pads' arc
-    was counted."""
+    was counted.  And the egg, which the probe squeezed to 43 N while its load, tared on a
+    ringing reading, started below zero (gentle.carried_nothing_at_first)."""
     overrides = keys(_robotiq_2f85(), *ROBOTIQ_2F85, **{"controller.kind": kind, **obj})
     result = piezotip.run("grasp", overrides=overrides, preset="fast")
     assert_carried_and_felt(result)

@@ -66,6 +66,23 @@ def probe_verdict(span: list[tuple[float, float]], safety: float) -> tuple[float
     return math.log(l3 / l1) / growth, error, g_mean, l_mean
 
 
+def carried_nothing_at_first(span: list[tuple[float, float]], safety: float) -> bool:
+    """Whether a probe's span of (grip applied, load) samples, N, long enough for a verdict (its
+    last third's mean grip ``safety`` times its first third's), carried nothing over its first
+    third: that third's mean load is not positive, so no ratio of loads can be read over it.
+
+    The load is the lift's, zeroed (tared) on one reading as the lift phase begins; where the
+    squeeze still rings in the gripper then, the load starts below zero (Robotiq's 2F-85 on a
+    60 g egg: the tare caught +0.13 N of a linkage's ringing, gone 20 ms later, so the load
+    read -0.13 N until the egg rose), and a span anchored there never reaches a verdict,
+    however far the grip grows: the probe squeezed the egg to 43 N, past its 25 N."""
+    n = len(span) // 3
+    if n < 2:
+        return False
+    g1, g3 = (sum(g for g, _ in part) / n for part in (span[:n], span[-n:]))
+    return g1 > 0.0 and g3 >= safety * g1 and sum(load for _, load in span[:n]) <= 0.0
+
+
 def load_is_steady(loads: list[float], fraction: float) -> bool:
     """Whether ``loads`` (N) scatter about their mean by at most ``fraction`` of it (their
     population standard deviation): a carried object's load changes only with the lift's
@@ -146,6 +163,8 @@ class GentleGrasp(MultimodeGrasp):
         self._span.append((applied, lift.raw_load_n))
         elasticity, error, grip_n, load_n = probe_verdict(self._span, c.grip_safety)
         if math.isinf(error):
+            if carried_nothing_at_first(self._span, c.grip_safety):
+                self._span = self._span[-1:]  # the span starts again where the pads carry a load
             return  # the grip has not grown enough over the span to tell
         if load_n <= self.robot.min_load_n:
             self._span = self._span[-1:]
@@ -217,4 +236,4 @@ class GentleGrasp(MultimodeGrasp):
         brakes and settles, is the gripper's inertia as much as the object's weight)."""
 
 
-__all__ = ["GentleGrasp", "load_is_steady", "probe_verdict"]
+__all__ = ["GentleGrasp", "carried_nothing_at_first", "load_is_steady", "probe_verdict"]
