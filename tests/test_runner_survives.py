@@ -30,6 +30,9 @@ from piezotip.analysis.runner import run_scenario
 from piezotip.cosim.loop import CoSimulation
 from piezotip.cosim.recorder import Recorder
 
+# Ctrl-C as in a terminal, whatever the test runner's parent left (a shell's background job
+# starts with SIGINT ignored, and Python then installs no KeyboardInterrupt handler).
+signal.signal(signal.SIGINT, signal.default_int_handler)
 plan = json.loads(sys.argv[2])  # where to send which signal: {"step": name, "close": name, "summary": name}
 advance, close, summary = CoSimulation.advance, Recorder.close, run_report.summary
 steps = {"n": 0}

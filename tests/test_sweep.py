@@ -388,6 +388,18 @@ def test_the_worker_server_imports_from_the_commands_path_not_the_current_folder
     assert "site-packages" in proc.stdout and str(here) not in proc.stdout
 
 
+@pytest.fixture
+def ctrl_c_as_in_a_terminal():
+    """Python's Ctrl-C handler on SIGINT for the test, whatever the runner's parent left (a
+    shell's background job starts with SIGINT ignored, and then Python installs none)."""
+    import signal
+
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    yield
+    signal.signal(signal.SIGINT, previous)
+
+
+@pytest.mark.usefixtures("ctrl_c_as_in_a_terminal")
 def test_a_ctrl_c_while_the_cluster_starts_waits_until_it_is_up_then_closes_it(monkeypatch):
     """Dask cannot close a cluster interrupted half-started (its own close at exit then prints a
     traceback): the interrupt is held until the cluster is up, then it is closed and the
@@ -422,6 +434,7 @@ def test_a_ctrl_c_while_the_cluster_starts_waits_until_it_is_up_then_closes_it(m
     assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
 
 
+@pytest.mark.usefixtures("ctrl_c_as_in_a_terminal")
 def test_held_interrupts_raise_on_leaving_and_only_then():
     import signal
 
@@ -434,6 +447,7 @@ def test_held_interrupts_raise_on_leaving_and_only_then():
     assert not held.caught and signal.getsignal(signal.SIGINT) is signal.default_int_handler
 
 
+@pytest.mark.usefixtures("ctrl_c_as_in_a_terminal")
 def test_a_held_sigterm_raises_run_interrupted_on_leaving():
     """SIGTERM under the command line's handler is held like Ctrl-C, and leaves as RunInterrupted
     (exit 143), both handlers back as they were."""
