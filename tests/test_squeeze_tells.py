@@ -75,3 +75,8 @@ def test_past_squeeze_wait_s_the_lift_goes_on_and_says_so():
     assert result.outcome == "success", result.summary["reason"]
     unconfirmed = [e for e in result.events if e["kind"] == "touch_unconfirmed"]
     assert unconfirmed and "could not tell the grip floor" in unconfirmed[0]["message"]
+
+
+def test_a_wait_shorter_than_the_settling_is_refused_naming_both():
+    with pytest.raises(ValueError, match=r"squeeze_wait_s must be at least controller.squeeze_settle_s \(0.1 s\), got 0.05"):
+        api.config("grasp", {"controller.squeeze_wait_s": 0.05})

@@ -397,7 +397,7 @@ class MultimodeGrasp:
             waited_s = t - self._t_phase
             if waited_s < self.cfg.squeeze_wait_s:
                 return
-            why = f"{', '.join(undecided)} could not tell the grip floor after {waited_s:.3g} s: lifting on the touch"
+            why = f"{', '.join(undecided)} could not tell the grip floor after {waited_s:.3g} s: taken as touched"
             self._event(t, "touch_unconfirmed", why)
         empty = [pad for pad in self.pads if pad not in undecided and self.selectors[pad].status == "below_detection"]
         if empty:
