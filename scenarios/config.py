@@ -491,13 +491,8 @@ class MultimodeConfig(MotionConfig):
         0.06 N on a 30 mm sphere instead of 0.11 N).
     out_of_range_sigma : readings outside [-n sigma, 1 + n sigma] are a sensor fault.
     squeeze_settle_s : the squeeze's settling before the lift, s: 0.1, several times the finger
-        servo's time constant on the gel (46 g of finger on the pad's 2.4 kN/m: 4 ms); the lift
-        waits on until every fingertip can tell whether its pad feels the grip floor.
-    squeeze_wait_s : the longest the squeeze waits for that, s: 1.0, past the readout's settling
-        after a load step (0.17-0.37 s with Table I's damping; 0.12-0.38 s measured on the house
-        scenarios at ``balanced`` and ``accurate``, whose envelope readout was still settling at
-        0.1 s in every one).  Past it a fingertip that cannot tell is taken as touched, with an
-        event saying so.  At least ``squeeze_settle_s``.
+        servo's time constant on the gel (46 g of finger on the pad's 2.4 kN/m: 4 ms) and long
+        enough for the readout to say whether the pads feel the grip floor.
     measurable_share : the share of the highest mode's P_max the grip may use, -: 0.9, inside
         the range where the mode still resolves 10 % of the pressure.
     sliding_pace : a lift keeping this share of its goal's pace runs free (the pads slide or the
@@ -524,7 +519,6 @@ class MultimodeConfig(MotionConfig):
     touch_single_sigma: float = 6.0
     out_of_range_sigma: float = 6.0
     squeeze_settle_s: float = 0.1
-    squeeze_wait_s: float = 1.0
     measurable_share: float = 0.9
     sliding_pace: float = 0.9
 
@@ -541,15 +535,11 @@ class MultimodeConfig(MotionConfig):
             "touch_single_sigma",
             "out_of_range_sigma",
             "squeeze_settle_s",
-            "squeeze_wait_s",
         ):
             _positive(f"controller.{name}", getattr(self, name))
         for name in ("grip_floor_n", "max_grip_n", "grip_rate_n_s"):
             if getattr(self, name) is not None:
                 _positive(f"controller.{name}", getattr(self, name))
-        if self.squeeze_wait_s < self.squeeze_settle_s:
-            settle, wait = self.squeeze_settle_s, self.squeeze_wait_s
-            raise ValueError(f"controller.squeeze_wait_s must be at least controller.squeeze_settle_s ({settle!r} s), got {wait!r}")
         if not _is_number(self.grip_safety) or not self.grip_safety > 1 or not math.isfinite(self.grip_safety):
             raise ValueError(f"controller.grip_safety must be a number above 1, got {self.grip_safety!r}")
         for name in ("table_load_fraction", "slip_pressure_drop", "hysteresis", "measurable_share"):

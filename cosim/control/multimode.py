@@ -14,10 +14,9 @@ Phases (:class:`Phase`), one method each::
 - close: close at ``closing_speed_m_s`` with the force the fingers need to move (a guard, not
   a grip) until a CUSUM on the most sensitive mode detects touch on both fingertips.
 - squeeze: settle at the grip floor: the gentlest grip whose pad pressure the lowest mode
-  resolves to 10 % (:func:`grip_floor_n`), until every fingertip can tell whether it feels it
-  (:func:`tells_the_floor`; up to ``squeeze_wait_s``).  A fingertip reading nothing there was
-  alarmed by something else (a false touch): close on; but fingers that cannot close, twice felt
-  by no fingertip, touch the object off the pads (``unfelt_contact``: give up).
+  resolves to 10 % (:func:`grip_floor_n`).  A fingertip reading nothing there was alarmed by
+  something else (a false touch): close on; but fingers that cannot close, twice felt by no
+  fingertip, touch the object off the pads (``unfelt_contact``: give up).
 - lift, in three stages.  *Transfer*: the lift goal rises only as far as the grip can carry
   at the assumed friction, and the grip follows the load the lift feels (grip = safety x
   load / (2 mu)), so the weight moves from the table onto the pads.  When the load stops
@@ -117,16 +116,6 @@ def resolved_floor_pa(fingertip: Fingertip, mode: int, resolved_fraction: float 
 _EMPTY = attrgetter("empty")  # all(map(_EMPTY, ...)): no generator made and closed each step
 
 
-def tells_the_floor(trusted: bool, status: str, uncertainty_pa: float, floor_pa: float) -> bool:
-    """Whether a fingertip's last reading can tell if its pad feels the grip floor ``floor_pa``
-    (Pa): trusted (not "settling"), and, if it reads "below_detection", its detection limit at its
-    own noise (that estimate's uncertainty, Pa: P_min times the inference's noise gain, large
-    just after a load step) at most half the floor.  The floor then reads at least twice that
-    limit, 3 sigma over the 3-sigma threshold: a pad at the floor is missed 0.13 % of the time
-    (at the limit itself, half the time)."""
-    return trusted and (status != "below_detection" or uncertainty_pa <= 0.5 * floor_pa)
-
-
 def element_self_test(config: ScenarioConfig, fingertip: Fingertip) -> str | None:
     """None if the element of ``config``'s scenario passes its start-up self-test in the
     controller's modes, else the self-test's message: the element as built (its unit, as warm as
@@ -199,7 +188,6 @@ class MultimodeGrasp:
         self.grip_cap_n = min(self.max_grip_n, self.measurable_grip_n)
         self.grip_floor_n = c.grip_floor_n if c.grip_floor_n is not None else grip_floor_n(sel.fingertip, lowest, area)
         self.grip_floor_n = min(self.grip_floor_n, self.grip_cap_n)
-        self._floor_pa = self.grip_floor_n / area  # the floor's pressure on a full-face contact, Pa
         #: Grip ramp rate, N/s: by default the finger drive's whole force range in one second.
         self.grip_rate_n_s = c.grip_rate_n_s if c.grip_rate_n_s is not None else robot.finger_force_limit_n
         #: The fingers' force limit while they move freely: what their drive's damping and its
@@ -387,19 +375,8 @@ class MultimodeGrasp:
         if t - self._t_phase < self.cfg.squeeze_settle_s:
             return
         # A touch leaves the floor's pressure on the pads; a fingertip that reads nothing was
-        # alarmed by something else (its own pad's inertia as the fingers jerk): close on.  Read
-        # only once each fingertip can tell (tells_the_floor): a readout still settling after the
-        # touch's load step, or whose noise still hides the floor, has not said "nothing".
-        floor_pa = self._floor_pa
-        selectors = self.selectors.items()
-        undecided = [pad for pad, sel in selectors if not tells_the_floor(sel.trusted, sel.status, sel.uncertainty_pa, floor_pa)]
-        if undecided:
-            waited_s = t - self._t_phase
-            if waited_s < self.cfg.squeeze_wait_s:
-                return
-            why = f"{', '.join(undecided)} could not tell the grip floor after {waited_s:.3g} s: taken as touched"
-            self._event(t, "touch_unconfirmed", why)
-        empty = [pad for pad in self.pads if pad not in undecided and self.selectors[pad].status == "below_detection"]
+        # alarmed by something else (its own pad's inertia as the fingers jerk): close on.
+        empty = [pad for pad, sel in self.selectors.items() if sel.trusted and sel.status == "below_detection"]
         if empty:
             # Closing on is for fingers that are free.  If every fingertip read nothing here and
             # at the last false touch, and the fingers have not closed since by what one control
@@ -414,7 +391,7 @@ class MultimodeGrasp:
                     t,
                     "unfelt_contact",
                     f"the joints felt a contact at {obs.opening_m * 1e3:.1f} mm that no fingertip reads at the grip floor: "
-                    "the object touches the pads away from the element's gel coverage, or nothing does (the drive's own jolt)",
+                    "the object touches the pads away from the element's gel coverage",
                     Phase.RELEASE,
                 )
                 return
