@@ -161,6 +161,7 @@ def format_summary(s: dict) -> str:
         lines.append(f"  OUTSIDE THE MODEL: {'; '.join(s['outside_model'])}")
     if s.get("error"):
         lines.append(f"  STOPPED: {s['error']}")
+    lines.extend(f"  MuJoCo warned ({w['count']}x): {w['message']}" for w in s.get("mujoco_warnings") or ())
     lines.extend(f"  wrote {f}" for f in s["files"])
     return "\n".join(lines)
 

@@ -170,8 +170,38 @@ def run_scenario(
     (:class:`piezotip.cosim.recorder.Columns`: a long run's recording is never in memory whole;
     ``dict(data)`` loads it), readable after ``out`` is removed.
     """
-    with _Signals() as signals:
-        return _run(name, overrides, out, csv, render, plot, quiet, preset, video, video_fps, video_size, signals)
+    with _Signals() as signals, MujocoWarnings() as warned:
+        return _run(name, overrides, out, csv, render, plot, quiet, preset, video, video_fps, video_size, signals, warned)
+
+
+class MujocoWarnings:
+    """MuJoCo's text warnings while a run lasts, counted by message, instead of MuJoCo's default
+    (printed and appended to ``MUJOCO_LOG.TXT`` in the current directory, where a user's script
+    or a batch of runs leaves them unread).  A context manager: MuJoCo's handler is process-wide,
+    so the one in place before is put back on leaving (a handler of the user's own, too)."""
+
+    def __init__(self) -> None:
+        self.counts: dict[str, int] = {}
+        self._previous = None
+
+    def _warned(self, message: str) -> None:
+        self.counts[message] = self.counts.get(message, 0) + 1
+
+    def __enter__(self) -> MujocoWarnings:
+        import mujoco
+
+        self._previous = mujoco.get_mju_user_warning()
+        mujoco.set_mju_user_warning(self._warned)
+        return self
+
+    def __exit__(self, *exc) -> None:
+        import mujoco
+
+        mujoco.set_mju_user_warning(self._previous)
+
+    def listed(self) -> list[dict]:
+        """[{"message": ..., "count": n}], in the order first seen."""
+        return [{"message": message, "count": count} for message, count in self.counts.items()]
 
 
 def _start_folder(out: Path) -> None:
@@ -184,7 +214,7 @@ def _start_folder(out: Path) -> None:
         (out / name).unlink(missing_ok=True)
 
 
-def _run(name, overrides, out, csv, render, plot, quiet, preset, video, video_fps, video_size, signals: _Signals):
+def _run(name, overrides, out, csv, render, plot, quiet, preset, video, video_fps, video_size, signals: _Signals, warned: MujocoWarnings):
     from piezotip import scenarios
     from piezotip.cosim.loop import CoSimulation, RunResult
     from piezotip.cosim.recorder import Recorder
@@ -257,6 +287,7 @@ def _run(name, overrides, out, csv, render, plot, quiet, preset, video, video_fp
     if interrupted:
         how = "Ctrl-C" if report["signal"] == "SIGINT" else report["signal"]
         report["reason"] = f"interrupted ({how}) at t = {result.sim_time_s:.2f} s; {report['reason']}"
+    report["mujoco_warnings"] = warned.listed()  # MuJoCo's own text warnings during the run, counted
     report["touch_time_s"] = getattr(sim.controller, "touch_time_s", math.nan)
     report["overrides"] = list(overrides)
     report["preset"] = preset

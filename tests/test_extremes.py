@@ -1,5 +1,6 @@
 """Numerics at the extremes of the co-simulation: timesteps, integrators, long holds, divergence."""
 
+import json
 import math
 
 import numpy as np
@@ -100,6 +101,46 @@ def test_run_command_reports_a_divergence_and_exits_nonzero(tmp_path, monkeypatc
     out = capsys.readouterr().out
     assert '"error": "simulation diverged' in out
     assert (tmp_path / "run.npz").exists()
+
+
+def test_mujocos_own_warnings_go_into_the_summary_not_a_log_file_in_the_users_directory(tmp_path, monkeypatch, capsys):
+    """MuJoCo warns in text of a bad velocity (and resets the state); by default it prints that
+    and appends it to MUJOCO_LOG.TXT in the current directory.  A run counts its warnings in the
+    summary (``mujoco_warnings``) and the printed block, writes no such file, and puts back the
+    handler it found."""
+    import mujoco
+
+    from piezotip import cli as run_sim
+    from piezotip.cosim import loop
+
+    original = loop.CoSimulation._physics
+
+    def poisoned(self):
+        if self.steps == 10:
+            self.data.qvel[0] = math.nan  # mj_step's check warns, in text
+        original(self)
+
+    monkeypatch.setattr(loop.CoSimulation, "_physics", poisoned)
+    monkeypatch.chdir(tmp_path)
+    mine = []
+    mujoco.set_mju_user_warning(mine.append)
+    try:
+        code = run_sim.main(["run", "grasp", "--out", str(tmp_path / "run"), "--preset", "fast", "--no-plot"])
+        assert mine == []  # the run's warning went to the run...
+        body = "<body><joint type='slide'/><geom size='0.1'/></body>"
+        model = mujoco.MjModel.from_xml_string(f"<mujoco><worldbody>{body}</worldbody></mujoco>")
+        data = mujoco.MjData(model)
+        data.qvel[0] = math.nan
+        mujoco.mj_step(model, data)
+        assert len(mine) == 1 and "QVEL" in mine[0]  # ...and the user's handler is back for theirs
+    finally:
+        mujoco.set_mju_user_warning(None)
+    assert code == 1  # the divergence it caused
+    summary = json.loads((tmp_path / "run" / "summary.json").read_text())
+    [warned] = summary["mujoco_warnings"]
+    assert "Nan, Inf or huge value in QVEL" in warned["message"] and warned["count"] >= 1
+    assert "MuJoCo warned (" in capsys.readouterr().out
+    assert not (tmp_path / "MUJOCO_LOG.TXT").exists()
 
 
 @pytest.mark.slow
