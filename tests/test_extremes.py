@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from piezotip import scenarios
-from piezotip.analysis.runner import run_scenario
+from piezotip.analysis.runner import MujocoWarnings, run_scenario
 from piezotip.cosim.loop import CoSimulation
 from piezotip.cosim.recorder import Recorder
 
@@ -77,8 +77,10 @@ def test_a_divergence_stops_with_a_clear_message_and_keeps_the_recording(tmp_pat
         if s.steps == 40:
             s.data.qvel[0] = math.nan
 
-    result = sim.run(Recorder(tmp_path / "run"), on_step=poison)
+    with MujocoWarnings() as warned:  # MuJoCo's text warning counted, not written to MUJOCO_LOG.TXT here
+        result = sim.run(Recorder(tmp_path / "run"), on_step=poison)
     assert result.error is not None and "diverged" in result.error and "t = " in result.error
+    assert [w["message"].split(".")[0] for w in warned.listed()] == ["Nan, Inf or huge value in QVEL at DOF 0"]
     kept = np.load(tmp_path / "run.npz")
     assert len(kept["time_s"]) == 40
 
