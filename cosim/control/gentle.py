@@ -39,6 +39,23 @@ from .multimode import MultimodeGrasp
 from .phases import Phase
 
 
+def _thirds(span: list[tuple[float, float]]) -> tuple[int, float, float, float, float] | None:
+    """(n, mean grip of the first n samples, of the last n, mean load of the first n, of the last
+    n), N, with n a third of ``span``; None under two samples a third."""
+    n = len(span) // 3
+    if n < 2:
+        return None
+    first, last = span[:n], span[-n:]
+    g1, g3 = (sum(g for g, _ in part) / n for part in (first, last))
+    l1, l3 = (sum(load for _, load in part) / n for part in (first, last))
+    return n, g1, g3, l1, l3
+
+
+def _grew(g1: float, g3: float, safety: float) -> bool:
+    """Whether the grip grew by ``safety`` from the first third to the last: enough to tell."""
+    return g1 > 0.0 and g3 >= safety * g1
+
+
 def probe_verdict(span: list[tuple[float, float]], safety: float) -> tuple[float, float, float, float]:
     """(elasticity d ln L / d ln G, its standard error, mean grip, mean load) of a probe's span of
     (grip applied, load) samples, N, from the means of its first and last thirds.
@@ -49,15 +66,14 @@ def probe_verdict(span: list[tuple[float, float]], safety: float) -> tuple[float
     constant factor of it and the ratio of the thirds' means is free of the lag.  The error comes
     from the scatter of the loads within each third (stick-slip at milli-newton grips): infinite
     until the grip has grown by ``safety`` over the span (too short to tell)."""
-    n = len(span) // 3
-    if n < 2:
+    thirds = _thirds(span)
+    if thirds is None:
         return 0.0, math.inf, 0.0, 0.0
+    n, g1, g3, l1, l3 = thirds
     first, last = span[:n], span[-n:]
-    g1, g3 = (sum(g for g, _ in part) / n for part in (first, last))
-    l1, l3 = (sum(load for _, load in part) / n for part in (first, last))
     g_mean = sum(g for g, _ in span) / len(span)
     l_mean = sum(load for _, load in span) / len(span)
-    if g1 <= 0.0 or g3 < safety * g1 or l1 <= 0.0 or l3 <= 0.0:
+    if not _grew(g1, g3, safety) or l1 <= 0.0 or l3 <= 0.0:
         return 0.0, math.inf, g_mean, l_mean
     growth = math.log(g3 / g1)
     var1 = sum((load - l1) ** 2 for _, load in first) / (n - 1)
@@ -76,11 +92,11 @@ def carried_nothing_at_first(span: list[tuple[float, float]], safety: float) -> 
     60 g egg: the tare caught +0.13 N of a linkage's ringing, gone 20 ms later, so the load
     read -0.13 N until the egg rose), and a span anchored there never reaches a verdict,
     however far the grip grows: the probe squeezed the egg to 43 N, past its 25 N."""
-    n = len(span) // 3
-    if n < 2:
+    thirds = _thirds(span)
+    if thirds is None:
         return False
-    g1, g3 = (sum(g for g, _ in part) / n for part in (span[:n], span[-n:]))
-    return g1 > 0.0 and g3 >= safety * g1 and sum(load for _, load in span[:n]) <= 0.0
+    _, g1, g3, l1, _ = thirds
+    return _grew(g1, g3, safety) and l1 <= 0.0
 
 
 def load_is_steady(loads: list[float], fraction: float) -> bool:
