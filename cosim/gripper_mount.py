@@ -612,6 +612,8 @@ class GripperDrive:
     servo_damping_n_s_m : the servos' velocity gains on the opening along the path, N s/m:
         sum_a kv_a (dl_a/do)^2 (inside the servo: it lags, its force does not show it).
     friction_n : the joints' dry friction on the opening along the path, N: sum_d F_d |dq_d/do|.
+    mass_kg : the fingers' inertia on the opening at :data:`MASS_POINTS` of the path, kg
+        (:func:`opening_mass_kg`).
     """
 
     def __init__(self, model: mujoco.MjModel, parts: GripperParts, path: DrivePath, joints: list[int], kv: np.ndarray) -> None:
@@ -633,6 +635,7 @@ class GripperDrive:
         self.joint_damping_n_s_m = speeds**2 @ model.dof_damping[dofs]
         self.servo_damping_n_s_m = (np.asarray(kv)[:, None] * self._slopes**2).sum(axis=0)
         self.friction_n = np.abs(speeds) @ model.dof_frictionloss[dofs]
+        self.mass_kg = opening_mass_kg(model, path, joints)
 
     def ctrl_for(self, opening_m: float) -> list[float]:
         """The actuators' commands for an opening target, m: those that hold the path's lengths
@@ -870,8 +873,16 @@ class MountedGripper:
     def robot_limits(self, home: dict[str, float], gel: GelParams | None = None) -> RobotLimits:
         """The robot's limits as the scene's model has them: the lift's as the house's, the
         fingers' from the drive (:meth:`GripperDrive.rating_n`, :meth:`GripperDrive.damping_n_s_m`,
-        the most of :attr:`GripperDrive.friction_n` along the path)."""
-        fingers = (self.drive.rating_n(), self.drive.damping_n_s_m(), float(self.drive.friction_n.max()))
+        the most of :attr:`GripperDrive.friction_n` along the path, the least of its
+        :attr:`GripperDrive.mass_kg` and the most of its joints' damping)."""
+        drive = self.drive
+        fingers = (
+            drive.rating_n(),
+            drive.damping_n_s_m(),
+            float(drive.friction_n.max()),
+            float(drive.mass_kg.min()),
+            float(drive.joint_damping_n_s_m.max()),
+        )
         return robot_limits(self.model, home, self.geometry, gel, fingers=fingers)
 
 
@@ -928,6 +939,30 @@ def _set_gains(model: mujoco.MjModel, actuator: int, kp: float, kv: float) -> No
     model.actuator_biasprm[actuator, :3] = [0.0, -kp, -kv]
 
 
+#: The path's points at which the fingers' mass on the opening is computed (eleven, ends included).
+MASS_POINTS = range(0, PATH_POINTS, (PATH_POINTS - 1) // 10)
+
+
+def opening_mass_kg(model: mujoco.MjModel, path: DrivePath, joints: list[int]) -> np.ndarray:
+    """The fingers' inertia on the opening at :data:`MASS_POINTS` of ``path``, kg: m_o = v^T M v
+    with v the joints' speeds per opening speed (dq/do along the free closing) and M the
+    model's joint-space inertia there (mj_fullM: the links' masses and inertias, the joints'
+    armature), so the fingers' kinetic energy is (1/2) m_o o'^2."""
+    dofs, qadr = [int(model.jnt_dofadr[j]) for j in joints], [int(model.jnt_qposadr[j]) for j in joints]
+    speeds = np.gradient(path.qpos, path.opening_m, axis=0)  # joint speed per opening speed, (points, joints)
+    data, mass = mujoco.MjData(model), np.zeros((model.nv, model.nv))
+    masses = []
+    for k in MASS_POINTS:
+        data.qpos[:] = model.qpos0
+        data.qpos[qadr] = path.qpos[k]
+        mujoco.mj_forward(model, data)
+        mujoco.mj_fullM(model, data, mass)
+        v = np.zeros(model.nv)
+        v[dofs] = speeds[k]
+        masses.append(float(v @ mass @ v))
+    return np.array(masses)
+
+
 def _motor_gains(model: mujoco.MjModel, parts: GripperParts, actuators: list[int], joints: list[int], path: DrivePath) -> None:
     """Make each motor of the drive a position servo, in ``model``, as the house's finger servo
     is designed (models/gripper.xml): stiff enough on the opening to reach the drive's rated grip
@@ -942,24 +977,17 @@ def _motor_gains(model: mujoco.MjModel, parts: GripperParts, actuators: list[int
     own = float(np.median(sum((-model.actuator_biasprm[actuators[i], 1] * slopes[i] ** 2 for i in others), np.zeros(slopes.shape[1]))))
     share = max(rating / HOUSE_SERVO_TRAVEL_M - own, 0.0) / len(motors)
     kp = {i: share / float(np.median(slopes[i] ** 2)) for i in motors}
-    dofs, qadr = [int(model.jnt_dofadr[j]) for j in joints], [int(model.jnt_qposadr[j]) for j in joints]
+    dofs = [int(model.jnt_dofadr[j]) for j in joints]
     speeds = np.gradient(path.qpos, path.opening_m, axis=0)  # joint speed per opening speed, (points, joints)
-    data, mass = mujoco.MjData(model), np.zeros((model.nv, model.nv))
     kv = dict.fromkeys(motors, 0.0)
-    for k in range(0, PATH_POINTS, (PATH_POINTS - 1) // 10):
-        data.qpos[:] = model.qpos0
-        data.qpos[qadr] = path.qpos[k]
-        mujoco.mj_forward(model, data)
-        mujoco.mj_fullM(model, data, mass)
-        v = np.zeros(model.nv)
-        v[dofs] = speeds[k]
+    for k, mass_o in zip(MASS_POINTS, opening_mass_kg(model, path, joints), strict=True):
         stiffness = sum(-model.actuator_biasprm[actuators[i], 1] * slopes[i, k] ** 2 for i in others) + sum(
             kp[i] * slopes[i, k] ** 2 for i in motors
         )
         damped = model.dof_damping[dofs] @ speeds[k] ** 2 + sum(
             -model.actuator_biasprm[actuators[i], 2] * slopes[i, k] ** 2 for i in others
         )
-        lacking = max(2.0 * math.sqrt(stiffness * float(v @ mass @ v)) - damped, 0.0)
+        lacking = max(2.0 * math.sqrt(stiffness * mass_o) - damped, 0.0)
         for i in motors:
             kv[i] = max(kv[i], lacking / (len(motors) * max(slopes[i, k] ** 2, 1e-12)))
     for i in motors:

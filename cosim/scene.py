@@ -173,20 +173,22 @@ def robot_limits(
     home: dict[str, float],
     geometry: PadGeometry,
     gel: GelParams | None = None,
-    fingers: tuple[float, float, float] | None = None,
+    fingers: tuple[float, float, float, float, float] | None = None,
 ) -> RobotLimits:
     """The gripper's limits and servo gains as the compiled model has them (never typed again).
 
     ``fingers``: a mounted gripper's (force limit N per finger, damping on the opening N s/m,
-    dry friction on the opening N), from its drive (cosim.gripper_mount.GripperDrive); None
-    reads the house gripper's (no friction: its finger joints have none)."""
+    dry friction on the opening N, mass on the opening kg, its joints' damping on the opening
+    N s/m), from its drive (cosim.gripper_mount.GripperDrive); None reads the house gripper's
+    (no friction: its finger joints have none)."""
     lift = model.actuator("lift_actuator")
     kp, kv = float(lift.gainprm[0]), float(-lift.biasprm[2])
     if fingers is None:
         house, joint = model.actuator("fingers_actuator"), model.joint("left_finger_joint")
         # The tendon's speed is the opening's; each finger moves at half of it against its
         # joint's damping, and the servo's own kv acts on the tendon.
-        fingers = finger_force_limit_n(model), float(0.5 * model.dof_damping[joint.dofadr[0]] - house.biasprm[2]), 0.0
+        joint_damping = float(0.5 * model.dof_damping[joint.dofadr[0]])
+        fingers = finger_force_limit_n(model), joint_damping - float(house.biasprm[2]), 0.0, house_finger_mass_kg(model), joint_damping
     return RobotLimits(
         lift_kp_n_m=kp,
         lift_kv_n_s_m=kv,
@@ -203,7 +205,23 @@ def robot_limits(
         home_lift_m=home["lift_m"],
         home_opening_m=home["opening_m"],
         finger_friction_n=float(fingers[2]),
+        finger_mass_kg=float(fingers[3]),
+        finger_joint_damping_n_s_m=float(fingers[4]),
     )
+
+
+def house_finger_mass_kg(model: mujoco.MjModel) -> float:
+    """The house fingers' inertia on the opening, kg: the opening is the sum of the two finger
+    slides (the fingers tendon, coefficient 1 each) and each moves at half its speed, so
+    m_o = v^T M v with v = (1/2, 1/2) on their dofs (M from mj_fullM: the fingers, their pads
+    and the joints' armature)."""
+    data, mass = mujoco.MjData(model), np.zeros((model.nv, model.nv))
+    mujoco.mj_forward(model, data)
+    mujoco.mj_fullM(model, data, mass)
+    v = np.zeros(model.nv)
+    for side in ("left", "right"):
+        v[model.joint(f"{side}_finger_joint").dofadr[0]] = 0.5
+    return float(v @ mass @ v)
 
 
 def check_reach(config: ScenarioConfig, robot: RobotLimits) -> None:

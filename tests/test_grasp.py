@@ -257,6 +257,20 @@ def test_mode_ranges_are_computed_once_per_fingertip_and_never_shared_across_con
     assert allowed_ranges(base, (1, 2, 3, 4))[2][1] > 0
 
 
+def test_the_settling_remainder_is_the_geometric_tail_of_shrinking_rises():
+    """rise r / (1 - r) with r = rise / last rise: 10 then 9 mN a period leave 81 mN to come
+    (9 + 8.1 + ... = 9 x 0.9 / 0.1); a rise that does not shrink has no end; with no ratio (a
+    first rise, or one of the other sign) the rise itself."""
+    from piezotip.cosim.control.multimode import settling_remainder_n
+
+    assert settling_remainder_n(0.009, 0.010) == pytest.approx(0.081)
+    assert settling_remainder_n(0.009, 0.010) == pytest.approx(sum(0.009 * 0.9**k for k in range(1, 2000)))
+    assert settling_remainder_n(0.010, 0.010) == math.inf
+    assert settling_remainder_n(0.002, math.nan) == 0.002
+    assert settling_remainder_n(-0.002, 0.003) == 0.002
+    assert settling_remainder_n(0.0, 0.003) == 0.0
+
+
 def test_the_joints_feel_a_contact_as_a_rise_of_the_closing_drive_over_the_grip_floor():
     """The drive's force at pace is learned once steady; a rise over it by more than the grip
     floor is a contact felt by the joints, a smaller one (or any while speeding up) is not."""

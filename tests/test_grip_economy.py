@@ -11,7 +11,7 @@ import pytest
 
 from piezotip import api, scenarios
 from piezotip.analysis.referee import judge
-from piezotip.cosim.control.gentle import carried_nothing_at_first, load_is_steady, probe_verdict
+from piezotip.cosim.control.gentle import carried_nothing_at_first, grip_read_n, load_is_steady, probe_verdict
 from piezotip.cosim.loop import CoSimulation
 
 SAFETY = 1.25
@@ -63,6 +63,19 @@ def test_a_span_whose_first_third_carried_nothing_is_told_apart_from_one_too_sho
     assert not carried_nothing_at_first([(gi, -0.13) for gi in short], SAFETY)  # too short to tell anyway
     mixed = [(gi, (-0.13 if k % 2 else 0.2) if k < n else 0.46) for k, gi in enumerate(grips)]
     assert not carried_nothing_at_first(mixed, SAFETY)  # a first third that carried some load on average
+
+
+def test_the_grip_read_is_the_inverse_variance_blend_of_the_drive_and_the_fingertips():
+    """(G_d / s_d^2 + G_f / s_f^2) / (1 / s_d^2 + 1 / s_f^2), worked by hand: a drive read 0.30 N
+    within 1 N of friction and fingertips 0.10 N within 10 mN give (0.3 + 1000) / 10001 =
+    0.10002 N; equal errors the mean; a drive without friction, or no fingertip reading, the
+    drive's alone; fingertips without error theirs alone."""
+    assert grip_read_n(0.30, 1.0, 0.10, 0.01) == pytest.approx((0.30 + 0.10 * 1e4) / (1.0 + 1e4), rel=1e-12)
+    assert grip_read_n(0.30, 1.0, 0.10, 0.01) == pytest.approx(0.100020, abs=1e-6)
+    assert grip_read_n(0.30, 0.05, 0.10, 0.05) == pytest.approx(0.20)
+    assert grip_read_n(0.30, 0.0, 0.10, 0.01) == 0.30
+    assert grip_read_n(0.30, 1.0, None, 0.01) == 0.30
+    assert grip_read_n(0.30, 1.0, 0.10, 0.0) == 0.10
 
 
 def test_load_is_steady_only_within_the_fraction():

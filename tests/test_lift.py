@@ -80,6 +80,7 @@ def test_the_servo_target_feeds_the_sag_and_the_lag_forward():
 
 
 def test_the_load_is_tared_on_what_the_lift_carries_before_lifting_and_low_passed():
+    """Without free-closing readings (no closing seen), the tare is what it carries now."""
     lift = plan()
     lift.target_m = 1e-4  # the servo pushes 2 N: the gripper's own share, before lifting
     lift.read_load(0.0, 0.0, DT_S)
@@ -90,6 +91,26 @@ def test_the_load_is_tared_on_what_the_lift_carries_before_lifting_and_low_passe
     lift.read_load(0.0, 0.0, DT_S)
     assert lift.raw_load_n == pytest.approx(5.0)
     assert lift.load_n == pytest.approx(5.0 * DT_S / 0.05)  # one period of the 50 ms low-pass
+
+
+def test_the_tare_is_what_the_lift_carried_while_the_fingers_closed_freely():
+    """Zeroed at the mean of the last plateau window of free-closing readings, not at what it
+    carries as it lifts: pads that already carry part of the weight (a linkage's springback
+    lifts the object by the pads' friction) or ring then would be taken for the gripper."""
+    lift = plan()
+    for k in range(lift.plateau_steps + 5):  # closing freely: 2 N, scattered by +-1 mN
+        lift.target_m = (2.0 + (1e-3 if k % 2 else -1e-3)) / 2e4
+        lift.read_load(0.0, 0.0, DT_S)
+        lift.note_free_load()
+    free = [(2.0 + (1e-3 if k % 2 else -1e-3)) for k in range(5, lift.plateau_steps + 5)]
+    lift.target_m = (2.0 - 6.9e-3) / 2e4  # squeezed: the pads carry 6.9 mN of a 9.8 mN box
+    lift.read_load(0.0, 0.0, DT_S)
+    lift.tare()
+    assert lift.raw_load_n == pytest.approx(2.0 - 6.9e-3 - sum(free) / len(free), abs=1e-12)
+    assert lift.load_n == lift.raw_load_n and lift.goal_m == lift.target_m
+    lift.target_m = (2.0 + 9.81e-3) / 2e4  # the box carried: its whole weight, not 0.9 mN of it
+    lift.read_load(0.0, 0.0, DT_S)
+    assert lift.raw_load_n == pytest.approx(9.81e-3, rel=0.1)
 
 
 def test_the_window_tells_a_lift_that_follows_its_goal_from_one_held_back():

@@ -19,6 +19,12 @@ neither mass nor friction and measures both:
   margin people keep (10-40 %, Johansson and Westling 1984), and is raised only on evidence of
   a slip (the multimode controller's slip checks, from the fingertips and the lift's load).
 
+The grip the probe reads is the drive's (the house gripper's finger servo reads the squeeze
+exactly); where the drive's joints carry dry friction, which takes up to that friction of the
+drive's force either way once the fingers stand still (robosuite's Panda and Rethink grippers:
+1 N a finger), the fingertips' readings are blended in by the inverse of the two variances
+(:func:`grip_read_n`): the pads' pressure times their area is the grip, to the readout's sigma.
+
 Its price: the pads slide up the object while the probe measures the friction (1-3 mm).  On
 MuJoCo's hard pad contacts (``physics.pad_contact=hard``: mounted grippers) sliding pads chatter
 (the element's pressure swings by 25-30 % at a 1 ms step), faster than the fingertip's resonator
@@ -99,6 +105,19 @@ def carried_nothing_at_first(span: list[tuple[float, float]], safety: float) -> 
     return _grew(g1, g3, safety) and l1 <= 0.0
 
 
+def grip_read_n(drive_n: float, drive_error_n: float, felt_n: float | None, felt_sigma_n: float) -> float:
+    """The grip on each finger, N: the drive's reading ``drive_n`` and the fingertips'
+    ``felt_n`` weighted by the inverse of their variances, ``drive_error_n`` and
+    ``felt_sigma_n`` (N) squared; the drive's alone where its error is 0 or the fingertips have
+    no reading (``felt_n`` None), the fingertips' alone where their sigma is 0."""
+    if drive_error_n <= 0.0 or felt_n is None:
+        return drive_n
+    if felt_sigma_n <= 0.0:
+        return felt_n
+    w_drive, w_felt = drive_error_n**-2, felt_sigma_n**-2
+    return (w_drive * drive_n + w_felt * felt_n) / (w_drive + w_felt)
+
+
 def load_is_steady(loads: list[float], fraction: float) -> bool:
     """Whether ``loads`` (N) scatter about their mean by at most ``fraction`` of it (their
     population standard deviation): a carried object's load changes only with the lift's
@@ -147,6 +166,26 @@ class GentleGrasp(MultimodeGrasp):
     def _lift_message(self) -> str:
         return f"grip {self.grip_n:.3g} N: probing for the grip that holds"
 
+    def _grip_felt_n(self, obs: Observation) -> float:
+        """The grip the probe reads, N per finger (:func:`grip_read_n`): the drive's, within its
+        joints' dry friction F_f (``RobotLimits.finger_friction_n``: standing still, the friction
+        takes up to F_f of the drive's force either way, and robosuite's Panda carries 1 N a
+        finger where a 4 g raspberry needs 22 mN), and the fingertips' (each pad's trusted "ok"
+        estimate times the pad's area, a full-face contact, within its readout's sigma; their
+        mean).  A drive without friction is read alone: the house gripper's, exactly."""
+        friction_n = self.robot.finger_friction_n
+        if friction_n <= 0.0:
+            return obs.grip_force_n
+        area, felt_n, variance = self.robot.pad_area_m2, 0.0, 0.0
+        for pad in self.pads:
+            sel = self.selectors[pad]
+            if not (sel.trusted and sel.status == "ok" and math.isfinite(sel.uncertainty_pa)):
+                return obs.grip_force_n
+            felt_n += sel.estimate_pa * area
+            variance += (sel.uncertainty_pa * area) ** 2
+        n = len(self.pads)
+        return grip_read_n(obs.grip_force_n, friction_n, felt_n / n, math.sqrt(variance) / n)
+
     def _transfer(self, obs: Observation, t: float, dt_s: float) -> None:
         """Find the grip that holds, then hand the weight to it (the module docstring's probe).
 
@@ -158,7 +197,7 @@ class GentleGrasp(MultimodeGrasp):
         if t - self._t_phase > self.transfer_timeout_s:
             self._give_up(t, "never_lifted", f"the load transfer did not finish in {self.transfer_timeout_s:.2g} s", Phase.PLACE)
             return
-        applied = max(obs.grip_force_n, 0.0)
+        applied = max(self._grip_felt_n(obs), 0.0)
         window_full = lift.record(applied, obs.lift_pos_m)
         rising = window_full and lift.risen_m() >= 0.5 * c.probe_speed_m_s * (lift.plateau_steps - 1) * dt_s
         growth_n_s = 0.0
@@ -252,4 +291,4 @@ class GentleGrasp(MultimodeGrasp):
         brakes and settles, is the gripper's inertia as much as the object's weight)."""
 
 
-__all__ = ["GentleGrasp", "carried_nothing_at_first", "load_is_steady", "probe_verdict"]
+__all__ = ["GentleGrasp", "carried_nothing_at_first", "grip_read_n", "load_is_steady", "probe_verdict"]

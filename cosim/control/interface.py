@@ -115,6 +115,11 @@ class RobotLimits:
         the house gripper; a mounted gripper's from its file (cosim/gripper_mount.py).  Like
         ``finger_damping_n_s_m`` it is a force the fingers need to move, which a moving-force
         guard built on the damping alone leaves out.
+    finger_mass_kg : the fingers' inertia on the opening, kg: their kinetic energy is
+        (1/2) m o'^2 at an opening speed o' (the least along the stroke; 0 where unknown).
+    finger_joint_damping_n_s_m : the part of ``finger_damping_n_s_m`` in the fingers' joints,
+        N s/m on the opening: what still brakes them when the drive's force is limited (a
+        servo's velocity gain is inside its force, which the force limit caps).
     """
 
     lift_kp_n_m: float
@@ -132,6 +137,8 @@ class RobotLimits:
     home_opening_m: float
     gravity_m_s2: float
     finger_friction_n: float = 0.0
+    finger_mass_kg: float = 0.0
+    finger_joint_damping_n_s_m: float = 0.0
 
     def lift_load_n(self, target_m: float, pos_m: float, vel_m_s: float, accel_m_s2: float = 0.0) -> float:
         """The load the lift carries, N: its servo's force kp (target - q) - kv q' less the

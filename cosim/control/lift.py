@@ -16,6 +16,7 @@ in) and allocate nothing but the window's tuples.
 from __future__ import annotations
 
 import math
+from collections import deque
 
 from .interface import RobotLimits
 
@@ -74,6 +75,8 @@ class LiftPlan:
         self.raw_load_n = 0.0
         self.load_n = 0.0
         self._baseline_n = 0.0  # what the lift carried before lifting (the gripper's own share), N
+        #: The raw loads of the last plateau window while the fingers closed freely (tare), N.
+        self._free_loads: deque[float] = deque(maxlen=self.plateau_steps)
         self.held_load_n = 0.0
         # (lead, lift position, raw load) over the last plateau window, to tell a lift that
         # follows its lead (the object airborne, or the pads sliding) from one held back by the
@@ -94,11 +97,27 @@ class LiftPlan:
         self.raw_load_n = self.robot.lift_load_n(self.target_m, pos_m, vel_m_s, accel) - self._baseline_n
         self.load_n += (self.raw_load_n - self.load_n) * min(1.0, dt_s / self.load_filter_s)
 
+    def note_free_load(self) -> None:
+        """Keep this period's raw load as one read while the fingers close freely: the object
+        untouched, the lift carries the gripper's own share alone (:meth:`tare`)."""
+        self._free_loads.append(self.raw_load_n)
+
     def tare(self) -> None:
-        """The lift is about to lift: what it carries now is not the object's (zero the load), and
-        its goal starts at its target."""
-        self._baseline_n = self.raw_load_n + self._baseline_n
-        self.load_n = self.raw_load_n = 0.0
+        """The lift is about to lift: its load is zeroed at what it carried while the fingers
+        closed freely (the mean of the last plateau window of :meth:`note_free_load`; without
+        one, at what it carries now), and its goal starts at its target.
+
+        Not at what it carries now: by the lift, the pads may already carry part of the object's
+        weight or press it into the table.  A linkage's fingertips swing along an arc as they
+        close and spring back (Robotiq's 2F-85: they fall 9 mm over the stroke), and pads that
+        grip move the object with them: a 1 g box read 0.9 mN of its 9.8 mN once carried, after
+        a tare that took 6.9 mN already on the pads for the gripper's own, and a 60 g egg's tare
+        caught +0.13 N of the squeeze still ringing in the linkage."""
+        free = self._free_loads
+        zero_n = sum(free) / len(free) if free else self.raw_load_n
+        self._baseline_n += zero_n
+        self.raw_load_n -= zero_n
+        self.load_n = self.raw_load_n
         self.goal_m = self.target_m
 
     def read_sliding_load_n(self) -> float | None:

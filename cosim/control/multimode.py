@@ -12,7 +12,10 @@ Phases (:class:`Phase`), one method each::
 
 - approach: learn each fingertip's unloaded baseline; refuse to grasp if the self-test failed.
 - close: close at ``closing_speed_m_s`` with the force the fingers need to move (a guard, not
-  a grip) until a CUSUM on the most sensitive mode detects touch on both fingertips.
+  a grip) until a CUSUM on the most sensitive mode detects touch on both fingertips.  Fingers
+  whose joints' damping does not stop them within a control period once the force drops (their
+  mass on the opening over that damping, ``RobotLimits``) are braked for one period first
+  (:meth:`MultimodeGrasp._brake_n`): their momentum would press the object on.
 - squeeze: settle at the grip floor: the gentlest grip whose pad pressure the lowest mode
   resolves to 10 % (:func:`grip_floor_n`).  A fingertip reading nothing there was alarmed by
   something else (a false touch): close on; but fingers that cannot close, twice felt by no
@@ -82,6 +85,22 @@ def trapezoid_speed(distance_m: float, speed_m_s: float, top_speed_m_s: float, a
 
 #: Resolution that counts as "measured": physics.md section 5's P_max criterion, dP <= 10 % P.
 RESOLVED_FRACTION = 0.1
+
+
+def settling_remainder_n(rise_n: float, last_rise_n: float) -> float:
+    """What a force that rose by ``last_rise_n`` then ``rise_n`` (N, over two periods) has still
+    to rise if each period's rise keeps the ratio r = rise / last rise (a first-order settling):
+    rise r / (1 - r), the geometric series' tail, N.  Infinite for a rise that does not shrink
+    (0 < ... r >= 1); the rise itself where there is no ratio (a first rise, none, or one of
+    the other sign: a ring about the value)."""
+    if rise_n == 0.0 or not math.isfinite(last_rise_n) or last_rise_n == 0.0:
+        return abs(rise_n)
+    ratio = rise_n / last_rise_n
+    if ratio <= 0.0:
+        return abs(rise_n)
+    if ratio >= 1.0:
+        return math.inf
+    return abs(rise_n) * ratio / (1.0 - ratio)
 
 
 def grip_floor_n(fingertip: Fingertip, mode: int, pad_area_m2: float, resolved_fraction: float = RESOLVED_FRACTION) -> float:
@@ -202,6 +221,13 @@ class MultimodeGrasp:
         #: on its face), so they speed up slowly enough that it stays under half the lowest
         #: mode's detection limit, unseen (a faster start reads as a touch).
         self.finger_accel_m_s2 = 0.5 * sel.p_min_pa[lowest] / robot.pad_areal_mass_kg_m2
+        #: Whether the fingers coast on past a touch by more than they close in a control period
+        #: once the drive's force drops to the grip floor: their joints' damping alone stops
+        #: them in m_o / c_j (the servo's velocity gain is inside its force, which the floor
+        #: caps), 2.3 ms for the house's 23 g on 10 N s/m, 11 ms for robosuite's Panda (1 kg of
+        #: armature a finger), 30 ms for Robotiq's 2F-85.  Such fingers are braked (_brake_n).
+        self.brakes = robot.finger_mass_kg > robot.finger_joint_damping_n_s_m * dt_s
+        self._braking = False  # the period after a touch: the fingers are being stopped
         self._finger_speed = 0.0
         self._opening_speed = 0.0  # of the opening target on release, m/s
         # The drive's force while the fingers close freely at pace (learned, as the fingertips'
@@ -209,6 +235,7 @@ class MultimodeGrasp:
         self._free_drive_n: float | None = None
         self._joints_felt_touch = False  # the last touch was the joints', not the fingertips'
         self._last_drive_n = math.nan
+        self._last_rise_n = math.nan  # the drive's force's change over the last period, N
         #: The load transfer gives up after twice the time the grip needs to ramp to its cap
         #: and the goal to rise by the lift height at lift speed.
         self.transfer_timeout_s = 2.0 * (self.grip_cap_n / self.grip_rate_n_s + c.lift_height_m / c.lift_speed_m_s)
@@ -325,24 +352,29 @@ class MultimodeGrasp:
             self._width_m = obs.opening_m  # the object's width: the pads barely pressed yet
             self.opening_target = 0.0  # squeeze at the force limit
             self.grip_n = self.grip_floor_n
+            brake_n = self._brake_n(obs.opening_m, dt_s)
+            if brake_n > 0.0:
+                self.opening_target, self.grip_n, self._braking = self.robot.home_opening_m, brake_n, True
             self._free_drive_n = None
             self._joints_felt_touch = not all(touched)
             how = f"on {', '.join(self.pads)} (CUSUM)" if all(touched) else f"felt by the joints ({felt_by_joints})"
             self._enter(Phase.SQUEEZE, t, f"touch {how}; grip floor {self.grip_floor_n:.3g} N")
-        elif self.opening_target <= 0.0:
-            if obs.opening_m < 0.002:
-                self._give_up(t, "no_object", "closed without feeling a touch", Phase.RELEASE)
-            elif self._last_opening_m - obs.opening_m < 0.5 * self.cfg.closing_speed_m_s * dt_s:
-                # Told to close all the way, the fingers stand still (under half a period's free
-                # travel) wide of it, and the fingertips did not both feel a touch: a finger
-                # touches the object off its pad, and pushing on would only run out the clock.
-                self._give_up(
-                    t,
-                    "unfelt_contact",
-                    f"the fingers stopped at {obs.opening_m * 1e3:.1f} mm without a touch felt on both fingertips: "
-                    "a finger touches the object off its sensing pad",
-                    Phase.RELEASE,
-                )
+        else:
+            self.lift.note_free_load()  # nothing touched yet: the lift carries the gripper alone
+            if self.opening_target <= 0.0:
+                if obs.opening_m < 0.002:
+                    self._give_up(t, "no_object", "closed without feeling a touch", Phase.RELEASE)
+                elif self._last_opening_m - obs.opening_m < 0.5 * self.cfg.closing_speed_m_s * dt_s:
+                    # Told to close all the way, the fingers stand still (under half a period's free
+                    # travel) wide of it, and the fingertips did not both feel a touch: a finger
+                    # touches the object off its pad, and pushing on would only run out the clock.
+                    self._give_up(
+                        t,
+                        "unfelt_contact",
+                        f"the fingers stopped at {obs.opening_m * 1e3:.1f} mm without a touch felt on both fingertips: "
+                        "a finger touches the object off its sensing pad",
+                        Phase.RELEASE,
+                    )
         self._last_opening_m = obs.opening_m
 
     def _joint_touch(self, drive_n: float) -> str:
@@ -358,12 +390,19 @@ class MultimodeGrasp:
         fingertips felt it would press on at the pace's force, a period at a time.
         """
         last, self._last_drive_n = self._last_drive_n, drive_n
+        rise, last_rise = drive_n - last, self._last_rise_n
+        self._last_rise_n = rise
         if self._finger_speed < self.cfg.closing_speed_m_s:  # still speeding up
             self._free_drive_n = None
             return ""
         free, floor = self._free_drive_n, self.grip_floor_n
         if free is None:
-            if abs(drive_n - last) < floor:
+            # Learned once settled: the rise this period under the floor, and what a rise that
+            # shrinks by a constant ratio each period (a servo settling exponentially) has still
+            # to add under it too.  A slide with 1 N of dry friction rose 10 mN a period 0.2 s
+            # after its target reached pace, 0.1 N more to come: learned at its first rise
+            # under the floor, that remainder was felt as a contact.
+            if abs(rise) < floor and settling_remainder_n(rise, last_rise) < floor:
                 self._free_drive_n = drive_n
             return ""
         if drive_n - free > floor:
@@ -371,7 +410,30 @@ class MultimodeGrasp:
         self._free_drive_n = min(free, drive_n)
         return ""
 
+    def _brake_n(self, opening_m: float, dt_s: float) -> float:
+        """The force that stops fingers closing at the pace of the last period within the next
+        one, N per finger: m_o o' / T (their mass on the opening, RobotLimits.finger_mass_kg),
+        within their rating; 0 where they do not need it (:attr:`brakes`).
+
+        The touch is felt in the period the pads meet the object; fingers that then coast on
+        for m_o / c_j press it by their momentum, not by the grip the controller asks: the
+        2 g paper ball's 0.1 N crush limit was passed within 20 ms of the touch on the Panda
+        (0.15 N) and on Robotiq's 2F-85 (0.21 N).  Braked, the drive pulls the fingers back
+        with this force (its opening target the open fingers') for one period, then squeezes
+        at the grip floor: the paper ball then meets 0.092 N on the Panda and 0.056 N on the
+        2F-85 (0.15 and 0.21 N unbraked).  One period's brake does not stop the Panda's fingers
+        quite (they close 45 um more over the next 20 ms); braking on while they still closed
+        (up to m_o / c_j) pulled the 2F-85's pads off the object (``unfelt_contact``)."""
+        if not self.brakes:
+            return 0.0
+        speed_m_s = max(self._last_opening_m - opening_m, 0.0) / dt_s
+        if not math.isfinite(speed_m_s):
+            return 0.0
+        return min(self.robot.finger_force_limit_n, self.robot.finger_mass_kg * speed_m_s / dt_s)
+
     def _squeeze(self, obs: Observation, t: float, dt_s: float) -> None:
+        if self._braking:  # the fingers stopped: squeeze at the grip floor
+            self.opening_target, self.grip_n, self._braking = 0.0, self.grip_floor_n, False
         if t - self._t_phase < self.cfg.squeeze_settle_s:
             return
         # A touch leaves the floor's pressure on the pads; a fingertip that reads nothing was
