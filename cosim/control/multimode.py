@@ -91,8 +91,8 @@ def settling_remainder_n(rise_n: float, last_rise_n: float) -> float:
     """What a force that rose by ``last_rise_n`` then ``rise_n`` (N, over two periods) has still
     to rise if each period's rise keeps the ratio r = rise / last rise (a first-order settling):
     rise r / (1 - r), the geometric series' tail, N.  Infinite for a rise that does not shrink
-    (0 < ... r >= 1); the rise itself where there is no ratio (a first rise, none, or one of
-    the other sign: a ring about the value)."""
+    (r >= 1); the rise itself where there is no ratio (a first rise, none, or one of the other
+    sign: a ring about the value)."""
     if rise_n == 0.0 or not math.isfinite(last_rise_n) or last_rise_n == 0.0:
         return abs(rise_n)
     ratio = rise_n / last_rise_n
@@ -469,6 +469,7 @@ class MultimodeGrasp:
             for pad in self.pads:
                 self.touch[pad].rearm_unloaded()  # the fingertips read nothing: the closing's readings were unloaded
             self.opening_target, self._finger_speed = obs.opening_m, 0.0
+            self._last_opening_m = obs.opening_m  # the closing's pace (_brake_n) counts from here
             self.grip_n = self.moving_force_n
             self._event(t, "false_touch", f"{', '.join(empty)} read no pressure at the grip floor: closing on")
             self._enter(Phase.CLOSE, t)
