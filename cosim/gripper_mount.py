@@ -584,6 +584,11 @@ class DrivePath:
         """d length / d opening of each actuator along the path, shape (actuators, points)."""
         return np.gradient(self.lengths, self.opening_m, axis=1)
 
+    def joint_rates(self) -> np.ndarray:
+        """d q / d opening of each joint along the path (its speed per opening speed), shape
+        (points, joints)."""
+        return np.gradient(self.qpos, self.opening_m, axis=0)
+
 
 class GripperDrive:
     """The mounted gripper's finger drive, as the loop commands and reads it.
@@ -630,7 +635,7 @@ class GripperDrive:
         idle = [a.name for a, row in zip(parts.actuators, self._slopes, strict=True) if not np.abs(row).max() > 0]
         if idle:
             raise ValueError(f"gripper.actuators: {idle!r} do not open or close the fingertips (gripper.mjcf {parts.path!r})")
-        speeds = np.gradient(path.qpos, self._grid, axis=0)  # joint speed per opening speed, (points, joints)
+        speeds = path.joint_rates()  # joint speed per opening speed, (points, joints)
         dofs = [int(model.jnt_dofadr[j]) for j in joints]
         self.joint_damping_n_s_m = speeds**2 @ model.dof_damping[dofs]
         self.servo_damping_n_s_m = (np.asarray(kv)[:, None] * self._slopes**2).sum(axis=0)
@@ -876,13 +881,13 @@ class MountedGripper:
         the most of :attr:`GripperDrive.friction_n` along the path, the least of its
         :attr:`GripperDrive.mass_kg` and the most of its joints' damping)."""
         drive = self.drive
-        fingers = (
-            drive.rating_n(),
-            drive.damping_n_s_m(),
-            float(drive.friction_n.max()),
-            float(drive.mass_kg.min()),
-            float(drive.joint_damping_n_s_m.max()),
-        )
+        fingers = {
+            "finger_force_limit_n": drive.rating_n(),
+            "finger_damping_n_s_m": drive.damping_n_s_m(),
+            "finger_friction_n": float(drive.friction_n.max()),
+            "finger_mass_kg": float(drive.mass_kg.min()),
+            "finger_joint_damping_n_s_m": float(drive.joint_damping_n_s_m.max()),
+        }
         return robot_limits(self.model, home, self.geometry, gel, fingers=fingers)
 
 
@@ -949,7 +954,7 @@ def opening_mass_kg(model: mujoco.MjModel, path: DrivePath, joints: list[int]) -
     model's joint-space inertia there (mj_fullM: the links' masses and inertias, the joints'
     armature), so the fingers' kinetic energy is (1/2) m_o o'^2."""
     dofs, qadr = [int(model.jnt_dofadr[j]) for j in joints], [int(model.jnt_qposadr[j]) for j in joints]
-    speeds = np.gradient(path.qpos, path.opening_m, axis=0)  # joint speed per opening speed, (points, joints)
+    speeds = path.joint_rates()  # joint speed per opening speed, (points, joints)
     data, mass = mujoco.MjData(model), np.zeros((model.nv, model.nv))
     masses = []
     for k in MASS_POINTS:
@@ -978,7 +983,7 @@ def _motor_gains(model: mujoco.MjModel, parts: GripperParts, actuators: list[int
     share = max(rating / HOUSE_SERVO_TRAVEL_M - own, 0.0) / len(motors)
     kp = {i: share / float(np.median(slopes[i] ** 2)) for i in motors}
     dofs = [int(model.jnt_dofadr[j]) for j in joints]
-    speeds = np.gradient(path.qpos, path.opening_m, axis=0)  # joint speed per opening speed, (points, joints)
+    speeds = path.joint_rates()  # joint speed per opening speed, (points, joints)
     kv = dict.fromkeys(motors, 0.0)
     for k, mass_o in zip(MASS_POINTS, opening_mass_kg(model, path, joints), strict=True):
         stiffness = sum(-model.actuator_biasprm[actuators[i], 1] * slopes[i, k] ** 2 for i in others) + sum(

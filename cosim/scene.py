@@ -173,14 +173,14 @@ def robot_limits(
     home: dict[str, float],
     geometry: PadGeometry,
     gel: GelParams | None = None,
-    fingers: tuple[float, float, float, float, float] | None = None,
+    fingers: dict[str, float] | None = None,
 ) -> RobotLimits:
     """The gripper's limits and servo gains as the compiled model has them (never typed again).
 
-    ``fingers``: a mounted gripper's (force limit N per finger, damping on the opening N s/m,
-    dry friction on the opening N, mass on the opening kg, its joints' damping on the opening
-    N s/m), from its drive (cosim.gripper_mount.GripperDrive); None reads the house gripper's
-    (no friction: its finger joints have none)."""
+    ``fingers``: a mounted gripper's finger fields of :class:`RobotLimits` by name (force limit,
+    damping, dry friction, mass and joints' damping, on the opening), from its drive
+    (cosim.gripper_mount.GripperDrive); None reads the house gripper's (no friction: its finger
+    joints have none)."""
     lift = model.actuator("lift_actuator")
     kp, kv = float(lift.gainprm[0]), float(-lift.biasprm[2])
     if fingers is None:
@@ -188,14 +188,18 @@ def robot_limits(
         # The tendon's speed is the opening's; each finger moves at half of it against its
         # joint's damping, and the servo's own kv acts on the tendon.
         joint_damping = float(0.5 * model.dof_damping[joint.dofadr[0]])
-        fingers = finger_force_limit_n(model), joint_damping - float(house.biasprm[2]), 0.0, house_finger_mass_kg(model), joint_damping
+        fingers = {
+            "finger_force_limit_n": finger_force_limit_n(model),
+            "finger_damping_n_s_m": joint_damping - float(house.biasprm[2]),
+            "finger_friction_n": 0.0,
+            "finger_mass_kg": house_finger_mass_kg(model),
+            "finger_joint_damping_n_s_m": joint_damping,
+        }
     return RobotLimits(
         lift_kp_n_m=kp,
         lift_kv_n_s_m=kv,
         lift_force_limit_n=float(lift.forcerange[1]),
         lift_range_m=(float(model.joint("lift_joint").range[0]), float(model.joint("lift_joint").range[1])),
-        finger_force_limit_n=float(fingers[0]),
-        finger_damping_n_s_m=float(fingers[1]),
         lift_moving_mass_kg=float(model.body_subtreemass[model.body("palm").id]),
         pad_area_m2=geometry.pad_area_m2,
         pad_travel_m=geometry.stop_m,
@@ -204,9 +208,7 @@ def robot_limits(
         gravity_m_s2=gravity_m_s2(model),
         home_lift_m=home["lift_m"],
         home_opening_m=home["opening_m"],
-        finger_friction_n=float(fingers[2]),
-        finger_mass_kg=float(fingers[3]),
-        finger_joint_damping_n_s_m=float(fingers[4]),
+        **{name: float(value) for name, value in fingers.items()},
     )
 
 
