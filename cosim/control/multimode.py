@@ -469,7 +469,6 @@ class MultimodeGrasp:
             for pad in self.pads:
                 self.touch[pad].rearm_unloaded()  # the fingertips read nothing: the closing's readings were unloaded
             self.opening_target, self._finger_speed = obs.opening_m, 0.0
-            self._last_opening_m = obs.opening_m  # the closing's pace (_brake_n) counts from here
             self.grip_n = self.moving_force_n
             self._event(t, "false_touch", f"{', '.join(empty)} read no pressure at the grip floor: closing on")
             self._enter(Phase.CLOSE, t)
