@@ -888,7 +888,11 @@ class MountedGripper:
             "finger_mass_kg": float(drive.mass_kg.min()),
             "finger_joint_damping_n_s_m": float(drive.joint_damping_n_s_m.max()),
         }
-        return robot_limits(self.model, home, self.geometry, gel, fingers=fingers)
+        path = drive.path
+        rise = ((), ())
+        if np.any(path.centre_rise_m):  # a linkage's arc (slides' pads keep their height exactly)
+            rise = (tuple(path.opening_m.tolist()), tuple(path.centre_rise_m.tolist()))
+        return robot_limits(self.model, home, self.geometry, gel, fingers=fingers, pad_rise_m=rise)
 
 
 def mount_gripper(config: ScenarioConfig, gel: GelParams | None = None) -> MountedGripper:

@@ -4,6 +4,7 @@ hold's sliding load and the touchdown's table check, and the grip that follows t
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 import math
 
@@ -29,6 +30,18 @@ ROBOT = RobotLimits(
     gravity_m_s2=9.81,
 )
 DT_S = 0.005
+
+
+def test_the_pads_height_is_the_lifts_plus_their_rise_along_the_arc():
+    """RobotLimits.pads_height_m: the lift's position where the pads slide (no table); with a
+    table, plus the rise linear between its points and held at its ends."""
+    assert ROBOT.pads_height_m(0.012, 0.04) == 0.012
+    arc = dataclasses.replace(ROBOT, pad_rise_m=((0.01, 0.03, 0.05), (-0.004, -0.002, 0.0)))
+    assert arc.pads_height_m(0.1, 0.02) == pytest.approx(0.1 - 0.003, abs=1e-15)
+    assert arc.pads_height_m(0.1, 0.045) == pytest.approx(0.1 - 0.0005, abs=1e-15)
+    assert arc.pads_height_m(0.1, 0.03) == pytest.approx(0.1 - 0.002, abs=1e-15)
+    assert arc.pads_height_m(0.1, 0.0) == pytest.approx(0.1 - 0.004, abs=1e-15)
+    assert arc.pads_height_m(0.1, 0.09) == pytest.approx(0.1, abs=1e-15)
 
 
 def plan(top_m: float = 0.05, accel_m_s2: float = 0.5) -> LiftPlan:

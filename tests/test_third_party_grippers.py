@@ -385,6 +385,23 @@ def test_a_linkage_takes_the_object_where_its_pads_meet_it_along_their_arc(tmp_p
         assert mounted.grasp_height_m(scene) + rise == pytest.approx(size / 2, abs=1e-9)
 
 
+def test_the_controller_knows_the_pads_height_along_the_linkages_arc(tmp_path):
+    """RobotLimits.pad_rise_m is the drive's arc: between the path's points the pads' height
+    over the lift is L (cos theta_open - cos theta(o)), theta(o) from the opening o = 2 (0.022 -
+    L sin theta) (L = 50 mm).  Slides keep the pads' height: no table, the lift's position."""
+    path = tmp_path / "four_bar.xml"
+    path.write_text(FOUR_BAR)
+    robot = CoSimulation(config(keys(path, ("left_tip", "right_tip")))).robot
+    openings = np.asarray(robot.pad_rise_m[0])
+    theta_open = math.asin((0.022 - openings[-1] / 2) / 0.05)
+    for opening in 0.5 * (openings[10:-10:17] + openings[11:-9:17]):  # between the table's points
+        theta = math.asin((0.022 - opening / 2) / 0.05)
+        rise = 0.05 * (math.cos(theta_open) - math.cos(theta))
+        assert robot.pads_height_m(0.3, opening) - 0.3 == pytest.approx(rise, abs=5e-4)
+    slides = CoSimulation(config(keys(write_gripper(tmp_path)))).robot
+    assert slides.pad_rise_m == ((), ()) and slides.pads_height_m(0.3, 0.05) == 0.3
+
+
 def test_a_linkage_driven_on_the_side_branch_follows_its_kinematics(tmp_path):
     """Robotiq's four-bar is driven on the link beside the fingertip's chain, the loop closed by
     an equality: the servos on the followers move the fingertips only through the connect.  In a
@@ -503,12 +520,14 @@ RUBBER_BALL = {"object.shape": "sphere", "object.mass_kg": 0.05, "object.size_m"
 EGG = {f"object.{name}": value for name, value in dataclasses.asdict(scenarios.OBJECTS["egg-60g"]).items()}
 #: The catalogue's paper ball (crushed at 0.1 N).
 PAPER_BALL = {f"object.{name}": value for name, value in dataclasses.asdict(scenarios.OBJECTS["paper-ball-2g"]).items()}
+#: The catalogue's 300 g glass jar (friction 0.3), as override keys.
+GLASS_JAR = {f"object.{name}": value for name, value in dataclasses.asdict(scenarios.OBJECTS["glass-jar-300g"]).items()}
 
 
 @pytest.mark.parametrize(
     ("kind", "obj"),
-    [("gentle", {}), ("multimode", {}), ("gentle", RUBBER_BALL), ("gentle", EGG)],
-    ids=["gentle-box", "multimode-box", "gentle-rubber-ball", "gentle-egg"],
+    [("gentle", {}), ("multimode", {}), ("gentle", RUBBER_BALL), ("gentle", EGG), ("gentle", GLASS_JAR)],
+    ids=["gentle-box", "multimode-box", "gentle-rubber-ball", "gentle-egg", "gentle-glass-jar"],
 )
 def test_robotiqs_four_bar_grasps_the_default_box(kind, obj):
     """A linkage nobody here wrote, driven on the link beside the fingertip's (its loops closed
@@ -517,7 +536,9 @@ def test_robotiqs_four_bar_grasps_the_default_box(kind, obj):
     rubber ball, which the gentle probe dropped while the drive's light-grip reading made its
     friction 3.05 (docs/grippers.md), and pinched 2.3 mm under its equator before the pads' arc
     was counted.  And the egg, which the probe squeezed to 43 N while its load, tared on a
-    ringing reading, started below zero (gentle.carried_nothing_at_first)."""
+    ringing reading, started below zero (gentle.carried_nothing_at_first).  And the 300 g glass
+    jar: each squeeze swings the pads down their arc, and the probe took the lift's rise it made
+    for the pads sliding up the jar, growing the grip to the rating (RobotLimits.pad_rise_m)."""
     overrides = keys(_robotiq_2f85(), *ROBOTIQ_2F85, **{"controller.kind": kind, **obj})
     result = piezotip.run("grasp", overrides=overrides, preset="fast")
     assert_carried_and_felt(result)

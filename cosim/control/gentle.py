@@ -189,8 +189,9 @@ class GentleGrasp(MultimodeGrasp):
     def _transfer(self, obs: Observation, t: float, dt_s: float) -> None:
         """Find the grip that holds, then hand the weight to it (the module docstring's probe).
 
-        Each period, over the plateau window: if the lift rises (its pads slide up the object,
-        or the object is off the table), the grip grows by ``grip_growth_per_s`` and the
+        Each period, over the plateau window: if the pads rise (they slide up the object, or the
+        object is off the table; their height is the lift's plus a linkage's arc,
+        :meth:`RobotLimits.pads_height_m`, as each squeeze swings them down it), the grip grows by ``grip_growth_per_s`` and the
         verdict below runs; if it does not (the pads hold the object on the table), the grip
         holds and the load grows with the goal until the pads slide or the object leaves."""
         c, lift = self.cfg, self.lift
@@ -198,7 +199,7 @@ class GentleGrasp(MultimodeGrasp):
             self._give_up(t, "never_lifted", f"the load transfer did not finish in {self.transfer_timeout_s:.2g} s", Phase.PLACE)
             return
         applied = max(self._grip_felt_n(obs), 0.0)
-        window_full = lift.record(applied, obs.lift_pos_m)
+        window_full = lift.record(applied, self.robot.pads_height_m(obs.lift_pos_m, obs.opening_m))
         rising = window_full and lift.risen_m() >= 0.5 * c.probe_speed_m_s * (lift.plateau_steps - 1) * dt_s
         growth_n_s = 0.0
         if rising:

@@ -9,6 +9,7 @@ finger targets, the fingers' force limit, the mode each fingertip drives, and wh
 
 from __future__ import annotations
 
+import bisect
 from dataclasses import dataclass, field
 from typing import Protocol, runtime_checkable
 
@@ -120,6 +121,11 @@ class RobotLimits:
     finger_joint_damping_n_s_m : the part of ``finger_damping_n_s_m`` in the fingers' joints,
         N s/m on the opening: what still brakes them when the drive's force is limited (a
         servo's velocity gain is inside its force, which the force limit caps).
+    pad_rise_m : (openings, rises), m: how far the pads' centre lies above its height at home
+        at each opening (increasing) of the fingers' free closing; a linkage's fingertips swing
+        along an arc as they close (Robotiq's 2F-85: down 1.9 mm from a 60 to a 53 mm opening),
+        so pads that squeeze an object move it, or the lift, with them.  Empty where they do
+        not (slides; the house gripper).
     """
 
     lift_kp_n_m: float
@@ -139,6 +145,22 @@ class RobotLimits:
     finger_friction_n: float = 0.0
     finger_mass_kg: float = 0.0
     finger_joint_damping_n_s_m: float = 0.0
+    pad_rise_m: tuple[tuple[float, ...], tuple[float, ...]] = ((), ())
+
+    def pads_height_m(self, lift_pos_m: float, opening_m: float) -> float:
+        """The pads' centre height on the lift's scale, m: the lift's position plus the pads' rise
+        along their arc at ``opening_m`` (:attr:`pad_rise_m`, linear between its points, held
+        at its ends).  Proprioception: the lift's and the fingers' joints."""
+        openings, rises = self.pad_rise_m
+        if not openings:
+            return lift_pos_m
+        i = bisect.bisect_left(openings, opening_m)
+        if i == 0:
+            return lift_pos_m + rises[0]
+        if i == len(openings):
+            return lift_pos_m + rises[-1]
+        o0, o1 = openings[i - 1], openings[i]
+        return lift_pos_m + rises[i - 1] + (rises[i] - rises[i - 1]) * (opening_m - o0) / (o1 - o0)
 
     def lift_load_n(self, target_m: float, pos_m: float, vel_m_s: float, accel_m_s2: float = 0.0) -> float:
         """The load the lift carries, N: its servo's force kp (target - q) - kv q' less the

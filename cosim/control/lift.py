@@ -144,11 +144,12 @@ class LiftPlan:
 
     # -- the plateau window ---------------------------------------------------------------
 
-    def record(self, lead: float, pos_m: float) -> bool:
-        """Add this period's (lead, lift position, raw load) to the window, dropping the oldest;
-        True once the window is full."""
+    def record(self, lead: float, pads_m: float) -> bool:
+        """Add this period's (lead, the pads' height, raw load) to the window, dropping the oldest;
+        True once the window is full.  The pads' height is on the lift's scale
+        (:meth:`RobotLimits.pads_height_m`): the lift's position where the pads keep theirs."""
         window = self.window
-        window.append((lead, pos_m, self.raw_load_n))
+        window.append((lead, pads_m, self.raw_load_n))
         if len(window) > self.plateau_steps:
             window.pop(0)
         return len(window) == self.plateau_steps
@@ -165,11 +166,11 @@ class LiftPlan:
         return sum(entry[2] for entry in self.window) / len(self.window)
 
     def risen_m(self) -> float:
-        """How far the lift moved over the window, m."""
+        """How far the pads moved over the window, m."""
         return self.window[-1][1] - self.window[0][1]
 
     def pace(self) -> float:
-        """How far the lift moved over the window, as a share of how far its goal (the lead) did."""
+        """How far the pads moved over the window, as a share of how far the lift's goal (the lead) did."""
         (g0, q0, _), (g1, q1, _) = self.window[0], self.window[-1]
         return (q1 - q0) / (g1 - g0) if g1 - g0 > 1e-7 else 0.0
 

@@ -514,9 +514,10 @@ class MultimodeGrasp:
         speed = lift.transfer_speed_m_s(c.lift_speed_m_s, self.grip_rate_n_s, self.friction, c.grip_safety)
         lift.climb(speed if carry > 0 else 0.0, dt_s)
         # While the pads hold the object on the table the lift cannot follow its goal (the
-        # load grows by kp per metre of goal instead); a lift that follows it carries the
-        # object in the air, or its pads slide up the object at the friction limit.
-        follows = lift.record(lift.goal_m, obs.lift_pos_m) and lift.follows()
+        # load grows by kp per metre of goal instead); pads that follow it carry the object in
+        # the air, or slide up it at the friction limit.  The pads', not the lift's: a
+        # linkage's squeeze swings them down their arc, and the lift rises over them.
+        follows = lift.record(lift.goal_m, self.robot.pads_height_m(obs.lift_pos_m, obs.opening_m)) and lift.follows()
         if self._check is None:
             if follows and applied > 0.0:
                 self._check = (t, applied, lift.window_load_n())
