@@ -175,13 +175,15 @@ def robot_limits(
     gel: GelParams | None = None,
     fingers: dict[str, float] | None = None,
     pad_rise_m: tuple[tuple[float, ...], tuple[float, ...]] = ((), ()),
+    lift_coupling_kg: tuple[tuple[float, ...], tuple[float, ...]] = ((), ()),
 ) -> RobotLimits:
     """The gripper's limits and servo gains as the compiled model has them (never typed again).
 
     ``fingers``: a mounted gripper's finger fields of :class:`RobotLimits` by name (force limit,
     damping, dry friction, mass and joints' damping, on the opening), from its drive
     (cosim.gripper_mount.GripperDrive); None reads the house gripper's (no friction: its finger
-    joints have none).  ``pad_rise_m``: :attr:`RobotLimits.pad_rise_m` (the house pads slide)."""
+    joints have none).  ``pad_rise_m``, ``lift_coupling_kg``: :class:`RobotLimits`' (none on the
+    house gripper: its fingers slide across the lift)."""
     lift = model.actuator("lift_actuator")
     kp, kv = float(lift.gainprm[0]), float(-lift.biasprm[2])
     if fingers is None:
@@ -210,6 +212,7 @@ def robot_limits(
         home_lift_m=home["lift_m"],
         home_opening_m=home["opening_m"],
         pad_rise_m=pad_rise_m,
+        lift_coupling_kg=lift_coupling_kg,
         **{name: float(value) for name, value in fingers.items()},
     )
 

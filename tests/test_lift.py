@@ -44,6 +44,16 @@ def test_the_pads_height_is_the_lifts_plus_their_rise_along_the_arc():
     assert arc.pads_height_m(0.1, 0.09) == pytest.approx(0.1, abs=1e-15)
 
 
+def test_the_lift_opens_the_fingers_by_its_coupling_times_its_acceleration():
+    """RobotLimits.lift_opens_n: -c a (Lagrange's cross term), c linear in the opening between
+    the table's points; none without a table (slides)."""
+    assert ROBOT.lift_opens_n(0.04, -2.0) == 0.0
+    linkage = dataclasses.replace(ROBOT, lift_coupling_kg=((0.02, 0.06), (0.01, 0.03)))
+    assert linkage.lift_opens_n(0.03, -0.5) == pytest.approx(0.015 * 0.5, abs=1e-15)  # braking: opens
+    assert linkage.lift_opens_n(0.03, 0.5) == pytest.approx(-0.015 * 0.5, abs=1e-15)  # speeding up: closes
+    assert linkage.lift_opens_n(0.09, -1.0) == pytest.approx(0.03, abs=1e-15)
+
+
 def plan(top_m: float = 0.05, accel_m_s2: float = 0.5) -> LiftPlan:
     return LiftPlan(ROBOT, top_m, accel_m_s2, load_filter_s=0.05, dt_s=DT_S)
 

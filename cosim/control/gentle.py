@@ -144,6 +144,7 @@ class GentleGrasp(MultimodeGrasp):
         #: then the highest expected, so the first grip is the gentlest.
         self.friction = c.friction_max
         self._slid = False  # the probe has seen the pads slide (self.friction is measured)
+        self._grip_goal_n = 0.0  # the grip the raise brings the probe's down to, N (_carry)
         self._span: list[tuple[float, float]] = []  # (grip applied, raw load) since the last verdict
         self._weight_n = 0.0  # the object's weight, N: the load the probe found carried
         #: The grip's growth rate while the pads may slide, 1/s: by the safety factor in one
@@ -254,20 +255,27 @@ class GentleGrasp(MultimodeGrasp):
         """The load stayed while the grip grew: the object is off the table, its weight the load
         (the last window's).  The grip that holds it is the weight over the friction measured
         while the pads slid; never seen sliding, it was carried at the span's first grip (its
-        friction at least load / 2 G there)."""
+        friction at least load / 2 G there).
+
+        Fingers that coast past a control period (:attr:`brakes`) are brought down to that grip
+        at ``grip_rate_n_s`` over the raise (:meth:`_raise`), not in one step: the 2F-85's,
+        dropped from 22 to 5 N at once, sprang 3.8 mm open on their 0.74 kg and let a 270 g jar
+        fall back to the table."""
         c = self.cfg
         if not self._slid:
             self.friction = min(weight_n / (2.0 * carried_from_n), c.friction_max)
         held_n = max(self.grip_floor_n, c.grip_safety * weight_n / (2.0 * self.friction))
         if self._over_cap(t, held_n, weight_n, carried=True):
             return
-        self.grip_n = min(held_n, self.grip_cap_n)
+        self._grip_goal_n = min(held_n, self.grip_cap_n)
+        if not self.brakes or self._grip_goal_n > self.grip_n:  # up at once; down over the raise
+            self.grip_n = self._grip_goal_n
         self.lift.goal_m = obs.lift_pos_m  # the raise feeds the sag forward from where the lift is
         self.lift.load_n = self._weight_n = weight_n
         self.raising = True
         self._start_carry(obs)
         how = f"friction {self.friction:.3g} measured while the pads slid" if self._slid else f"friction at least {self.friction:.3g}"
-        self._event(t, "carried", f"load {weight_n:.3g} N stayed while the grip grew: carried; {how}; grip {self.grip_n:.3g} N")
+        self._event(t, "carried", f"load {weight_n:.3g} N stayed while the grip grew: carried; {how}; grip {self._grip_goal_n:.3g} N")
 
     def _start_carry(self, obs: Observation) -> None:
         """The raise begins.  The fingertips' slip references are taken once the grip the probe
@@ -277,8 +285,17 @@ class GentleGrasp(MultimodeGrasp):
         self._slip_watch_from_s = obs.time_s + 6.0 * self.cfg.load_filter_s
         self._reference_pa = {}
 
+    def _slip(self, t: float, why: str, deficit: float = 1.0) -> None:
+        super()._slip(t, why, deficit)
+        self._grip_goal_n = self.grip_n  # a slip's answer is the grip the raise keeps
+
     def _raise(self, obs: Observation, t: float, dt_s: float) -> None:
         lift = self.lift
+        if self.grip_n > self._grip_goal_n:
+            self.grip_n = max(self._grip_goal_n, self.grip_n - self.grip_rate_n_s * dt_s)
+            # A grip coming down is no slip: the fingertips' slip references wait for it to settle.
+            self._slip_watch_from_s = t + 6.0 * self.cfg.load_filter_s
+            self._reference_pa = {}
         lift.rise(self.cfg.lift_speed_m_s, dt_s)
         # The grip stays where the probe set it (raised only by a slip): the load the lift reads
         # while it speeds up and brakes is mostly the gripper's own inertia, not the object's.

@@ -126,6 +126,9 @@ class RobotLimits:
         along an arc as they close (Robotiq's 2F-85: down 1.9 mm from a 60 to a 53 mm opening),
         so pads that squeeze an object move it, or the lift, with them.  Empty where they do
         not (slides; the house gripper).
+    lift_coupling_kg : (openings, couplings), kg: the fingers' inertia coupling the lift to the
+        opening, c = e_lift^T M v (cosim.gripper_mount.lift_coupling_kg): a lift accelerating
+        at a pushes the fingers open with -c a, N on the opening.  Empty where it is 0 (slides).
     """
 
     lift_kp_n_m: float
@@ -146,26 +149,38 @@ class RobotLimits:
     finger_mass_kg: float = 0.0
     finger_joint_damping_n_s_m: float = 0.0
     pad_rise_m: tuple[tuple[float, ...], tuple[float, ...]] = ((), ())
+    lift_coupling_kg: tuple[tuple[float, ...], tuple[float, ...]] = ((), ())
 
     def pads_height_m(self, lift_pos_m: float, opening_m: float) -> float:
         """The pads' centre height on the lift's scale, m: the lift's position plus the pads' rise
-        along their arc at ``opening_m`` (:attr:`pad_rise_m`, linear between its points, held
-        at its ends).  Proprioception: the lift's and the fingers' joints."""
-        openings, rises = self.pad_rise_m
-        if not openings:
-            return lift_pos_m
-        i = bisect.bisect_left(openings, opening_m)
-        if i == 0:
-            return lift_pos_m + rises[0]
-        if i == len(openings):
-            return lift_pos_m + rises[-1]
-        o0, o1 = openings[i - 1], openings[i]
-        return lift_pos_m + rises[i - 1] + (rises[i] - rises[i - 1]) * (opening_m - o0) / (o1 - o0)
+        along their arc at ``opening_m`` (:attr:`pad_rise_m`).  Proprioception: the lift's and
+        the fingers' joints."""
+        return lift_pos_m + _along_opening(self.pad_rise_m, opening_m)
+
+    def lift_opens_n(self, opening_m: float, lift_accel_m_s2: float) -> float:
+        """The force with which the lift's acceleration pushes the fingers open, N on the opening:
+        -c a (:attr:`lift_coupling_kg` at ``opening_m``); negative where it closes them."""
+        return -_along_opening(self.lift_coupling_kg, opening_m) * lift_accel_m_s2
 
     def lift_load_n(self, target_m: float, pos_m: float, vel_m_s: float, accel_m_s2: float = 0.0) -> float:
         """The load the lift carries, N: its servo's force kp (target - q) - kv q' less the
         gripper's own inertia m a (all proprioception: the robot knows its servo and its mass)."""
         return self.lift_kp_n_m * (target_m - pos_m) - self.lift_kv_n_s_m * vel_m_s - self.lift_moving_mass_kg * accel_m_s2
+
+
+def _along_opening(table: tuple[tuple[float, ...], tuple[float, ...]], opening_m: float) -> float:
+    """A (openings, values) table of :class:`RobotLimits` at ``opening_m``: linear between its
+    points, held at its ends; 0 for an empty table."""
+    openings, values = table
+    if not openings:
+        return 0.0
+    i = bisect.bisect_left(openings, opening_m)
+    if i == 0:
+        return values[0]
+    if i == len(openings):
+        return values[-1]
+    o0, o1 = openings[i - 1], openings[i]
+    return values[i - 1] + (values[i] - values[i - 1]) * (opening_m - o0) / (o1 - o0)
 
 
 def pad_names(sensor_pads: tuple[str, ...]) -> tuple[str, ...]:
@@ -213,4 +228,3 @@ class Why:
     def join(cls, pairs: list) -> Why:
         """'pad: why; pad: why', lazily."""
         return cls(None, *pairs)
-

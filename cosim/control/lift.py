@@ -72,6 +72,8 @@ class LiftPlan:
         self.goal_m = self.target_m = robot.home_lift_m
         self.speed_m_s = 0.0
         self._last_vel_m_s = 0.0
+        #: The lift's acceleration over the last period, m/s^2 (its encoder's speeds).
+        self.measured_accel_m_s2 = 0.0
         self.raw_load_n = 0.0
         self.load_n = 0.0
         self._baseline_n = 0.0  # what the lift carried before lifting (the gripper's own share), N
@@ -92,7 +94,7 @@ class LiftPlan:
     def read_load(self, pos_m: float, vel_m_s: float, dt_s: float) -> None:
         """Read the load from the servo (its force less the gripper's inertia, less the tare) and
         low-pass it; called once per control period, before the phases act."""
-        accel = (vel_m_s - self._last_vel_m_s) / dt_s
+        accel = self.measured_accel_m_s2 = (vel_m_s - self._last_vel_m_s) / dt_s
         self._last_vel_m_s = vel_m_s
         self.raw_load_n = self.robot.lift_load_n(self.target_m, pos_m, vel_m_s, accel) - self._baseline_n
         self.load_n += (self.raw_load_n - self.load_n) * min(1.0, dt_s / self.load_filter_s)

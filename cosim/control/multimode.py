@@ -132,6 +132,8 @@ def resolved_floor_pa(fingertip: Fingertip, mode: int, resolved_fraction: float 
     return float(numbers["floor_pa"])
 
 
+#: The phases in which the lift may carry the object.
+_CARRYING = (Phase.LIFT, Phase.HOLD, Phase.PLACE)
 _EMPTY = attrgetter("empty")  # all(map(_EMPTY, ...)): no generator made and closed each step
 
 
@@ -227,6 +229,9 @@ class MultimodeGrasp:
         #: caps), 2.3 ms for the house's 23 g on 10 N s/m, 11 ms for robosuite's Panda (1 kg of
         #: armature a finger), 30 ms for Robotiq's 2F-85.  Such fingers are braked (_brake_n).
         self.brakes = robot.finger_mass_kg > robot.finger_joint_damping_n_s_m * dt_s
+        #: Whether the lift's acceleration moves the fingers (RobotLimits.lift_coupling_kg: a
+        #: linkage's), which the grip then makes up for while the lift carries the object.
+        self.lift_opens = bool(robot.lift_coupling_kg[0])
         self._braking = False  # the period after a touch: the fingers are being stopped
         self._finger_speed = 0.0
         self._opening_speed = 0.0  # of the opening target on release, m/s
@@ -311,7 +316,14 @@ class MultimodeGrasp:
             return make_command(lift.target_m, self.opening_target, self.opening_force_n, modes, self.phase, self.events[-1].message)
         lift.read_load(obs.lift_pos_m, obs.lift_vel_m_s, dt_s)
         _HANDLERS[self.phase](self, obs, t, dt_s)
-        return make_command(lift.target_m, self.opening_target, self.grip_n, modes, self.phase, Why.join(reasons))
+        grip_n = self.grip_n
+        if self.lift_opens and self.raising and self.phase in _CARRYING:
+            # What the lift's acceleration pulls the fingers open by (a linkage's pads rise as
+            # they open: braking at the top opens them) is added to the grip; where it closes
+            # them it is left alone, as slides never feel it.  Once carried: the probe's lift
+            # barely accelerates, and its grip is what the probe reads the friction by.
+            grip_n += max(0.0, self.robot.lift_opens_n(obs.opening_m, lift.measured_accel_m_s2))
+        return make_command(lift.target_m, self.opening_target, grip_n, modes, self.phase, Why.join(reasons))
 
     def _read_fingertips(self, obs: Observation, t: float) -> tuple[dict[str, int], list]:
         """Check each reading's range and choose each fingertip's next mode."""
