@@ -192,9 +192,10 @@ class GentleGrasp(MultimodeGrasp):
 
         Each period, over the plateau window: if the pads rise (they slide up the object, or the
         object is off the table; their height is the lift's plus a linkage's arc,
-        :meth:`RobotLimits.pads_height_m`, as each squeeze swings them down it), the grip grows by ``grip_growth_per_s`` and the
-        verdict below runs; if it does not (the pads hold the object on the table), the grip
-        holds and the load grows with the goal until the pads slide or the object leaves."""
+        :meth:`RobotLimits.pads_height_m`, as each squeeze swings them down it), the grip grows
+        by ``grip_growth_per_s`` and the verdict below runs; if they do not (they hold the object
+        on the table), the grip holds and the load grows with the goal until the pads slide or
+        the object leaves."""
         c, lift = self.cfg, self.lift
         if t - self._t_phase > self.transfer_timeout_s:
             self._give_up(t, "never_lifted", f"the load transfer did not finish in {self.transfer_timeout_s:.2g} s", Phase.PLACE)

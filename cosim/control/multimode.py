@@ -265,6 +265,7 @@ class MultimodeGrasp:
         self._check_pace = 0.0
         self._reference_pa: dict[str, float] = {}
         self._empty_s = 0.0
+        self._off_s = 0.0  # how long both pads have read nothing while the weight moves onto them
         self._shut_s = 0.0  # how long the fingers have been shut past the object, no fingertip reading it
         self._last_slip_s = -math.inf
         self._width_m = math.nan
@@ -517,6 +518,15 @@ class MultimodeGrasp:
         wanted = grip_for_load_n(load, self._sliding_ratio, c.grip_safety, self.grip_floor_n)
         if self._check is not None:
             wanted = max(wanted, c.grip_safety * self._check[1])
+        if all(map(_EMPTY, self.selectors.values())):
+            self._off_s += dt_s
+            if self._lasted_lost_s(self._off_s):
+                # Both pads have read nothing for lost_s: they are off the object (a linkage's
+                # spring back from the touch against the grip floor), so no load can come.  The
+                # grip closes them on by the safety factor per plateau window until one reads.
+                wanted = max(wanted, self.grip_n * c.grip_safety ** (1.0 / self.lift.plateau_steps))
+        else:
+            self._off_s = 0.0
         self.grip_n = ratchet_grip_n(self.grip_n, wanted, self.grip_cap_n, self.grip_rate_n_s, dt_s)
         # The goal rises at the speed at which the load it adds on a held object (kp per metre)
         # needs grip no faster than the grip can rise, and only while the grip the fingers
