@@ -505,6 +505,20 @@ def test_the_pandas_touch_leaves_the_paper_ball_whole():
     assert result.outcome == "success", result.reason
 
 
+@pytest.mark.parametrize("name", ["glass-jar-300g", "egg-60g"])
+def test_the_pandas_friction_check_tells_sliding_pads_from_a_weight(name):
+    """The Panda's slides carry 1 N of dry friction a finger: while the grip's command grows by
+    less, the fingers stand still, and pads sliding up the jar at an unchanged grip carried a
+    load that "did not follow the grip" (0.08 N of its 2.9 N): read as carried, the lift rose
+    and the pads slid off it.  On a friction drive such a load must also be steady, as a
+    weight's is, or the check starts again (multimode)."""
+    file, tips, actuators = ROBOSUITE["panda"]
+    obj = {f"object.{key}": value for key, value in dataclasses.asdict(scenarios.OBJECTS[name]).items()}
+    overrides = keys(_robosuite_grippers() / file, tips, actuators, **{"controller.kind": "multimode", **obj})
+    result = piezotip.run("grasp", overrides=overrides, preset="fast")
+    assert result.outcome == "success", result.reason
+
+
 def test_the_gentle_probe_reads_the_pandas_grip_on_its_fingertips():
     """The Panda's slides carry 1 N of dry friction a finger: its drive's reading of a light grip
     is off by up to that, and the probe held the 100 g box at 4.6x its need reading it.  Read

@@ -41,6 +41,7 @@ from piezotip.controllers import register
 from piezotip.scenarios.config import GentleConfig
 
 from .interface import Observation
+from .lift import load_is_steady
 from .multimode import MultimodeGrasp
 from .phases import Phase
 
@@ -118,17 +119,6 @@ def grip_read_n(drive_n: float, drive_error_n: float, felt_n: float | None, felt
     return (w_drive * drive_n + w_felt * felt_n) / (w_drive + w_felt)
 
 
-def load_is_steady(loads: list[float], fraction: float) -> bool:
-    """Whether ``loads`` (N) scatter about their mean by at most ``fraction`` of it (their
-    population standard deviation): a carried object's load changes only with the lift's
-    acceleration, m a = (L / g) a."""
-    n = len(loads)
-    mean = sum(loads) / n if n else 0.0
-    if n < 2 or mean <= 0.0:
-        return False
-    return math.sqrt(sum((x - mean) ** 2 for x in loads) / n) <= fraction * mean
-
-
 @register("gentle", config=GentleConfig, experiment=True, senses=True)
 class GentleGrasp(MultimodeGrasp):
     """The multimode controller with the friction probe (the module docstring): the same
@@ -175,17 +165,10 @@ class GentleGrasp(MultimodeGrasp):
         estimate times the pad's area, a full-face contact, within its readout's sigma; their
         mean).  A drive without friction is read alone: the house gripper's, exactly."""
         friction_n = self.robot.finger_friction_n
-        if friction_n <= 0.0:
+        felt = self._fingertips_grip_n() if friction_n > 0.0 else None
+        if felt is None:
             return obs.grip_force_n
-        area, felt_n, variance = self.robot.pad_area_m2, 0.0, 0.0
-        for pad in self.pads:
-            sel = self.selectors[pad]
-            if not (sel.trusted and sel.status == "ok" and math.isfinite(sel.uncertainty_pa)):
-                return obs.grip_force_n
-            felt_n += sel.estimate_pa * area
-            variance += (sel.uncertainty_pa * area) ** 2
-        n = len(self.pads)
-        return grip_read_n(obs.grip_force_n, friction_n, felt_n / n, math.sqrt(variance) / n)
+        return grip_read_n(obs.grip_force_n, friction_n, *felt)
 
     def _transfer(self, obs: Observation, t: float, dt_s: float) -> None:
         """Find the grip that holds, then hand the weight to it (the module docstring's probe).

@@ -226,4 +226,15 @@ class LiftPlan:
         return self.goal_m + (load_n + self.kv_n_s_m * speed_m_s) / self.kp_n_m
 
 
-__all__ = ["LiftPlan", "grip_for_load_n", "ratchet_grip_n"]
+def load_is_steady(loads: list[float], fraction: float) -> bool:
+    """Whether ``loads`` (N) scatter about their mean by at most ``fraction`` of it (their
+    population standard deviation): a carried object's load changes only with the lift's
+    acceleration, m a = (L / g) a."""
+    n = len(loads)
+    mean = sum(loads) / n if n else 0.0
+    if n < 2 or mean <= 0.0:
+        return False
+    return math.sqrt(sum((x - mean) ** 2 for x in loads) / n) <= fraction * mean
+
+
+__all__ = ["LiftPlan", "grip_for_load_n", "load_is_steady", "ratchet_grip_n"]
