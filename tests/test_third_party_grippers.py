@@ -519,6 +519,20 @@ def test_the_pandas_friction_check_tells_sliding_pads_from_a_weight(name):
     assert result.outcome == "success", result.reason
 
 
+def test_the_probes_friction_is_at_least_what_carried_the_object():
+    """The Panda's pads stick and slip as they slide: the probe measured the 2.2 kg block's
+    friction (0.9) as 0.50 and asked 26.8 N, past the 20 N rating (``over_limit``).  Carried over
+    the span at its mean grip G, the friction is at least W / 2 G there, which the measured one
+    must meet: carried (gentle)."""
+    file, tips, actuators = ROBOSUITE["panda"]
+    block = {f"object.{key}": value for key, value in dataclasses.asdict(scenarios.OBJECTS["block-2kg"]).items()}
+    block.update({"object.friction": 0.9, "object.mass_kg": 2.2})
+    overrides = keys(_robosuite_grippers() / file, tips, actuators, **{"controller.kind": "gentle", **block})
+    result = piezotip.run("grasp", overrides=overrides, preset="fast")
+    assert result.outcome == "success", result.reason
+    assert result.grip_margin < 2.0
+
+
 def test_the_gentle_probe_reads_the_pandas_grip_on_its_fingertips():
     """The Panda's slides carry 1 N of dry friction a finger: its drive's reading of a light grip
     is off by up to that, and the probe held the 100 g box at 4.6x its need reading it.  Read
