@@ -523,7 +523,7 @@ def test_the_probes_friction_is_at_least_what_carried_the_object():
     """The Panda's pads stick and slip as they slide: the probe measured the 2.2 kg block's
     friction (0.9) as 0.50 and asked 26.8 N, past the 20 N rating (``over_limit``).  Carried over
     the span at its mean grip G, the friction is at least W / 2 G there, which the measured one
-    must meet: carried (gentle)."""
+    must meet before the probe gives up for a grip past the cap: carried (gentle)."""
     file, tips, actuators = ROBOSUITE["panda"]
     block = {f"object.{key}": value for key, value in dataclasses.asdict(scenarios.OBJECTS["block-2kg"]).items()}
     block.update({"object.friction": 0.9, "object.mass_kg": 2.2})
