@@ -618,9 +618,9 @@ class GripperDrive:
         sum_a kv_a (dl_a/do)^2 (inside the servo: it lags, its force does not show it).
     friction_n : the joints' dry friction on the opening along the path, N: sum_d F_d |dq_d/do|.
     mass_kg : the fingers' inertia on the opening at :data:`MASS_POINTS` of the path, kg
-        (:func:`opening_mass_kg`).
+        (:func:`opening_inertia_kg`).
     lift_coupling_kg : the fingers' inertia coupling the lift to the opening there, kg
-        (:func:`lift_coupling_kg`).
+        (:func:`opening_inertia_kg`).
     """
 
     def __init__(self, model: mujoco.MjModel, parts: GripperParts, path: DrivePath, joints: list[int], kv: np.ndarray) -> None:
@@ -642,8 +642,7 @@ class GripperDrive:
         self.joint_damping_n_s_m = speeds**2 @ model.dof_damping[dofs]
         self.servo_damping_n_s_m = (np.asarray(kv)[:, None] * self._slopes**2).sum(axis=0)
         self.friction_n = np.abs(speeds) @ model.dof_frictionloss[dofs]
-        self.mass_kg = opening_mass_kg(model, path, joints)
-        self.lift_coupling_kg = lift_coupling_kg(model, path, joints)
+        self.mass_kg, self.lift_coupling_kg = opening_inertia_kg(model, path, joints)
 
     def ctrl_for(self, opening_m: float) -> list[float]:
         """The actuators' commands for an opening target, m: those that hold the path's lengths
@@ -957,39 +956,33 @@ def _set_gains(model: mujoco.MjModel, actuator: int, kp: float, kv: float) -> No
 MASS_POINTS = range(0, PATH_POINTS, (PATH_POINTS - 1) // 10)
 
 
-def _opening_inertia(model: mujoco.MjModel, path: DrivePath, joints: list[int]):
-    """(M, v) at each of :data:`MASS_POINTS` of ``path``: the model's joint-space inertia there
-    (mj_fullM: the links' masses and inertias, the joints' armature) and the joints' speeds per
-    opening speed (dq/do along the free closing), as a vector over the model's dofs."""
+def opening_inertia_kg(model: mujoco.MjModel, path: DrivePath, joints: list[int]) -> tuple[np.ndarray, np.ndarray]:
+    """The fingers' inertia on the opening and its coupling to the lift at :data:`MASS_POINTS`
+    of ``path``, kg, from the model's joint-space inertia M there (mj_fullM: the links' masses
+    and inertias, the joints' armature) and v, the joints' speeds per opening speed (dq/do along
+    the free closing):
+
+    - m_o = v^T M v, so the fingers' kinetic energy is (1/2) m_o o'^2;
+    - c = e_lift^T M v, the cross term of the kinetic energy (1/2) m_l z'^2 + c z' o' +
+      (1/2) m_o o'^2, so by Lagrange a lift accelerating at z'' pushes the opening with -c z''
+      (N).  0 for fingers that slide across the lift; a linkage whose pads rise as they open
+      has c > 0: the lift braking at the top opens them (Robotiq's 2F-85: 13 g at a 30 mm
+      opening, 6 mN at 0.5 m/s^2, a third of the 2 g paper ball's grip)."""
     dofs, qadr = [int(model.jnt_dofadr[j]) for j in joints], [int(model.jnt_qposadr[j]) for j in joints]
+    lift = int(model.jnt_dofadr[model.joint("lift_joint").id])
     speeds = path.joint_rates()  # joint speed per opening speed, (points, joints)
-    data = mujoco.MjData(model)
+    data, mass = mujoco.MjData(model), np.zeros((model.nv, model.nv))
+    masses, couplings = [], []
     for k in MASS_POINTS:
         data.qpos[:] = model.qpos0
         data.qpos[qadr] = path.qpos[k]
         mujoco.mj_forward(model, data)
-        mass = np.zeros((model.nv, model.nv))
         mujoco.mj_fullM(model, data, mass)
         v = np.zeros(model.nv)
         v[dofs] = speeds[k]
-        yield mass, v
-
-
-def opening_mass_kg(model: mujoco.MjModel, path: DrivePath, joints: list[int]) -> np.ndarray:
-    """The fingers' inertia on the opening at :data:`MASS_POINTS` of ``path``, kg: m_o = v^T M v
-    (:func:`_opening_inertia`), so the fingers' kinetic energy is (1/2) m_o o'^2."""
-    return np.array([float(v @ mass @ v) for mass, v in _opening_inertia(model, path, joints)])
-
-
-def lift_coupling_kg(model: mujoco.MjModel, path: DrivePath, joints: list[int]) -> np.ndarray:
-    """The fingers' inertia coupling the lift to the opening at :data:`MASS_POINTS` of ``path``,
-    kg: c = e_lift^T M v (:func:`_opening_inertia`), the cross term of the kinetic energy
-    (1/2) m_l z'^2 + c z' o' + (1/2) m_o o'^2, so by Lagrange a lift accelerating at z'' pushes
-    the opening with -c z'' (N).  0 for fingers that slide across the lift; a linkage whose
-    pads rise as they open has c > 0: the lift braking at the top opens them (Robotiq's
-    2F-85: 13 g at a 30 mm opening, 6 mN at 0.5 m/s^2, a third of the 2 g paper ball's grip)."""
-    lift = int(model.jnt_dofadr[model.joint("lift_joint").id])
-    return np.array([float(mass[lift] @ v) for mass, v in _opening_inertia(model, path, joints)])
+        masses.append(float(v @ mass @ v))
+        couplings.append(float(mass[lift] @ v))
+    return np.array(masses), np.array(couplings)
 
 
 def _motor_gains(model: mujoco.MjModel, parts: GripperParts, actuators: list[int], joints: list[int], path: DrivePath) -> None:
@@ -1009,7 +1002,7 @@ def _motor_gains(model: mujoco.MjModel, parts: GripperParts, actuators: list[int
     dofs = [int(model.jnt_dofadr[j]) for j in joints]
     speeds = path.joint_rates()  # joint speed per opening speed, (points, joints)
     kv = dict.fromkeys(motors, 0.0)
-    for k, mass_o in zip(MASS_POINTS, opening_mass_kg(model, path, joints), strict=True):
+    for k, mass_o in zip(MASS_POINTS, opening_inertia_kg(model, path, joints)[0], strict=True):
         stiffness = sum(-model.actuator_biasprm[actuators[i], 1] * slopes[i, k] ** 2 for i in others) + sum(
             kp[i] * slopes[i, k] ** 2 for i in motors
         )

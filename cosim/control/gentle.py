@@ -170,6 +170,20 @@ class GentleGrasp(MultimodeGrasp):
             return obs.grip_force_n
         return grip_read_n(obs.grip_force_n, friction_n, *felt)
 
+    def _fingertips_grip_n(self) -> tuple[float, float] | None:
+        """The grip the fingertips read, N per finger, and its sigma: each pad's trusted "ok"
+        estimate times the pad's area (a full-face contact), their mean; None unless every pad
+        has one."""
+        area, felt_n, variance = self.robot.pad_area_m2, 0.0, 0.0
+        for pad in self.pads:
+            sel = self.selectors[pad]
+            if not (sel.trusted and sel.status == "ok" and math.isfinite(sel.uncertainty_pa)):
+                return None
+            felt_n += sel.estimate_pa * area
+            variance += (sel.uncertainty_pa * area) ** 2
+        n = len(self.pads)
+        return felt_n / n, math.sqrt(variance) / n
+
     def _transfer(self, obs: Observation, t: float, dt_s: float) -> None:
         """Find the grip that holds, then hand the weight to it (the module docstring's probe).
 

@@ -563,7 +563,7 @@ class MultimodeGrasp:
             if self.grip_n >= self.grip_cap_n:
                 self._pads_slide_at_cap(t, l0)
         elif risen and t - t0 >= self._check_window_s(g0) and follows and window_load >= self.robot.min_load_n:
-            if not self._steady_if_stuck():
+            if not self._steady_if_stuck(speed):
                 # Neither: the load did not follow the drive's reading, and it is no weight's:
                 # pads sliding on fingers that the drive's dry friction holds still.  Checked
                 # again from here, the grip up by the safety factor again, until they move.
@@ -575,32 +575,17 @@ class MultimodeGrasp:
             self._start_carry(obs)
             self._event(t, "carried", f"load {load:.3g} N does not follow the grip ({g0:.3g} -> {applied:.3g} N): the object is carried")
 
-    def _fingertips_grip_n(self) -> tuple[float, float] | None:
-        """The grip the fingertips read, N per finger, and its sigma: each pad's trusted "ok"
-        estimate times the pad's area (a full-face contact), their mean; None unless every pad
-        has one."""
-        area, felt_n, variance = self.robot.pad_area_m2, 0.0, 0.0
-        for pad in self.pads:
-            sel = self.selectors[pad]
-            if not (sel.trusted and sel.status == "ok" and math.isfinite(sel.uncertainty_pa)):
-                return None
-            felt_n += sel.estimate_pa * area
-            variance += (sel.uncertainty_pa * area) ** 2
-        n = len(self.pads)
-        return felt_n / n, math.sqrt(variance) / n
-
-    def _steady_if_stuck(self) -> bool:
+    def _steady_if_stuck(self, speed_m_s: float) -> bool:
         """Whether the window's load is a weight's, where the drive's reading cannot show the grip
         grew: a drive with dry friction (``finger_friction_n``) holds its fingers still while its
         force changes by less, so a load that did not follow the grip's reading may be pads
         sliding at an unchanged grip.  A carried object's load changes only with the lift's
-        acceleration, at most the transfer speed over the servo's time constant kv / kp, as a
-        share of g; sliding pads stick and slip far more (:func:`load_is_steady`)."""
-        if self.robot.finger_friction_n <= 0.0:
-            return True
+        acceleration, at most the transfer speed ``speed_m_s`` over the servo's time constant
+        kv / kp, as a share of g; sliding pads stick and slip far more (:func:`load_is_steady`)."""
         robot = self.robot
-        speed = self.lift.transfer_speed_m_s(self.cfg.lift_speed_m_s, self.grip_rate_n_s, self.friction, self.cfg.grip_safety)
-        fraction = speed * robot.lift_kp_n_m / (robot.lift_kv_n_s_m * robot.gravity_m_s2)
+        if robot.finger_friction_n <= 0.0:
+            return True
+        fraction = speed_m_s * robot.lift_kp_n_m / (robot.lift_kv_n_s_m * robot.gravity_m_s2)
         return load_is_steady([entry[2] for entry in self.lift.window], fraction)
 
     def _check_window_s(self, g0: float) -> float:
