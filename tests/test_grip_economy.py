@@ -42,6 +42,24 @@ def test_probe_verdict_waits_until_the_grip_has_grown_by_the_safety_factor():
     assert math.isinf(probe_verdict([(0.01, 0.01)] * 3, SAFETY)[1])
 
 
+def test_a_falling_grip_tells_a_weight_from_sliding_pads_only_where_the_contact_can_fall():
+    """A drive with dry friction leaves the touch's contact above a lower command, and it creeps
+    down to it (the Panda's, 0.088 to 0.055 N): over such a fall a weight's load stays
+    (elasticity 0) and sliding pads' falls with the grip (elasticity 1), and the probe reads it
+    (``falls``).  A drive without friction applies the command, which only grows: a falling
+    reading there is the drive settling, and tells nothing (infinite error)."""
+    falling = list(reversed(_ramp()))
+    weight = [(gi, 0.0196) for gi in falling]
+    sliding = [(gi, 2 * 0.5 * gi) for gi in falling]
+    assert probe_verdict(weight, SAFETY, falls=True)[0] == pytest.approx(0.0, abs=1e-12)
+    e, err, _, _ = probe_verdict(sliding, SAFETY, falls=True)
+    assert e == pytest.approx(1.0, abs=1e-12) and 0.0 < err < 0.1
+    assert math.isinf(probe_verdict(weight, SAFETY)[1]) and math.isinf(probe_verdict(sliding, SAFETY)[1])
+    # The thirds' means must still be the safety factor apart, whichever way.
+    short = list(reversed(_ramp(n=9, rate=1.01)))
+    assert math.isinf(probe_verdict([(gi, 0.02) for gi in short], SAFETY, falls=True)[1])
+
+
 def test_probe_verdict_error_grows_with_the_loads_scatter():
     grips = _ramp()
     clean = probe_verdict([(gi, 1.0) for gi in grips], SAFETY)[1]

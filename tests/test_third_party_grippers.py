@@ -12,6 +12,7 @@ from __future__ import annotations
 import dataclasses
 import importlib.util
 import math
+import re
 from pathlib import Path
 
 import mujoco
@@ -533,6 +534,30 @@ def test_the_probes_friction_is_at_least_what_carried_the_object():
     assert result.grip_margin < 2.0
 
 
+@pytest.mark.parametrize(
+    ("name", "mass_kg"),
+    [("paper-ball-2g", None), ("glass-jar-300g", None), ("glass-jar-300g", 0.27)],
+)
+def test_the_gentle_probe_reads_the_pandas_contact_creeping_down_from_the_touch(name, mass_kg):
+    """The Panda's 1 N of dry friction a finger holds the touch's contact (0.088 N on the 2 g
+    paper ball, crushed at 0.1 N) above the probe's low command, and it creeps down to it: the
+    probe waited for the grip to grow 1.25x past the touch's, and the contact reached 0.15 N.
+    Over a grip that falls, a load that stays is the weight too (``probe_verdict``'s ``falls``):
+    the ball is carried at 0.06 N.  The 300 g jar, dropped at 1.3x its need, is carried too, and
+    at 270 g its weight is the load found steady, not the window's (2.14 of 2.65 N read across
+    the pads' stick-slip, held at 1.05x, dropped)."""
+    file, tips, actuators = ROBOSUITE["panda"]
+    obj = {f"object.{key}": value for key, value in dataclasses.asdict(scenarios.OBJECTS[name]).items()}
+    if mass_kg is not None:
+        obj["object.mass_kg"] = mass_kg
+    overrides = keys(_robosuite_grippers() / file, tips, actuators, **{"controller.kind": "gentle", **obj})
+    result = piezotip.run("grasp", overrides=overrides, preset="fast")
+    assert result.outcome == "success", result.reason
+    carried = next(e for e in result.events if e["kind"] == "carried")
+    weight_n = float(re.search(r"load ([0-9.e+-]+) N", carried["message"]).group(1))
+    assert weight_n == pytest.approx(obj["object.mass_kg"] * 9.81, rel=0.05)
+
+
 def test_the_gentle_probe_reads_the_pandas_grip_on_its_fingertips():
     """The Panda's slides carry 1 N of dry friction a finger: its drive's reading of a light grip
     is off by up to that, and the probe held the 100 g box at 4.6x its need reading it.  Read
@@ -621,6 +646,20 @@ def test_robotiqs_gentle_grip_holds_through_the_raise(obj):
     result = piezotip.run("grasp", overrides=overrides, preset="fast")
     assert result.outcome == "success", result.reason
     assert result.grip_margin < 3.0
+
+
+def test_robotiqs_falling_grip_reading_is_not_read_as_a_weight():
+    """The 550 g can at friction 1.1: as the probe began, the 2F-85's reading of its grip
+    settled from 0.011 to 0.008 N while its pads slid up the can at an unchanged 0.024 N.  Read
+    over that fall, the load "stayed": a 0.024 N weight, and the can was never lifted.  A drive
+    without dry friction applies the command, which the probe only raises, so only a growing
+    grip is read there (``probe_verdict``'s ``falls`` is for friction drives)."""
+    can = {f"object.{key}": value for key, value in dataclasses.asdict(scenarios.OBJECTS["can-500g"]).items()}
+    can.update({"object.friction": 1.1, "object.mass_kg": 0.55})
+    overrides = keys(_robotiq_2f85(), *ROBOTIQ_2F85, **{"controller.kind": "gentle", **can})
+    result = piezotip.run("grasp", overrides=overrides, preset="fast")
+    assert result.outcome == "success", result.reason
+    assert result.grip_margin < 2.0
 
 
 def test_robotiqs_pads_close_on_again_when_they_sprang_back_off_the_object():

@@ -12,9 +12,11 @@ neither mass nor friction and measures both:
   ``probe_speed_m_s``; while the lift follows it (the pads slide up the object, or the object is
   off the table) the grip grows exponentially, by ``grip_safety`` per plateau window; while the
   pads hold the object on the table the grip waits and the load grows.  Over each span in which
-  the grip grew by ``grip_safety`` (:func:`probe_verdict`), a load that grew with the grip is
-  the pads' friction limit 2 mu G (the friction is measured there), and a load that stayed, and
-  is steady (:func:`load_is_steady`), is the weight: the object is *carried*;
+  the grip grew by ``grip_safety`` (:func:`probe_verdict`; or fell by it, on a drive with dry
+  friction, whose contact creeps down from the touch's toward the lower command), a load that
+  followed the grip is the pads' friction limit 2 mu G (the friction is measured there), and a
+  load that stayed, and is steady (:func:`load_is_steady`), is the weight: the object is
+  *carried*;
 - the grip then drops to ``grip_safety`` x weight / (2 mu), the least that holds with the
   margin people keep (10-40 %, Johansson and Westling 1984), and is raised only on evidence of
   a slip (the multimode controller's slip checks, from the fingertips and the lift's load).
@@ -58,21 +60,30 @@ def _thirds(span: list[tuple[float, float]]) -> tuple[int, float, float, float, 
     return n, g1, g3, l1, l3
 
 
-def _grew(g1: float, g3: float, safety: float) -> bool:
-    """Whether the grip grew by ``safety`` from the first third to the last: enough to tell."""
-    return g1 > 0.0 and g3 >= safety * g1
+def _grew(g1: float, g3: float, safety: float, falls: bool = False) -> bool:
+    """Whether the grip grew by ``safety`` from the first third to the last (or, with ``falls``,
+    fell by it): enough to tell."""
+    if g1 <= 0.0 or g3 <= 0.0:
+        return False
+    return max(g3 / g1, g1 / g3) >= safety if falls else g3 >= safety * g1
 
 
-def probe_verdict(span: list[tuple[float, float]], safety: float) -> tuple[float, float, float, float]:
+def probe_verdict(span: list[tuple[float, float]], safety: float, falls: bool = False) -> tuple[float, float, float, float]:
     """(elasticity d ln L / d ln G, its standard error, mean grip, mean load) of a probe's span of
     (grip applied, load) samples, N, from the means of its first and last thirds.
 
     While the pads slide the load is their friction limit 2 mu G, proportional to the grip
     (elasticity 1); once the object is off the table it is the weight, whatever the grip
     (elasticity 0).  The grip grows exponentially, so a load lagging it by a constant time is a
-    constant factor of it and the ratio of the thirds' means is free of the lag.  The error comes
-    from the scatter of the loads within each third (stick-slip at milli-newton grips): infinite
-    until the grip has grown by ``safety`` over the span (too short to tell)."""
+    constant factor of it and the ratio of the thirds' means is free of the lag.  With
+    ``falls``, a grip that falls tells the same: the contact of a drive with dry friction creeps
+    from the touch's leftover down toward a lower command (the Panda's, from 0.088 to 0.055 N in
+    0.7 s, with the fingertips reading it); a drive without friction applies the command, which
+    the probe only raises, and a reading of it that falls is the drive settling, not the contact
+    (the 2F-85's linkage read 0.011 then 0.008 N while its pads slid up a can at an unchanged
+    load).  The error comes from the scatter of the loads within each third (stick-slip at
+    milli-newton grips): infinite until the grip has changed by ``safety`` over the span (too
+    short to tell)."""
     thirds = _thirds(span)
     if thirds is None:
         return 0.0, math.inf, 0.0, 0.0
@@ -80,12 +91,12 @@ def probe_verdict(span: list[tuple[float, float]], safety: float) -> tuple[float
     first, last = span[:n], span[-n:]
     g_mean = sum(g for g, _ in span) / len(span)
     l_mean = sum(load for _, load in span) / len(span)
-    if not _grew(g1, g3, safety) or l1 <= 0.0 or l3 <= 0.0:
+    if not _grew(g1, g3, safety, falls) or l1 <= 0.0 or l3 <= 0.0:
         return 0.0, math.inf, g_mean, l_mean
     growth = math.log(g3 / g1)
     var1 = sum((load - l1) ** 2 for _, load in first) / (n - 1)
     var3 = sum((load - l3) ** 2 for _, load in last) / (n - 1)
-    error = math.sqrt(var1 / (n * l1 * l1) + var3 / (n * l3 * l3)) / growth
+    error = math.sqrt(var1 / (n * l1 * l1) + var3 / (n * l3 * l3)) / abs(growth)
     return math.log(l3 / l1) / growth, error, g_mean, l_mean
 
 
@@ -216,7 +227,8 @@ class GentleGrasp(MultimodeGrasp):
             self._span = []  # held on the table: the load grows, the grip waits
             return
         self._span.append((applied, lift.raw_load_n))
-        elasticity, error, grip_n, load_n = probe_verdict(self._span, c.grip_safety)
+        falls = self.robot.finger_friction_n > 0.0  # the contact can fall below the touch's (probe_verdict)
+        elasticity, error, grip_n, load_n = probe_verdict(self._span, c.grip_safety, falls)
         if math.isinf(error):
             if carried_nothing_at_first(self._span, c.grip_safety):
                 self._span = self._span[-1:]  # the span starts again where the pads carry a load
@@ -226,10 +238,13 @@ class GentleGrasp(MultimodeGrasp):
             return  # nothing carried yet: no evidence either way
         # Decided when the elasticity's 2-sigma interval lies on one side of 1/2 (the load's
         # stick-slip scatter at milli-newton grips needs a longer span than a clean slide), or
-        # once the span has grown the grip by the safety factor three times over.
-        if abs(elasticity - 0.5) < 2.0 * error and applied < c.grip_safety**3 * self._span[0][0]:
+        # once the span has changed the grip by the safety factor three times over.
+        first_n = self._span[0][0]
+        low_n, high_n = sorted((first_n, applied)) if falls else (first_n, applied)
+        if abs(elasticity - 0.5) < 2.0 * error and high_n < c.grip_safety**3 * low_n:
             return
-        carried_from_n = self._span[0][0]
+        # The least grip that carried it bounds the friction best (the last on a falling span).
+        carried_from_n = min(g for g, _ in self._span) if falls else first_n
         last = [load for _, load in self._span[-(len(self._span) // 3) :]]
         self._span = [self._span[-1]]
         if elasticity >= 0.5:
@@ -247,12 +262,14 @@ class GentleGrasp(MultimodeGrasp):
             # pads that stick and slip do (at milli-newton grips they chatter on the object,
             # and the friction follows the touches, not the drive).  Still sliding.
             return
-        self._carry(obs, t, lift.window_load_n(), carried_from_n, grip_n)
+        # The weight is the load found steady, the last third's: the plateau window can still
+        # hold the stick-slip before it (the Panda's 270 g jar read 2.14 N of its 2.65 N there).
+        self._carry(obs, t, sum(last) / len(last), carried_from_n, grip_n)
 
     def _carry(self, obs: Observation, t: float, weight_n: float, carried_from_n: float, carried_mean_n: float) -> None:
         """The load stayed while the grip grew: the object is off the table, its weight the load
         (the last window's).  The grip that holds it is the weight over the friction measured
-        while the pads slid; never seen sliding, it was carried at the span's first grip (its
+        while the pads slid; never seen sliding, it was carried at the span's least grip (its
         friction at least load / 2 G there; where the grip that asks is past the cap,
         ``carried_mean_n``, the span's mean grip, bounds the friction measured while sliding
         likewise).
@@ -284,7 +301,7 @@ class GentleGrasp(MultimodeGrasp):
         self.raising = True
         self._start_carry(obs)
         how = f"friction {self.friction:.3g} measured while the pads slid" if self._slid else f"friction at least {self.friction:.3g}"
-        self._event(t, "carried", f"load {weight_n:.3g} N stayed while the grip grew: carried; {how}; grip {self._grip_goal_n:.3g} N")
+        self._event(t, "carried", f"load {weight_n:.3g} N stayed while the grip changed: carried; {how}; grip {self._grip_goal_n:.3g} N")
 
     def _start_carry(self, obs: Observation) -> None:
         """The raise begins.  The fingertips' slip references are taken once the grip the probe
