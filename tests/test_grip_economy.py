@@ -58,6 +58,10 @@ def test_a_falling_grip_tells_a_weight_from_sliding_pads_only_where_the_contact_
     # The thirds' means must still be the safety factor apart, whichever way.
     short = list(reversed(_ramp(n=9, rate=1.01)))
     assert math.isinf(probe_verdict([(gi, 0.02) for gi in short], SAFETY, falls=True)[1])
+    # A falling span whose first third carried nothing starts again, as a growing one does.
+    n = len(falling) // 3
+    offset = [(gi, -0.13 if k < n else 0.46) for k, gi in enumerate(falling)]
+    assert carried_nothing_at_first(offset, SAFETY, falls=True) and not carried_nothing_at_first(offset, SAFETY)
 
 
 def test_probe_verdict_error_grows_with_the_loads_scatter():

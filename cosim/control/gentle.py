@@ -100,9 +100,10 @@ def probe_verdict(span: list[tuple[float, float]], safety: float, falls: bool = 
     return math.log(l3 / l1) / growth, error, g_mean, l_mean
 
 
-def carried_nothing_at_first(span: list[tuple[float, float]], safety: float) -> bool:
+def carried_nothing_at_first(span: list[tuple[float, float]], safety: float, falls: bool = False) -> bool:
     """Whether a probe's span of (grip applied, load) samples, N, long enough for a verdict (its
-    last third's mean grip ``safety`` times its first third's), carried nothing over its first
+    last third's mean grip ``safety`` times its first third's, or with ``falls`` a ``safety``-th
+    of it: :func:`probe_verdict`), carried nothing over its first
     third: that third's mean load is not positive, so no ratio of loads can be read over it.
 
     The load is the lift's, zeroed (tared) on one reading as the lift phase begins; where the
@@ -114,7 +115,7 @@ def carried_nothing_at_first(span: list[tuple[float, float]], safety: float) -> 
     if thirds is None:
         return False
     _, g1, g3, l1, _ = thirds
-    return _grew(g1, g3, safety) and l1 <= 0.0
+    return _grew(g1, g3, safety, falls) and l1 <= 0.0
 
 
 def grip_read_n(drive_n: float, drive_error_n: float, felt_n: float | None, felt_sigma_n: float) -> float:
@@ -230,7 +231,7 @@ class GentleGrasp(MultimodeGrasp):
         falls = self.robot.finger_friction_n > 0.0  # the contact can fall below the touch's (probe_verdict)
         elasticity, error, grip_n, load_n = probe_verdict(self._span, c.grip_safety, falls)
         if math.isinf(error):
-            if carried_nothing_at_first(self._span, c.grip_safety):
+            if carried_nothing_at_first(self._span, c.grip_safety, falls):
                 self._span = self._span[-1:]  # the span starts again where the pads carry a load
             return  # the grip has not grown enough over the span to tell
         if load_n <= self.robot.min_load_n:
