@@ -268,8 +268,8 @@ class GentleGrasp(MultimodeGrasp):
         self._carry(obs, t, sum(last) / len(last), carried_from_n, grip_n)
 
     def _carry(self, obs: Observation, t: float, weight_n: float, carried_from_n: float, carried_mean_n: float) -> None:
-        """The load stayed while the grip grew: the object is off the table, its weight the load
-        (the last window's).  The grip that holds it is the weight over the friction measured
+        """The load stayed while the grip changed: the object is off the table, its weight the
+        load (``weight_n``, the probe's span's last third's, found steady).  The grip that holds it is the weight over the friction measured
         while the pads slid; never seen sliding, it was carried at the span's least grip (its
         friction at least load / 2 G there; where the grip that asks is past the cap,
         ``carried_mean_n``, the span's mean grip, bounds the friction measured while sliding
