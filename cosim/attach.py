@@ -49,6 +49,15 @@ from .scene import finite_state
 
 __all__ = ["PREFIX", "AttachedPad", "FingertipLoop", "Fingertips", "TipReading", "attach", "fingertip_pads"]
 
+#: MuJoCo's warnings on which it resets the data and steps on (a diverged state).
+_UNSTABLE = (mujoco.mjtWarning.mjWARN_BADQPOS, mujoco.mjtWarning.mjWARN_BADQVEL, mujoco.mjtWarning.mjWARN_BADQACC)
+
+
+def _unstable_counts(data: mujoco.MjData) -> tuple[int, ...]:
+    """How many times each of :data:`_UNSTABLE` has been raised on ``data``."""
+    return tuple(int(data.warning[w].number) for w in _UNSTABLE)
+
+
 PREFIX = "piezotip/"
 """What every name ``attach`` adds to a spec starts with: ``piezotip/left_pad/seg0``, ..."""
 PAD_CLASS = f"{PREFIX}pad"
@@ -576,13 +585,25 @@ class FingertipLoop:
         return tuple(self.channels)
 
     def step(self) -> None:
-        """One period: the gel law, physics, sensor and readout (then :meth:`readings`)."""
+        """One period: the gel law, physics, sensor and readout (then :meth:`readings`).
+
+        :class:`~cosim.loop.SimulationDiverged` if the state went non-finite, or if MuJoCo found
+        a bad position, velocity or acceleration in the period: it then resets the data to the
+        model's initial state, warns and steps on (``mj_checkPos``, ``mj_checkVel``,
+        ``mj_checkAcc``), and the fingertips would read a reset scene as if nothing happened."""
         m, d, step = self.model, self.data, mujoco.mj_step
+        start_s, before = d.time, _unstable_counts(d)
         for k in range(self.substeps):
             if k == 0 or self._every_substep:
                 for apply in self._apply:
                     apply(d)
             step(m, d)
+        warned = [w.name for w, n0, n1 in zip(_UNSTABLE, before, _unstable_counts(d), strict=True) if n1 != n0]
+        if warned or d.time <= start_s:
+            raise SimulationDiverged(
+                f"simulation diverged in the period from t = {start_s:.4f} s: MuJoCo's {', '.join(warned) or 'reset'} "
+                f"(it reset the data to the model's initial state; timestep {m.opt.timestep:g} s)"
+            )
         if not finite_state(d):
             raise SimulationDiverged(f"simulation diverged at t = {d.time:.4f} s: non-finite state (timestep {m.opt.timestep:g} s)")
         readings = {}

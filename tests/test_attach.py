@@ -328,3 +328,21 @@ def test_pads_on_bodies_face_each_other_and_read_the_weight():
 
 def test_attach_is_exported():
     assert piezotip.attach is attach
+
+
+def test_a_diverged_step_is_an_error_not_a_silent_reset():
+    """MuJoCo resets the data to the model's initial state on a bad velocity or acceleration,
+    warns and steps on (mj_checkVel, mj_checkAcc): the state is finite again, and the fingertips
+    read a reset scene as if nothing happened.  The step names the warning instead."""
+    from piezotip.cosim.loop import SimulationDiverged
+
+    spec = mujoco.MjSpec.from_string(scene_xml())
+    tips = attach(spec, sites=["pressed", "free"])
+    model = spec.compile()
+    data = mujoco.MjData(model)
+    sim = tips.bind(model, data)
+    run(sim, 3)
+    data.qvel[:] = np.nan
+    with pytest.raises(SimulationDiverged, match="mjWARN_BADQVEL"):
+        sim.step()
+    assert np.all(np.isfinite(data.qvel))  # what MuJoCo left: a reset state, finite
