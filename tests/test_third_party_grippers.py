@@ -662,6 +662,23 @@ def test_robotiqs_falling_grip_reading_is_not_read_as_a_weight():
     assert result.grip_margin < 2.0
 
 
+@pytest.mark.parametrize("kind", ["multimode", "gentle"])
+def test_robotiqs_pads_that_let_go_at_the_grip_floor_are_squeezed_not_closed_on(kind):
+    """The 3 g cube at friction 0.88 and 2.7 g: both pads read its pressure after the touch,
+    then the 2F-85's linkage sprang them back off it at the grip floor (contact 38 -> 9 mN in
+    0.1 s).  Read as a false touch, the fingers closed on at the moving force, were braked at
+    the stale pace of the first closing (38.7 N: the fingers sprang 2 mm open) and the run ended
+    ``unfelt_contact``.  Pads that read the object since the touch are squeezed instead, the
+    grip growing by the safety factor per plateau window until they read it again."""
+    cube = {f"object.{key}": value for key, value in dataclasses.asdict(scenarios.OBJECTS["cube-3g"]).items()}
+    cube.update({"object.friction": 0.88, "object.mass_kg": 0.0027})
+    overrides = keys(_robotiq_2f85(), *ROBOTIQ_2F85, **{"controller.kind": kind, **cube})
+    result = piezotip.run("grasp", overrides=overrides, preset="fast")
+    assert result.outcome == "success", result.reason
+    assert not any(e["kind"] == "false_touch" for e in result.events)
+    assert result.grip_margin < 3.5
+
+
 def test_robotiqs_pads_close_on_again_when_they_sprang_back_off_the_object():
     """The raspberry, multimode: the 2F-85's pads sprang back off it after the touch (the gel's
     stored touch against the 6 mN floor), and the grip, following a load that never came, stayed

@@ -271,6 +271,7 @@ class MultimodeGrasp:
         self._width_m = math.nan
         self._saturated_logged: set[str] = set()
         self._unfelt_opening_m: float | None = None  # the opening at the last false touch felt by no fingertip
+        self._felt_in_squeeze: set[str] = set()  # the pads with a trusted "ok" reading since the touch
         self._last_opening_m = math.inf  # the fingers' opening at the last closing step, m
         self._slip_watch_from_s = 0.0  # the fingertips' slip check starts then (gentle.py delays it)
         if self_test_message is not None:
@@ -369,6 +370,7 @@ class MultimodeGrasp:
             if brake_n > 0.0:
                 self.opening_target, self.grip_n, self._braking = self.robot.home_opening_m, brake_n, True
             self._free_drive_n = None
+            self._felt_in_squeeze = set()
             self._joints_felt_touch = not all(touched)
             how = f"on {', '.join(self.pads)} (CUSUM)" if all(touched) else f"felt by the joints ({felt_by_joints})"
             self._enter(Phase.SQUEEZE, t, f"touch {how}; grip floor {self.grip_floor_n:.3g} N")
@@ -447,11 +449,21 @@ class MultimodeGrasp:
     def _squeeze(self, obs: Observation, t: float, dt_s: float) -> None:
         if self._braking:  # the fingers stopped: squeeze at the grip floor
             self.opening_target, self.grip_n, self._braking = 0.0, self.grip_floor_n, False
+        self._felt_in_squeeze.update(pad for pad, sel in self.selectors.items() if sel.trusted and sel.status == "ok")
         if t - self._t_phase < self.cfg.squeeze_settle_s:
             return
         # A touch leaves the floor's pressure on the pads; a fingertip that reads nothing was
         # alarmed by something else (its own pad's inertia as the fingers jerk): close on.
         empty = [pad for pad, sel in self.selectors.items() if sel.trusted and sel.status == "below_detection"]
+        if empty and self._felt_in_squeeze.issuperset(empty):
+            # Each of them read the object's pressure since the touch: no alarm, but pads that
+            # the grip floor lets go (the 2F-85's linkage springs its pads back off a 3 g cube,
+            # their contact 38 -> 9 mN in 0.1 s, under the floor's pressure).  Closing on at the
+            # moving force would press and spring back again; the grip grows instead, by the
+            # safety factor per plateau window, until they read it.
+            growth = self.cfg.grip_safety ** (1.0 / self.lift.plateau_steps)
+            self.grip_n = min(self.grip_cap_n, self.grip_n * growth)
+            return
         if empty:
             # Closing on is for fingers that are free.  If every fingertip read nothing here and
             # at the last false touch, and the fingers have not closed since by what one control
