@@ -679,6 +679,28 @@ def test_robotiqs_pads_that_let_go_at_the_grip_floor_are_squeezed_not_closed_on(
     assert result.grip_margin < 3.5
 
 
+def test_pads_that_read_nothing_even_at_the_grip_cap_give_up_clearly(tmp_path):
+    """The squeeze above grows the grip on pads that read the object and then let go; where
+    they read nothing even at the cap (here the cap is the grip floor), the controller says so
+    (``unfelt_contact``) instead of squeezing on until the scenario's time runs out."""
+    from piezotip.cosim.control import Phase
+    from piezotip.cosim.recorder import Recorder
+
+    cube = {f"object.{key}": value for key, value in dataclasses.asdict(scenarios.OBJECTS["cube-3g"]).items()}
+    cube.update({"object.friction": 0.88, "object.mass_kg": 0.0027})
+    sim = CoSimulation(config(keys(_robotiq_2f85(), *ROBOTIQ_2F85, **cube)))
+    c = sim.controller
+
+    def cap_at_the_floor(sim) -> None:
+        if c.phase == Phase.SQUEEZE:
+            c.grip_cap_n = c.grip_floor_n
+
+    sim.run(Recorder(tmp_path / "run"), on_step=cap_at_the_floor)
+    gave_up = [e.message for e in c.events if e.kind == "unfelt_contact"]
+    assert gave_up and "nothing even at the grip cap" in gave_up[0], [e.message for e in c.events]
+    assert not any(e.kind == "false_touch" for e in c.events)
+
+
 def test_robotiqs_pads_close_on_again_when_they_sprang_back_off_the_object():
     """The raspberry, multimode: the 2F-85's pads sprang back off it after the touch (the gel's
     stored touch against the 6 mN floor), and the grip, following a load that never came, stayed

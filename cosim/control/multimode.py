@@ -461,6 +461,15 @@ class MultimodeGrasp:
             # their contact 38 -> 9 mN in 0.1 s, under the floor's pressure).  Closing on at the
             # moving force would press and spring back again; the grip grows instead, by the
             # safety factor per plateau window, until they read it.
+            if self.grip_n >= self.grip_cap_n:
+                self._give_up(
+                    t,
+                    "unfelt_contact",
+                    f"{', '.join(empty)} read the object after the touch, then nothing even at the grip cap "
+                    f"({self.grip_cap_n:.3g} N): the object is no longer between the pads' elements",
+                    Phase.RELEASE,
+                )
+                return
             growth = self.cfg.grip_safety ** (1.0 / self.lift.plateau_steps)
             self.grip_n = min(self.grip_cap_n, self.grip_n * growth)
             return
