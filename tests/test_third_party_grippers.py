@@ -701,6 +701,32 @@ def test_pads_that_read_nothing_even_at_the_grip_cap_give_up_clearly(tmp_path):
     assert not any(e.kind == "false_touch" for e in c.events)
 
 
+def test_robotiqs_friction_check_needs_a_steady_load_to_call_it_carried():
+    """The 330 g jar, multimode: its pads slid at 0.04 N of grip and their creeping load (12 mN
+    of its 3.2 N) did not follow a 16 % grip gain, so the friction check called it carried and
+    the lift left it behind (``lost``).  A carried object's load is steady (it changes only with
+    the lift's acceleration); sliding pads' scatter: on every drive, not only those with dry
+    friction, "carried" needs a steady load, or the check starts again."""
+    jar = {**GLASS_JAR, "object.mass_kg": 0.33}
+    overrides = keys(_robotiq_2f85(), *ROBOTIQ_2F85, **{"controller.kind": "multimode", **jar})
+    result = piezotip.run("grasp", overrides=overrides, preset="fast")
+    assert result.outcome == "success", result.reason
+    carried = next(e for e in result.events if e["kind"] == "carried")
+    assert float(re.search(r"load ([0-9.e+-]+) N", carried["message"]).group(1)) > 0.9 * 0.33 * 9.81
+
+
+def test_a_give_up_with_nothing_carried_opens_where_the_lift_is():
+    """The 4.4 g raspberry at friction 0.81, multimode: never lifted (the 2F-85 holds it on its
+    pads' lower guards), the controller gave up and lowered the lift back to where it started
+    first, its fingers closed over the raspberry's top: it pressed it into the table past its
+    1.5 N.  Where the lift carries nothing of the object the fingers now open where they are."""
+    raspberry = {**RASPBERRY, "object.friction": 0.81, "object.mass_kg": 0.0044}
+    overrides = keys(_robotiq_2f85(), *ROBOTIQ_2F85, **{"controller.kind": "multimode", **raspberry})
+    result = piezotip.run("grasp", overrides=overrides, preset="fast")
+    assert result.outcome == "never_lifted", result.reason
+    assert any("carries nothing of the object" in e["message"] for e in result.events)
+
+
 def test_robotiqs_pads_close_on_again_when_they_sprang_back_off_the_object():
     """The raspberry, multimode: the 2F-85's pads sprang back off it after the touch (the gel's
     stored touch against the 6 mN floor), and the grip, following a load that never came, stayed
