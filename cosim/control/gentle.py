@@ -153,6 +153,9 @@ class GentleGrasp(MultimodeGrasp):
         #: plateau window, the time the load takes to show it (so the grip overshoots the one
         #: that holds by at most that factor before the probe sees the load stay).
         self.grip_growth_per_s = math.log(c.grip_safety) / (self.lift.plateau_steps * dt_s)
+        #: Whether the probe's grip can fall: a drive with dry friction holds the touch's contact
+        #: above the probe's lower command, and it creeps down to it (probe_verdict's ``falls``).
+        self.contact_falls = robot.finger_friction_n > 0.0
         #: The share of a carried object's load that the lift's own acceleration during the probe
         #: can change, -: the goal's speed grows with the sag 2 mu_max G / kp that the grip's
         #: growth adds, at most at 2 mu_max r (grip rate) / kp per second, over g.  A load that
@@ -228,7 +231,7 @@ class GentleGrasp(MultimodeGrasp):
             self._span = []  # held on the table: the load grows, the grip waits
             return
         self._span.append((applied, lift.raw_load_n))
-        falls = self.robot.finger_friction_n > 0.0  # the contact can fall below the touch's (probe_verdict)
+        falls = self.contact_falls
         elasticity, error, grip_n, load_n = probe_verdict(self._span, c.grip_safety, falls)
         if math.isinf(error):
             if carried_nothing_at_first(self._span, c.grip_safety, falls):
@@ -269,8 +272,9 @@ class GentleGrasp(MultimodeGrasp):
 
     def _carry(self, obs: Observation, t: float, weight_n: float, carried_from_n: float, carried_mean_n: float) -> None:
         """The load stayed while the grip changed: the object is off the table, its weight the
-        load (``weight_n``, the probe's span's last third's, found steady).  The grip that holds it is the weight over the friction measured
-        while the pads slid; never seen sliding, it was carried at the span's least grip (its
+        load (``weight_n``, the probe's span's last third's, found steady).  The grip that holds
+        it is the weight over the friction measured while the pads slid; never seen sliding, it
+        was carried at the span's least grip (its
         friction at least load / 2 G there; where the grip that asks is past the cap,
         ``carried_mean_n``, the span's mean grip, bounds the friction measured while sliding
         likewise).

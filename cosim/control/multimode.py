@@ -246,6 +246,10 @@ class MultimodeGrasp:
         self.transfer_timeout_s = 2.0 * (self.grip_cap_n / self.grip_rate_n_s + c.lift_height_m / c.lift_speed_m_s)
         #: The lift's goal, speed, servo target and load (lift.py); the phases here say when it moves.
         self.lift = LiftPlan(robot, robot.home_lift_m + c.lift_height_m, c.lift_accel_m_s2, c.load_filter_s, dt_s)
+        #: The grip's growth per period while pads that read nothing are closed on (the squeeze's
+        #: pads let go at the floor, the transfer's sprung back off): the safety factor per
+        #: plateau window.
+        self.close_on_factor = c.grip_safety ** (1.0 / self.lift.plateau_steps)
         self.phase = Phase.APPROACH
         #: The lift's stage: False while the weight moves onto the pads (the transfer and its
         #: friction checks), True once the object is carried and raised.  A bool, as ``faulted``
@@ -470,8 +474,7 @@ class MultimodeGrasp:
                     Phase.RELEASE,
                 )
                 return
-            growth = self.cfg.grip_safety ** (1.0 / self.lift.plateau_steps)
-            self.grip_n = min(self.grip_cap_n, self.grip_n * growth)
+            self.grip_n = min(self.grip_cap_n, self.grip_n * self.close_on_factor)
             return
         if empty:
             # Closing on is for fingers that are free.  If every fingertip read nothing here and
@@ -545,7 +548,7 @@ class MultimodeGrasp:
                 # Both pads have read nothing for lost_s: they are off the object (a linkage's
                 # spring back from the touch against the grip floor), so no load can come.  The
                 # grip closes them on by the safety factor per plateau window until one reads.
-                wanted = max(wanted, self.grip_n * c.grip_safety ** (1.0 / self.lift.plateau_steps))
+                wanted = max(wanted, self.grip_n * self.close_on_factor)
         else:
             self._off_s = 0.0
         self.grip_n = ratchet_grip_n(self.grip_n, wanted, self.grip_cap_n, self.grip_rate_n_s, dt_s)
@@ -604,8 +607,7 @@ class MultimodeGrasp:
         load that creeps below their friction limit (MuJoCo's soft friction, the 2F-85's pads
         on a 330 g jar).  A carried object's load changes only with the lift's acceleration, at
         most the transfer speed ``speed_m_s`` over the servo's time constant kv / kp, as a share
-        of g; sliding pads stick and slip far more (:func:`load_is_steady`).  (Applied on drives
-        with dry friction only at first; on all, the house records are unchanged.)"""
+        of g; sliding pads stick and slip far more (:func:`load_is_steady`)."""
         robot = self.robot
         fraction = speed_m_s * robot.lift_kp_n_m / (robot.lift_kv_n_s_m * robot.gravity_m_s2)
         return load_is_steady([entry[2] for entry in self.lift.window], fraction)
