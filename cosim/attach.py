@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import warnings
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
@@ -36,18 +37,29 @@ import mujoco
 import numpy as np
 
 from piezotip import scenarios
-from piezotip.scenarios.config import INTEGRATORS, ScenarioConfig, SensorConfig, valid_keys
+from piezotip.scenarios.config import INTEGRATORS, PhysicsConfig, ScenarioConfig, SensorConfig, valid_keys
 from piezotip.sensor.channel import SensorChannel
-from piezotip.sensor.gel import GelModel
 from piezotip.sensor.unit_channel import UnitChannel
 
+from . import mjhooks
 from .loop import SimulationDiverged, coverage_cells, coverage_weights, make_fingertip, make_unit
-from .pad_bridge import PadBridge, PadReading, _GelTable, check_gel_integration
+from .pad_bridge import PadBridge, PadReading
 from .pad_geometry import PadGeometry
 from .pad_model import HARD_PAD_SOLIMP, PadPlacement, _remap_keys, add_pad_strips, copy_pad_class, pad_time_constant_s
 from .scene import finite_state
 
-__all__ = ["PREFIX", "AttachedPad", "FingertipLoop", "Fingertips", "TipReading", "attach", "fingertip_pads"]
+__all__ = [
+    "PREFIX",
+    "AttachedPad",
+    "FingertipLoop",
+    "Fingertips",
+    "PadCollisionWarning",
+    "TipReading",
+    "attach",
+    "fingertip_pads",
+    "open_pose_qpos",
+    "pad_collision_bits",
+]
 
 #: MuJoCo's warnings on which it resets the data and steps on (a diverged state).
 _UNSTABLE = (mujoco.mjtWarning.mjWARN_BADQPOS, mujoco.mjtWarning.mjWARN_BADQVEL, mujoco.mjtWarning.mjWARN_BADQACC)
@@ -81,6 +93,16 @@ _NEEDED = {
 _REFUSED = {
     mujoco.mjtEnableBit.mjENBL_OVERRIDE: "it replaces the pads' hard contact parameters (the gel is the pads' compliance)",
 }
+
+#: The pads' contact impedance under an explicit integrator (MuJoCo solimp: d0, dwidth, width m,
+#: midpoint, power): the house's ramp (models/README.md, "Pad contacts") over 10 um instead of
+#: 30: d = 0.1 at first touch, MuJoCo's maximum 0.9999 past 10 um.  The hard contact (0.9999
+#: from first touch) rests 0.1 um deep, and under an explicit step a resting load's contacts then
+#: open for a step now and then (a 200 g box on a 16-pad skin at Euler 2 ms bounced at 21 Hz,
+#: its pads' load swinging 86-114 %); resting some micrometres deep they do not (steady to
+#: 1e-5 at 10 um and 30 um; 3 um, 3e-4; 1 um, 1e-3).  10 um keeps loaded contacts near the
+#: hard friction the user's impratio was set for.
+EXPLICIT_PAD_SOLIMP = (0.1, 0.9999, 1.0e-5, 0.1, 3.0)
 
 #: The element under the pad (the house gripper's: the paper's 7.5 x 5 mm element).
 _ELEMENT = PadGeometry()
@@ -202,28 +224,163 @@ class _Face:
     geoms: tuple[int, ...] | None = None
 
 
-def _body_patches(model: mujoco.MjModel, names: Sequence[str]) -> list[_Patch]:
+#: The joints a pose clamps and opens: a hinge's or slide's qpos is one number in its range.
+_SCALAR_JOINTS = (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE))
+#: A position servo's activation follows its control (an integrator's control is a velocity).
+_SERVO_DYNAMICS = (int(mujoco.mjtDyn.mjDYN_NONE), int(mujoco.mjtDyn.mjDYN_FILTER), int(mujoco.mjtDyn.mjDYN_FILTEREXACT))
+#: How much further apart one end of a servo's range must put the fingertips to be the open one, m
+#: (less is a tie: an arm's joint, which moves them together, keeps its place).
+_OPEN_TOLERANCE_M = 1e-9
+#: The open pose, for messages.
+_OPEN_POSE = "the open pose (qpos0 in the joints' ranges, the position servos open)"
+
+
+def open_pose_qpos(model: mujoco.MjModel, bodies: Sequence[int | str]) -> np.ndarray:
+    """The hand's open pose: the configuration :func:`attach` reads its fingertips' faces in.
+
+    A model's reference configuration (``qpos0``, every joint at 0) is often no pose the hand
+    can take: fingers closed on each other, their collision boxes touching or overlapping, so
+    that the face of one towards the other is undefined or reversed (Menagerie's Franka hand),
+    or joints outside their ranges (ALOHA's gripper, the Jaco hand).  The open pose is where a
+    controller opens the hand to:
+
+    1. ``qpos0`` with every limited hinge and slide joint clamped into its range;
+    2. then, actuator by actuator, each position servo set to the end of its control range
+       that puts ``bodies`` furthest apart: the larger sum of the distances between their
+       collision boxes' centres (``mj_kinematics``), both ends tried.  Where neither end is
+       further by more than 1 nm (an arm's joint, moving the fingertips together), the pose
+       stays as it was.
+
+    A position servo is an actuator with a control range (``ctrllimited``), a fixed gain, an
+    affine bias with position feedback (``biasprm[1] < 0``) and no integrator, on a hinge or
+    slide joint or on a fixed tendon of them.  Its length settles where
+    ``gainprm[0] ctrl + biasprm[0] + biasprm[1] length = 0``: at the control itself for MuJoCo's
+    ``position`` (gain kp, bias -kp), at a scaled 0-255 command for Menagerie's ``general``
+    servos.  The length is ``gear[0]`` times the joint's position, or times the tendon's length
+    ``sum coef_i q_i``.  A joint goes to the length, clamped into its range; a tendon's joints
+    move from where they are by ``coef_i (target - length) / sum coef^2`` (the least change
+    that brings the tendon to its target, in proportion to the coefficients), each clamped into
+    its range.  Equality constraints are not solved: a joint that only follows another through
+    an ``<equality>`` stays where step 1 put it (a keyframe as ``pose=`` places such a hand).
+
+    Parameters
+    ----------
+    model : the compiled model; not changed.
+    bodies : the fingertips' bodies, ids or names; a body without collision geoms counts by its
+        origin.
+
+    Returns
+    -------
+    The open pose's qpos, (nq,).
+    """
+    ids = [int(b) if isinstance(b, int | np.integer) else mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, b) for b in bodies]
+    for given, body in zip(bodies, ids, strict=True):
+        if not 0 <= body < model.nbody:
+            raise ValueError(f"open_pose_qpos: body {given!r} is not in the model (its bodies: {_names(model, 'body', model.nbody)})")
+    local = [_collision_centre(model, b) for b in ids]
+    qpos = model.qpos0.copy()
+    for joint in range(model.njnt):
+        if model.jnt_limited[joint] and model.jnt_type[joint] in _SCALAR_JOINTS:
+            adr = model.jnt_qposadr[joint]
+            qpos[adr] = np.clip(qpos[adr], *model.jnt_range[joint])
+    data = mujoco.MjData(model)
+
+    def spread(q: np.ndarray) -> float:
+        data.qpos[:] = q
+        mujoco.mj_kinematics(model, data)
+        points = [data.xpos[b] + data.xmat[b].reshape(3, 3) @ c for b, c in zip(ids, local, strict=True)]
+        return sum(float(np.linalg.norm(p - r)) for i, p in enumerate(points) for r in points[i + 1 :])
+
+    for actuator in range(model.nu):
+        ends = [_servo_at(model, qpos, actuator, float(ctrl)) for ctrl in model.actuator_ctrlrange[actuator]]
+        if ends[0] is None:
+            continue
+        apart = [spread(q) for q in ends]
+        if abs(apart[1] - apart[0]) > _OPEN_TOLERANCE_M:
+            qpos = ends[int(np.argmax(apart))]
+    return qpos
+
+
+def _collision_centre(model: mujoco.MjModel, body: int) -> np.ndarray:
+    """The centre of the body's collision box in its frame (its origin without collision geoms), m."""
+    geoms = range(model.body_geomadr[body], model.body_geomadr[body] + model.body_geomnum[body])
+    if not any(model.geom_contype[g] or model.geom_conaffinity[g] for g in geoms):
+        return np.zeros(3)
+    return _body_box(model, body, f"body {model.body(body).name!r}")[0]
+
+
+def _servo_at(model: mujoco.MjModel, qpos: np.ndarray, actuator: int, ctrl: float) -> np.ndarray | None:
+    """``qpos`` with the joints of a position servo at the length it holds at ``ctrl``, clamped
+    into their ranges (:func:`open_pose_qpos`); None if ``actuator`` is no such servo."""
+    gain, bias, gear = model.actuator_gainprm[actuator], model.actuator_biasprm[actuator], model.actuator_gear[actuator, 0]
+    if not (
+        model.actuator_ctrllimited[actuator]
+        and model.actuator_gaintype[actuator] == mujoco.mjtGain.mjGAIN_FIXED
+        and model.actuator_biastype[actuator] == mujoco.mjtBias.mjBIAS_AFFINE
+        and model.actuator_dyntype[actuator] in _SERVO_DYNAMICS
+        and bias[1] < 0
+        and gear != 0
+    ):
+        return None
+    kind, target = int(model.actuator_trntype[actuator]), int(model.actuator_trnid[actuator, 0])
+    if kind in (mujoco.mjtTrn.mjTRN_JOINT, mujoco.mjtTrn.mjTRN_JOINTINPARENT):
+        joints, coefs = [target], np.ones(1)
+    elif kind == mujoco.mjtTrn.mjTRN_TENDON:
+        wraps = range(model.tendon_adr[target], model.tendon_adr[target] + model.tendon_num[target])
+        if any(model.wrap_type[w] != mujoco.mjtWrap.mjWRAP_JOINT for w in wraps):
+            return None  # a spatial tendon: its length is no sum of joint positions
+        joints, coefs = [int(model.wrap_objid[w]) for w in wraps], np.array([model.wrap_prm[w] for w in wraps], float)
+    else:
+        return None
+    if any(model.jnt_type[j] not in _SCALAR_JOINTS for j in joints) or not coefs @ coefs > 0:
+        return None
+    length = (gain[0] * ctrl + bias[0]) / -bias[1] / gear
+    adrs = model.jnt_qposadr[joints]
+    q = qpos.copy()
+    q[adrs] += coefs * (length - coefs @ q[adrs]) / (coefs @ coefs)
+    for joint, adr in zip(joints, adrs, strict=True):
+        if model.jnt_limited[joint]:
+            q[adr] = np.clip(q[adr], *model.jnt_range[joint])
+    return q
+
+
+def _pose_qpos(model: mujoco.MjModel, pose: str | None, bodies: Sequence[int]) -> tuple[np.ndarray, str]:
+    """The configuration the faces are read in, and its name for messages: keyframe ``pose``'s
+    qpos, or (None) :func:`open_pose_qpos` of ``bodies``."""
+    if pose is None:
+        return (open_pose_qpos(model, bodies) if bodies else model.qpos0.copy()), _OPEN_POSE
+    key = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_KEY, pose) if isinstance(pose, str) and pose else -1
+    if key < 0:
+        raise ValueError(f"attach: pose {pose!r} is no keyframe of the model (its keyframes: {_names(model, 'key', model.nkey)})")
+    return model.key_qpos[key].copy(), f"keyframe {pose!r}"
+
+
+def _body_patches(model: mujoco.MjModel, names: Sequence[str], pose: str | None = None) -> list[_Patch]:
     """Each body's pad on the face of its collision box towards the other bodies' (their centre),
-    in the model's reference configuration (qpos0)."""
+    in ``pose`` (a keyframe's name, or None: :func:`open_pose_qpos`); none for no names (the
+    pose is checked all the same)."""
     faces = []
     for name in names:
         try:
             faces.append(_Face(f"body {name!r}", model.body(name).id))
         except KeyError:
             raise ValueError(f"attach: body {name!r} is not in the model (its bodies: {_names(model, 'body', model.nbody)})") from None
-    if len(faces) < 2:
+    if len(faces) == 1:
         raise ValueError(f"attach: a pad on body {names[0]!r} faces the other fingertip: give two or more bodies, or a site")
-    return _face_patches(model, faces)
+    return _face_patches(model, faces, pose)
 
 
-def _face_patches(model: mujoco.MjModel, faces: Sequence[_Face]) -> list[_Patch]:
+def _face_patches(model: mujoco.MjModel, faces: Sequence[_Face], pose: str | None = None) -> list[_Patch]:
     """Each face's pad on the side of its box towards the other faces' boxes (their centre), in
-    the model's reference configuration (qpos0): the house pad's 20 x 20 mm or the face if
-    smaller, its length along the face's longer side (of a square face, the side nearer the
-    direction of the body's parent: the finger's length), its root towards the body's parent."""
+    ``pose`` (a keyframe's name, or None: :func:`open_pose_qpos`; only which face and which way
+    come from it): the house pad's 20 x 20 mm or the face if smaller, its length along the
+    face's longer side (of a square face, the side nearer the direction of the body's parent:
+    the finger's length), its root towards the body's parent."""
     for face in faces:
         _body_name(model, face.body, face.source)
+    qpos, described = _pose_qpos(model, pose, [face.body for face in faces])
     data = mujoco.MjData(model)
+    data.qpos[:] = qpos
     mujoco.mj_kinematics(model, data)
     boxes = [_body_box(model, face.body, face.source, face.geoms) for face in faces]
     centres = [data.xpos[face.body] + data.xmat[face.body].reshape(3, 3) @ box[0] for face, box in zip(faces, boxes, strict=True)]
@@ -234,7 +391,10 @@ def _face_patches(model: mujoco.MjModel, faces: Sequence[_Face]) -> list[_Patch]
         others = np.mean([c for j, c in enumerate(centres) if j != i], axis=0)
         towards = rotation.T @ (others - centres[i])  # in the body's frame
         if not np.linalg.norm(towards) > 0:
-            raise ValueError(f"attach: {face.source} has its collision box where the other fingertips' are; give sites")
+            raise ValueError(
+                f"attach: {face.source} has its collision box where the other fingertips' are in {described}; "
+                "give sites, or the name of a keyframe with the hand open as pose="
+            )
         out = int(np.argmax(np.abs(towards)))
         in_plane = [a for a in range(3) if a != out]
         # The element's clamped root towards the body's parent (the palm), as on the house gripper.
@@ -251,13 +411,14 @@ def _face_patches(model: mujoco.MjModel, faces: Sequence[_Face]) -> list[_Patch]
 
 
 def fingertip_pads(
-    model: mujoco.MjModel, fingertips: Sequence[str], segments: int, gel_thickness_m: float
+    model: mujoco.MjModel, fingertips: Sequence[str], segments: int, gel_thickness_m: float, *, pose: str | None = None
 ) -> list[tuple[str, str, PadPlacement, PadGeometry]]:
     """The pad :func:`attach` puts on each of ``fingertips``, each named as a box site (the pad on
     it, as ``sites``), a body (on its collision geometry's face towards the other fingertips, as
     ``bodies``) or a geom (on its own face towards them), looked up in that order; two or more
     when any is not a site.  Per fingertip: (source, body name, pad placement, pad geometry), the
-    strips ``segments`` per element, the gel ``gel_thickness_m`` thick (m)."""
+    strips ``segments`` per element, the gel ``gel_thickness_m`` thick (m).  ``pose``: the
+    keyframe whose qpos the faces are read in, or None for :func:`open_pose_qpos` (as ``attach``)."""
     faces: list[_Face | None] = []
     for name in fingertips:
         if mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, name) >= 0:
@@ -275,7 +436,9 @@ def fingertip_pads(
         raise ValueError(f"attach: {', '.join(map(repr, sites))} named as sites with fingertips that are bodies or geoms: name all one way")
     if placed and len(placed) < 2:
         raise ValueError(f"attach: a pad on {placed[0].source} faces the other fingertip: give two or more fingertips, or a site")
-    patches = _face_patches(model, placed) if placed else [_site_patch(model, name) for name in fingertips]
+    patches = _face_patches(model, placed, pose)  # none for sites: the pose is checked all the same
+    if not placed:
+        patches = [_site_patch(model, name) for name in fingertips]
     return [(p.source, p.body, _placement(p, gel_thickness_m), _geometry(p, segments, gel_thickness_m)) for p in patches]
 
 
@@ -304,8 +467,127 @@ def _geometry(patch: _Patch, segments: int, gel_thickness_m: float) -> PadGeomet
 
 
 # ---------------------------------------------------------------------------------------
+# What the pads touch.
+# ---------------------------------------------------------------------------------------
+
+
+class PadCollisionWarning(UserWarning):
+    """:func:`attach`: geoms that the fingertips' bodies touch and their pads cannot (their
+    contype and conaffinity bits do not meet the pads')."""
+
+
+def _touch(a: tuple[int, int], b: tuple[int, int]) -> bool:
+    """Whether geoms of (contype, conaffinity) ``a`` and ``b`` may touch: MuJoCo's rule."""
+    return bool(a[0] & b[1] or b[0] & a[1])
+
+
+def _collision_bits(model: mujoco.MjModel, body: int, geoms: Sequence[int] | None = None) -> list[tuple[int, int]]:
+    """(contype, conaffinity) of each of the body's collision geoms (either nonzero), or of ``geoms``."""
+    if geoms is None:
+        geoms = range(model.body_geomadr[body], model.body_geomadr[body] + model.body_geomnum[body])
+    bits = [(int(model.geom_contype[g]), int(model.geom_conaffinity[g])) for g in geoms]
+    return [b for b in bits if b != (0, 0)]
+
+
+def pad_collision_bits(model: mujoco.MjModel, body: int, geoms: Sequence[int] | None = None) -> tuple[int, int] | None:
+    """The contype and conaffinity of the pads on ``body``: those of the geoms they sit on.
+
+    MuJoCo lets two geoms touch where ``contype1 & conaffinity2`` or ``contype2 & conaffinity1``
+    is nonzero.  The pads' contype is the OR of the contypes of the body's collision geoms
+    (contype or conaffinity nonzero; ``geoms`` of it instead: a geom-named fingertip's own),
+    their conaffinity the OR of those geoms' conaffinities without the contype's bits.  A pad's
+    strips are sibling bodies, and strips whose contype meets their conaffinity touch each
+    other: the neighbours would tie together the strips the gel law keeps independent.  On a
+    finger of MuJoCo's default contype 1, conaffinity 1 that is the house class's 1 and 0.
+
+    The pads so touch every geom the body's geoms touch through their contype, and every geom
+    whose contype meets the rest of their conaffinity.  They miss a geom that meets the body's
+    geoms only through a conaffinity bit the body also has as contype (a contype 1,
+    conaffinity 0 geom against a 1/1 finger); :func:`attach` names those
+    (:class:`PadCollisionWarning`).
+
+    Returns
+    -------
+    (contype, conaffinity), or None where the body has no collision geom (a site on a body with
+    visual geoms only): its pad keeps the house class's contype 1, conaffinity 0.
+    """
+    bits = _collision_bits(model, body, geoms)
+    if not bits:
+        return None
+    contype = conaffinity = 0
+    for geom_contype, geom_conaffinity in bits:
+        contype, conaffinity = contype | geom_contype, conaffinity | geom_conaffinity
+    return contype, conaffinity & ~contype
+
+
+def _set_pad_collision(spec: mujoco.MjSpec, pad: AttachedPad, model: mujoco.MjModel, pads: Sequence[AttachedPad]) -> None:
+    """Give ``pad``'s strip geoms in ``spec`` the collision bits of the body it sits on in
+    ``model`` (the user's, compiled; :func:`pad_collision_bits`, or the house class's where the
+    body has no collision geom).  At the last of ``pads``, warn once, at :func:`attach`'s caller
+    (:class:`PadCollisionWarning`), of the model's geoms that the pads' bodies touch and no pad
+    can.  Only the bits count: explicit ``<pair>`` elements are not considered (a geom that
+    touches a finger only through one touches no pad, and is not named), nor ``<exclude>``s
+    (the user's name the user's bodies, not the strips)."""
+    bits = pad_collision_bits(model, model.body(pad.body).id)
+    if bits is not None:
+        for strip in pad.strips:
+            geom = spec.geom(f"{strip}_geom")
+            geom.contype, geom.conaffinity = bits
+    if pad is pads[-1]:
+        house = spec.find_default(PAD_CLASS).geom
+        bodies = [model.body(p.body).id for p in pads]
+        given = [pad_collision_bits(model, b) or (house.contype, house.conaffinity) for b in bodies]
+        missed = _untouched_geoms(model, bodies, given)
+        if missed:
+            warnings.warn(_untouched_message(model, missed, given), PadCollisionWarning, stacklevel=3)
+
+
+def _untouched_geoms(model: mujoco.MjModel, bodies: Sequence[int], pads: Sequence[tuple[int, int]]) -> list[int]:
+    """The collision geoms of ``model`` that no pad can touch (``pads``: each pad's contype and
+    conaffinity) and a collision geom of a pad's body can (any, for a body without one); the
+    geoms of the pads' bodies left out (the pads never touch them)."""
+    fingers = [_collision_bits(model, b) for b in set(bodies)]
+    missed = []
+    for g in range(model.ngeom):
+        bits = (int(model.geom_contype[g]), int(model.geom_conaffinity[g]))
+        if model.geom_bodyid[g] in bodies or bits == (0, 0) or any(_touch(bits, p) for p in pads):
+            continue
+        if any(not finger or any(_touch(bits, f) for f in finger) for finger in fingers):
+            missed.append(g)
+    return missed
+
+
+def _untouched_message(model: mujoco.MjModel, geoms: Sequence[int], pads: Sequence[tuple[int, int]]) -> str:
+    """What :func:`_set_pad_collision` warns: the geoms (up to 12), the pads' bits, what to change."""
+
+    def label(g: int) -> str:
+        name = model.geom(g).name or f"#{g} of body {model.body(model.geom_bodyid[g]).name!r}"
+        return f"{name!r} (contype {model.geom_contype[g]}, conaffinity {model.geom_conaffinity[g]})"
+
+    shown = ", ".join(label(g) for g in geoms[:12]) + (", ..." if len(geoms) > 12 else "")
+    contype = conaffinity = 0
+    for pad_contype, pad_conaffinity in pads:
+        contype, conaffinity = contype | pad_contype, conaffinity | pad_conaffinity
+    if contype:
+        change = f"add a bit of the pads' contype to their conaffinity (bit value {contype & -contype})"
+    else:
+        change = f"add a bit of the pads' conaffinity to their contype (bit value {conaffinity & -conaffinity})"
+    bits = ", ".join(sorted({f"{c}/{a}" for c, a in pads}))
+    return (
+        f"attach: the fingertips' bodies touch {len(geoms)} geom(s) that their pads cannot: {shown}. The pads' contype/conaffinity: "
+        f"{bits} (their bodies' collision geoms', the conaffinity without the contype's bits, so that no strip touches another). "
+        f"To let the pads touch those geoms, {change}"
+    )
+
+
+# ---------------------------------------------------------------------------------------
 # The fingertip's configuration and the model's options.
 # ---------------------------------------------------------------------------------------
+
+
+def _positive(value: object) -> bool:
+    """Whether ``value`` is a finite positive number (else the config's own check names it)."""
+    return isinstance(value, int | float) and not isinstance(value, bool) and math.isfinite(value) and value > 0
 
 
 def _integrator_name(option) -> str:
@@ -336,7 +618,11 @@ def fingertip_config(config: Mapping[str, object] | SensorConfig | None, option)
         if key not in keys:
             raise ValueError(f"attach: unknown fingertip key {key!r}; valid keys: {', '.join(keys)}")
     overrides = scenarios.override_strings(given)
-    model_options = {"physics.timestep_s": float(option.timestep), "physics.integrator": _integrator_name(option)}
+    # The period: a whole number of the model's steps (at least one), the nearest to the one asked.
+    timestep = float(option.timestep)
+    asked = given.get("physics.control_period_s", PhysicsConfig().control_period_s)
+    period = {"physics.control_period_s": max(1, round(float(asked) / timestep)) * timestep} if _positive(asked) and timestep > 0 else {}
+    model_options = {"physics.timestep_s": timestep, "physics.integrator": _integrator_name(option), **period}
     # No controller runs here: the scripted one (which reads no sensor) over the sensor's modes
     # keeps the scenario's checks to the fingertip's own.
     controller = ["controller.kind=scripted"]
@@ -348,9 +634,9 @@ def fingertip_config(config: Mapping[str, object] | SensorConfig | None, option)
         raise ValueError(f"attach: {err}{whose}") from None
 
 
-def _check_options(option, pads: Sequence[AttachedPad], gel: GelModel, who: str = "attach") -> None:
+def _check_options(option, who: str = "attach") -> None:
     """The model's options the gel pads need (``option``: an MjSpec's or an MjModel's); ``who``
-    begins the messages."""
+    begins the messages.  Any integrator and timestep will do (:class:`cosim.mjhooks.GelPassive`)."""
     for flag, why in _NEEDED.items():
         if option.disableflags & flag:
             name = flag.name.removeprefix("mjDSBL_").lower()
@@ -359,15 +645,6 @@ def _check_options(option, pads: Sequence[AttachedPad], gel: GelModel, who: str 
         if option.enableflags & flag:
             name = flag.name.removeprefix("mjENBL_").lower()
             raise ValueError(f'{who}: the model enables {name!r} (<option><flag {name}="enable"/>): {why}')
-    for pad in pads:
-        # The stiffest strip at its stop, on its own gel column's mass (rho A h0).
-        areas = pad.geometry.strip_areas_m2
-        stiffness = areas * _GelTable.build(gel, pad.geometry).tangent_at_stop_pa_m(pad.geometry)
-        mass = gel.params.density_kg_m3 * areas * pad.geometry.gel_thickness_m
-        try:
-            check_gel_integration(option, stiffness, mass)
-        except ValueError as err:
-            raise ValueError(f"{who}: {pad.source}: {err}") from None
 
 
 # ---------------------------------------------------------------------------------------
@@ -380,6 +657,7 @@ def attach(
     sites: Sequence[str] | None = None,
     bodies: Sequence[str] | None = None,
     config: Mapping[str, object] | SensorConfig | None = None,
+    pose: str | None = None,
 ) -> Fingertips:
     """Put a piezotip fingertip (gel pad, element, readout) on each site and body of ``spec``.
 
@@ -389,12 +667,21 @@ def attach(
     sites : box sites marking the sensing patches: x/y half-sizes the pad's (x along the
         element, towards its clamped root), +z out of the finger, the origin the pad's base centre.
     bodies : bodies whose collision geometry's face towards the other fingertips (the other
-        bodies' centre, at qpos0) carries the pad: the house pad's 20 x 20 mm, or the face if
+        bodies' centre, in ``pose``) carries the pad: the house pad's 20 x 20 mm, or the face if
         smaller, its length along the face's longer side, its root towards the body's parent.
     config : the fingertips' configuration: the scenario config's ``sensor.*`` keys as a mapping
         (``{"sensor.quality_factor": 70}``) or a :class:`SensorConfig`, and ``physics.pad_segments``,
         ``physics.control_period_s`` (the period :meth:`FingertipLoop.step` advances) and
         ``physics.gel_update``.  The same for every fingertip of the call.
+    pose : the name of a keyframe of the model whose qpos the bodies' faces are read in; None
+        (default) for the open pose (:func:`open_pose_qpos`: qpos0 in the joints' ranges, the
+        position servos at their open ends).  Only which face carries a pad, and which way it
+        runs, come from it; the model and its keyframes are left as they are.
+
+    The strips' geoms touch what the geoms of the body they sit on touch: their contype and
+    conaffinity are :func:`pad_collision_bits`'s (the house class's on a body without collision
+    geoms).  A :class:`PadCollisionWarning` names the model's geoms that the fingertips' bodies
+    touch and the pads cannot; explicit ``<pair>`` elements are not considered.
 
     Returns
     -------
@@ -404,10 +691,10 @@ def attach(
     ------
     ValueError
         naming the bad value: a site or body the model lacks, a site that is not a box, a patch
-        smaller than the element, a model option the pads cannot run under (a disabled contact,
-        limit, spring or damper, contact override, an explicit integrator at a timestep the
-        gel's stiffness is unstable at, a timestep the period is not a whole multiple of), a
-        bad fingertip key or value, a spec that already has fingertips (attach once, all of them).
+        smaller than the element, a ``pose`` that is no keyframe, bodies whose boxes coincide in
+        it, a model option the pads cannot run under (a disabled contact, limit, spring or damper,
+        contact override; any integrator and timestep will do), a bad fingertip key or value, a
+        spec that already has fingertips (attach once, all of them).
     """
     if not isinstance(spec, mujoco.MjSpec):
         raise ValueError(f"attach: spec must be a mujoco.MjSpec, got {type(spec).__name__}")
@@ -428,19 +715,21 @@ def attach(
     settings = fingertip_config(config, spec.option)
     fingertip = make_fingertip(settings)
     gel = fingertip.gel
-    patches = [_site_patch(before, s) for s in sites] + (_body_patches(before, bodies) if bodies else [])
+    patches = [_site_patch(before, s) for s in sites] + _body_patches(before, bodies, pose)
     pads = []
     for name, patch in zip(names, patches, strict=True):
         geometry = _geometry(patch, settings.physics.pad_segments, gel.params.thickness_m)
         placement = _placement(patch, gel.params.thickness_m)
         pads.append(AttachedPad(name, patch.source, patch.body, placement, geometry, geometry.strip_body_names(f"{PREFIX}{name}/")))
-    _check_options(spec.option, pads, gel)
+    _check_options(spec.option)
 
     # The house's class `pad` (contacts, housing stop), its time constant at this model's step.
     # Hard contacts: the house's compliant ones need impratio 100 to hold without creep, and the
     # user's options are the user's (cosim.pad_model.resolve_pad_contact; models/README.md).
+    # Under an explicit integrator the hardness ramps in over the first 10 um (EXPLICIT_PAD_SOLIMP).
     pad_class = copy_pad_class(spec, PAD_CLASS, GEL_MATERIAL)
-    pad_class.geom.solimp = list(HARD_PAD_SOLIMP)
+    implicit = spec.option.integrator == mujoco.mjtIntegrator.mjINT_DISCRETE
+    pad_class.geom.solimp = list(HARD_PAD_SOLIMP if implicit else EXPLICIT_PAD_SOLIMP)
     constant = pad_time_constant_s(spec.option.timestep)
     pad_class.geom.solref = [constant, pad_class.geom.solref[1]]
     pad_class.joint.solref_limit = [constant, pad_class.joint.solref_limit[1]]
@@ -453,6 +742,12 @@ def attach(
         # welded to the world (a fixed finger), so the pair is excluded explicitly.
         for strip in pad.strips:
             spec.add_exclude(name=f"{strip}_exclude", bodyname1=pad.body, bodyname2=strip)
+        _set_pad_collision(spec, pad, before, pads)
+    for pad in pads:  # filled by the readout inside mj_step (FingertipLoop.sensor), from the positions
+        for field in SENSOR_FIELDS:
+            spec.add_sensor(
+                name=sensor_name(pad.name, field), type=mujoco.mjtSensor.mjSENS_USER, dim=1, needstage=mujoco.mjtStage.mjSTAGE_POS
+            )
     try:
         after = spec.compile()
     except Exception as err:
@@ -536,13 +831,39 @@ class TipReading:
     true_pressure_pa: float
 
 
-class FingertipLoop:
-    """Attached fingertips on one model and its data, stepped one period at a time.
+#: The readout's status as a number in ``piezotip/TIP/status`` (docs/attach.md): 0 is "ok".
+STATUS_CODES = {"ok": 0, "below_detection": 1, "saturated": 2, "settling": 3}
+#: Each fingertip's MuJoCo sensors, ``piezotip/TIP/<field>``: the :class:`TipReading` field each holds.
+SENSOR_FIELDS = ("pressure_pa", "sigma_pa", "status", "mode", "true_pressure_pa")
 
-    :meth:`step` runs one period (``physics.control_period_s``, a whole number of the model's
-    timesteps): the gel law on every strip (once a period, or every step with
-    ``physics.gel_update=substep``), ``mj_step`` over the period, then per fingertip its
-    pressures, sensor and readout.  Set ``data.ctrl`` between steps as in any MuJoCo loop.
+
+def sensor_name(tip: str, field: str) -> str:
+    """The name of fingertip ``tip``'s MuJoCo sensor ``field`` (:data:`SENSOR_FIELDS`)."""
+    return f"{PREFIX}{tip}/{field}"
+
+
+def _sensor_values(reading: TipReading) -> list[float]:
+    """A reading as the values of :data:`SENSOR_FIELDS`, in order."""
+    status = STATUS_CODES.get(reading.status, -1)
+    return [reading.estimate_pa, reading.sigma_pa, float(status), float(reading.mode), reading.true_pressure_pa]
+
+
+class FingertipLoop:
+    """Attached fingertips on one model and its data, running inside every ``mj_step``.
+
+    From :meth:`Fingertips.bind` on, MuJoCo's own stepping runs the fingertips (through its
+    passive and sensor callbacks, :mod:`cosim.mjhooks`): the gel law on every strip at every
+    physics step, and, once a period, every fingertip's pressures, sensor and readout, whose
+    reading fills the fingertip's sensors in ``data.sensordata`` (``piezotip/TIP/pressure_pa``,
+    ...; read them as any MuJoCo sensor).  A plain ``mujoco.mj_step(model, data)`` loop, or a
+    framework's, is all it needs.  :meth:`step` is piezotip's own loop on top: one period of
+    ``mj_step`` calls, then the checks MuJoCo leaves to its user (a diverged state) and the
+    readings at the period's end (:meth:`readings`).
+
+    The period is ``physics.control_period_s`` rounded to a whole number of the model's
+    timesteps (at least one): :attr:`period_s`, :attr:`substeps`.  The readout samples when
+    ``data.time`` reaches its next period; ``data.time`` going back (a reset) starts the
+    readout afresh, as it was at bind (the same noise from the same seed).
     """
 
     def __init__(self, tips: Fingertips, model: mujoco.MjModel, data: mujoco.MjData) -> None:
@@ -552,51 +873,111 @@ class FingertipLoop:
             raise ValueError("bind: data is not the model's (make it with mujoco.MjData(model))")
         config, fingertip = tips.config, tips.fingertip
         self.model, self.data, self.tips = model, data, tips
-        _check_options(model.opt, tips.pads, fingertip.gel, "bind")
-        self.period_s = config.physics.control_period_s
-        ratio = self.period_s / model.opt.timestep
-        if abs(ratio - round(ratio)) > 1e-6 or round(ratio) < 1:
-            raise ValueError(
-                f"bind: physics.control_period_s {self.period_s!r} s is not a whole number of the model's timestep {model.opt.timestep!r} s"
-            )
-        self.substeps = round(ratio)
-        self._every_substep = config.physics.gel_update == "substep"
-        unit = make_unit(config)  # the physical unit the channels run, when not the nominal design
+        _check_options(model.opt, "bind")
+        self.timestep_s = float(model.opt.timestep)
+        self.substeps = max(1, round(config.physics.control_period_s / self.timestep_s))
+        self.period_s = self.substeps * self.timestep_s
+        self._unit = make_unit(config)  # the physical unit the channels run, when not the nominal design
         self.bridges: dict[str, PadBridge] = {}
-        self.channels: dict[str, SensorChannel] = {}
-        self._readers, self._fractions = {}, {}
-        rng = np.random.default_rng(config.sensor.seed)
+        self._layouts = {}
         for pad in tips.pads:
             try:
-                bridge = PadBridge(model, gel=fingertip.gel, geometry=pad.geometry, pads={pad.name: pad.strips})
+                bridge = PadBridge(model, gel=fingertip.gel, geometry=pad.geometry, pads={pad.name: pad.strips}, check_integration=False)
             except ValueError as err:
                 raise ValueError(f"bind: {pad.source}: {err} (is the model compiled from the spec given to attach?)") from None
-            edges, weights, fractions = coverage_layout(fingertip, unit, pad.geometry, config.sensor.load_spread)
             self.bridges[pad.name] = bridge
-            self.channels[pad.name] = make_channel(config, fingertip, unit, edges, np.random.default_rng(rng.integers(2**63)))
-            self._readers[pad.name] = strip_reader(bridge, pad.geometry, weights, data)
-            self._fractions[pad.name] = fractions
-        self._apply = [bridge.apply_gel_forces for bridge in self.bridges.values()]
+            self._layouts[pad.name] = coverage_layout(fingertip, self._unit, pad.geometry, config.sensor.load_spread)
+        try:
+            # Every fingertip's sensors' addresses, fingertips in order: one write of them all a step.
+            self._sensor_adr = np.array(
+                [int(model.sensor(sensor_name(pad.name, field)).adr[0]) for pad in tips.pads for field in SENSOR_FIELDS]
+            )
+        except KeyError as err:
+            raise ValueError(f"bind: the model lacks the fingertips' sensor {err} (compile the spec given to attach)") from None
+        self._readers = {
+            pad.name: strip_reader(self.bridges[pad.name], pad.geometry, self._layouts[pad.name][1], data) for pad in tips.pads
+        }
         self._unloaded_v = {m: fingertip.element.unloaded_voltage(m) for m in fingertip.modes}
+        self.gel = _gel_passive(model, self.bridges.values(), 0.0 if config.physics.gel_update == "substep" else self.period_s)
+        self._start()
+        mjhooks.register(data, model, self.gel)
+        mjhooks.register(data, model, self)
+
+    def _start(self) -> None:
+        """The readout as at bind: fresh channels (noise from ``sensor.seed``), no reading yet."""
+        config, fingertip = self.tips.config, self.tips.fingertip
+        rng = np.random.default_rng(config.sensor.seed)
+        self.channels: dict[str, SensorChannel] = {}
+        for name, (edges, _, _) in self._layouts.items():
+            self.channels[name] = make_channel(config, fingertip, self._unit, edges, np.random.default_rng(rng.integers(2**63)))
         self._readings: dict[str, TipReading] = {}
+        first = [math.nan, math.nan, float(STATUS_CODES["settling"]), float(min(config.sensor.modes)), math.nan]
+        self._values = np.tile(first, len(self.channels))
+        self._last_s = self.data.time
+        self._next_s = self.data.time + self.period_s
 
     @property
     def names(self) -> tuple[str, ...]:
         return tuple(self.channels)
 
+    def unbind(self) -> None:
+        """Stop running the fingertips in ``data``'s steps (the model's strips keep their last law)."""
+        mjhooks.unregister(self.data, self.gel)
+        mjhooks.unregister(self.data, self)
+
+    # -- the hook: inside mj_step ----------------------------------------------------------
+
+    def passive(self, model: mujoco.MjModel, data: mujoco.MjData) -> None:
+        return None
+
+    def sensor(self, model: mujoco.MjModel, data: mujoco.MjData, stage: int) -> None:
+        if stage != mujoco.mjtStage.mjSTAGE_POS:
+            return
+        t, half = data.time, 0.5 * self.timestep_s
+        if t < self._last_s - half:  # time went back: a reset
+            self._start()
+        self._last_s = t
+        if t >= self._next_s - half:
+            self._sample()
+            self._next_s = t + self.period_s
+        self._write(data)
+
+    def _sample(self) -> None:
+        """Every fingertip's pressures, sensor and readout, once (one period since the last)."""
+        readings = {}
+        for name, channel in self.channels.items():
+            _, (cells,) = self._readers[name].read()
+            reading = channel.update_trusted(cells, self.period_s)
+            estimate = channel.estimate(reading)
+            truth = math.fsum(p * f for p, f in zip(cells, self._layouts[name][2], strict=True))
+            voltage = reading.v1 * self._unloaded_v[reading.mode]
+            readings[name] = TipReading(
+                estimate.pressure_pa, estimate.uncertainty_pa, estimate.status, reading.mode, voltage, reading.v1, truth
+            )
+        self._readings = readings
+        self._values = np.array([v for r in readings.values() for v in _sensor_values(r)])
+
+    def _write(self, data: mujoco.MjData) -> None:
+        data.sensordata[self._sensor_adr] = self._values
+
+    # -- piezotip's own loop ---------------------------------------------------------------
+
     def step(self) -> None:
-        """One period: the gel law, physics, sensor and readout (then :meth:`readings`).
+        """One period: :attr:`substeps` ``mj_step`` calls, then the readout at the period's end
+        (:meth:`readings`; ``data.sensordata`` holds it too).
 
         :class:`~cosim.loop.SimulationDiverged` if the state went non-finite, or if MuJoCo found
         a bad position, velocity or acceleration in the period: it then resets the data to the
         model's initial state, warns and steps on (``mj_checkPos``, ``mj_checkVel``,
         ``mj_checkAcc``), and the fingertips would read a reset scene as if nothing happened."""
         m, d, step = self.model, self.data, mujoco.mj_step
+        if self not in mjhooks.hooks_of(d):
+            raise RuntimeError("step: these fingertips were unbound (bind again)")
+        _check_controls(m, d)
         start_s, before = d.time, _unstable_counts(d)
-        for k in range(self.substeps):
-            if k == 0 or self._every_substep:
-                for apply in self._apply:
-                    apply(d)
+        prepare = self.gel.prepare
+        for _ in range(self.substeps):
+            prepare(d)  # the discrete integrator's stiffness at this step's state (the hook's comes a step late)
             step(m, d)
         warned = [w.name for w, n0, n1 in zip(_UNSTABLE, before, _unstable_counts(d), strict=True) if n1 != n0]
         if warned or d.time <= start_s:
@@ -606,26 +987,22 @@ class FingertipLoop:
             )
         if not finite_state(d):
             raise SimulationDiverged(f"simulation diverged at t = {d.time:.4f} s: non-finite state (timestep {m.opt.timestep:g} s)")
-        readings = {}
-        for name, channel in self.channels.items():
-            _, (cells,) = self._readers[name].read()
-            reading = channel.update_trusted(cells, self.period_s)
-            estimate = channel.estimate(reading)
-            truth = math.fsum(p * f for p, f in zip(cells, self._fractions[name], strict=True))
-            voltage = reading.v1 * self._unloaded_v[reading.mode]
-            readings[name] = TipReading(
-                estimate.pressure_pa, estimate.uncertainty_pa, estimate.status, reading.mode, voltage, reading.v1, truth
-            )
-        self._readings = readings
+        # The period's end: sample now (the next step's sensor callback, at this same time, only writes).
+        self._last_s = d.time
+        self._sample()
+        self._next_s = d.time + self.period_s
+        self._write(d)
 
     def readings(self) -> dict[str, TipReading]:
-        """Each fingertip's :class:`TipReading` after the last :meth:`step`, by name."""
+        """Each fingertip's :class:`TipReading` at the last sample (:meth:`step`'s end, or the
+        last period ``mj_step`` reached), by name."""
         if not self._readings:
-            raise RuntimeError("no readings yet: call step() first")
+            raise RuntimeError("no readings yet: call step() (or mj_step for one period) first")
         return dict(self._readings)
 
     def set_mode(self, name: str, mode: int) -> None:
-        """Drive fingertip ``name`` in ``mode`` from the next period (a switch rings the new mode up)."""
+        """Drive fingertip ``name`` in ``mode`` from the next period (a switch rings the new mode
+        up); in a plain ``mj_step`` loop too."""
         channel = self._channel(name)
         try:
             channel.select_mode(mode)
@@ -641,6 +1018,27 @@ class FingertipLoop:
         if name not in self.channels:
             raise ValueError(f"fingertip {name!r} is not attached; the fingertips: {', '.join(self.channels)}")
         return self.channels[name]
+
+
+#: The largest control MuJoCo takes: past it (or NaN) it sets the control to 0 with a warning
+#: (mjWARN_BADCTRL, engine_forward.c), and the fingertips would read an actuator that never pushed.
+_MAX_CTRL = 1e10
+
+
+def _check_controls(model: mujoco.MjModel, data: mujoco.MjData) -> None:
+    """A ValueError naming each actuator whose control MuJoCo would zero (NaN, infinite, > 1e10)."""
+    bad = np.flatnonzero(~(np.abs(data.ctrl) <= _MAX_CTRL))
+    if bad.size:
+        named = ", ".join(f"{model.actuator(int(a)).name or f'actuator {int(a)}'} = {data.ctrl[a]!r}" for a in bad[:8])
+        raise ValueError(f"step: data.ctrl holds values MuJoCo would set to 0 (NaN, infinite or beyond {_MAX_CTRL:g}): {named}")
+
+
+def _gel_passive(model: mujoco.MjModel, bridges, hold_s: float) -> mjhooks.GelPassive:
+    """One gel law for every strip of ``bridges`` (all of a model's fingertips, one call a step)."""
+    parts = [bridge.strip_arrays() for bridge in bridges]
+    qadr, dof, joint, area = (np.concatenate([p[k] for p in parts]) for k in range(4))
+    table = next(iter(bridges)).table
+    return mjhooks.GelPassive(model, qadr, dof, joint, area, table.grid_m, table.pressure_pa, table.tangent_pa_m, hold_s=hold_s)
 
 
 # ---------------------------------------------------------------------------------------

@@ -120,6 +120,9 @@ class PadBridge:
         pads (their strip count) and checked against the model.
     pads : per pad name, its strips' body names, distal first (:meth:`PadGeometry.strip_body_names`);
         default the house gripper's two pads (``PAD_NAMES``).  Needs ``geometry``.
+    check_integration : refuse an explicit integrator at a step the stiffest strip is unstable
+        at (True); False where the law is applied otherwise (``piezotip.attach``'s
+        :class:`cosim.mjhooks.GelPassive`, which scales the strips' masses instead).
 
     Use::
 
@@ -136,6 +139,7 @@ class PadBridge:
         gel: GelModel | None = None,
         geometry: PadGeometry | None = None,
         pads: Mapping[str, Sequence[str]] | None = None,
+        check_integration: bool = True,
     ) -> None:
         self.model = model
         self.gel = gel or GelModel()
@@ -185,7 +189,8 @@ class PadBridge:
             self._geom_strip[model.geom(f"{n}_geom").id] = i
         self._elliptic = model.opt.cone == mujoco.mjtCone.mjCONE_ELLIPTIC
         model.jnt_stiffnesspoly[self._jnt] = 0.0
-        self._check_stability()
+        if check_integration:
+            self._check_stability()
         # The per-step path: the gel law on every strip joint (cosim/pad_kernels.py, compiled
         # where built), bound to the arrays of the MjData it last saw; scalar reads on lists and
         # memoryviews (item access on them costs a fraction of a numpy scalar's).
@@ -246,6 +251,16 @@ class PadBridge:
     def __setstate__(self, state: dict) -> None:
         self.__dict__.update(state)
         self._views_of = None  # the gel-force kernel (copied unbound) is bound at its first use
+
+    @property
+    def table(self) -> _GelTable:
+        """The gel law on its grid (P(q), dP/dq), as every step reads it."""
+        return self._table
+
+    def strip_arrays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Every strip's qpos address, dof address, joint id and area (m^2), pads in
+        :attr:`pad_names` order, strips distal first."""
+        return self._qadr.copy(), self._dof.copy(), self._jnt.copy(), self._area.copy()
 
     @property
     def joint_ids(self) -> np.ndarray:

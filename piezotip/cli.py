@@ -393,6 +393,12 @@ def _cmd_bench(args: argparse.Namespace) -> int:
     except RuntimeError as err:  # a run diverged or was not deterministic: no numbers to report
         print(f"error: {err}", file=sys.stderr)
         return 1
+    if args.skin:
+        from piezotip.analysis.skin_bench import skin_report
+
+        if progress:
+            progress("a 16-fingertip skin")
+        report["skin"] = skin_report(repeats=args.repeats)
     if not args.no_presets:
         from piezotip.analysis.fidelity import fidelity_report, format_fidelity, plot_pareto
 
@@ -407,6 +413,11 @@ def _cmd_bench(args: argparse.Namespace) -> int:
         print(json.dumps(_json_safe(report), indent=2))
     else:
         print(format_report(report))
+        if args.skin:
+            from piezotip.analysis.skin_bench import format_skin_report
+
+            print()
+            print(format_skin_report(report["skin"]))
         if not args.no_presets:
             print()
             print(format_fidelity(fidelity))
@@ -533,6 +544,7 @@ def build_parser(prog: str | None = None) -> argparse.ArgumentParser:
     p.add_argument("--set", action="append", metavar="KEY=VALUE", help="override a config value of every benchmarked scene (repeatable)")
     p.add_argument("--preset", choices=PRESET_NAMES, help="fidelity preset of the benchmarked scenes (the overhead part)")
     p.add_argument("--no-presets", action="store_true", help="skip the fidelity presets' cost and error table")
+    p.add_argument("--skin", action="store_true", help="also a 16-fingertip skin (attach) against the bare model and MuJoCo's <touch>")
     p.set_defaults(func=_cmd_bench)
 
     p = sub.add_parser(

@@ -1,0 +1,260 @@
+"""The fingertips inside a plain ``mujoco.mj_step``: MuJoCo's callbacks, dispatched by MjData.
+
+MuJoCo calls ``mjcb_passive`` (extra passive forces) and ``mjcb_sensor`` (``user`` sensors)
+from inside ``mj_step``/``mj_forward``, for every model in the process: the callbacks are
+process-global.  :func:`register` installs one dispatcher for each, once, and runs a hook only
+for the MjData it was registered with; for any other MjData the dispatchers return at once, so
+a model without fingertips steps bit for bit as it did (``tests/test_attach_sensordata.py``).
+A C callback (a ctypes function pointer) set before the first :func:`register` (yours) is kept and
+called first, for every model; a Python callable there is refused (MuJoCo cannot call it for the
+models it compiles); one set after it replaces the dispatcher (set yours first).
+
+Two hooks ride on this (:class:`GelPassive`, and the readout of :class:`cosim.attach.FingertipLoop`):
+
+- the gel law on every pad strip joint, in ``mjcb_passive``, one vectorized call for all the
+  fingertips of a model (models/README.md, "Pad compliance");
+- the sensor readout, in ``mjcb_sensor`` at the position stage, writing the fingertips'
+  ``user`` sensors (``piezotip/TIP/pressure_pa``, ...) into ``data.sensordata``.
+
+Python callbacks hold the GIL: a model stepped from several threads (``mujoco.rollout``) runs
+its hooks one thread at a time.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import weakref
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Protocol
+
+import mujoco
+import numpy as np
+
+__all__ = ["EXPLICIT_OMEGA_H", "GelPassive", "Hook", "hooks_of", "register", "unregister"]
+
+#: The strips' ring frequency times the step under an explicit integrator (:class:`GelPassive`'s
+#: mass scaling): a quarter of the explicit stability limit omega h < 2.  Measured at 2 ms on a
+#: pressed pad and on a 20 g finger pressing 1-10 N: omega h = 1 with the damping below still
+#: rang at 10-50 % of the load; 0.5 holds the load to 1e-8 under Euler, RK4, implicit and
+#: implicitfast.
+EXPLICIT_OMEGA_H = 0.5
+
+
+class Hook(Protocol):
+    """What :func:`register` runs for one MjData (either method may be a no-op)."""
+
+    def passive(self, model: mujoco.MjModel, data: mujoco.MjData) -> None: ...
+
+    def sensor(self, model: mujoco.MjModel, data: mujoco.MjData, stage: int) -> None: ...
+
+
+#: MuJoCo's callback signatures.  The dispatchers are C function pointers (ctypes), called with
+#: the raw mjModel* and mjData* addresses: MuJoCo also calls the callbacks on models and data
+#: that have no Python object (``MjSpec.compile``, ``MjModel.from_xml_*`` run ``mj_setConst``),
+#: where a Python callable fails ("Python exception raised"), so the dispatch is by address.
+_PASSIVE_T = ctypes.CFUNCTYPE(None, ctypes.c_void_p, ctypes.c_void_p)
+_SENSOR_T = ctypes.CFUNCTYPE(None, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_int)
+
+
+@dataclass
+class _Bound:
+    """One registered MjData (weakly held: a dropped MjData takes its hooks along) and its hooks."""
+
+    data: weakref.ref
+    model: mujoco.MjModel
+    hooks: list[Hook]
+
+
+#: The registered MjData by their mjData* address.
+_BOUND: dict[int, _Bound] = {}
+#: The callbacks found before the dispatchers were installed (C function pointers, called first,
+#: for every model).
+_PREVIOUS: dict[str, Callable | None] = {"passive": None, "sensor": None}
+
+
+def _bound(data_address: int) -> _Bound | None:
+    bound = _BOUND.get(data_address)
+    if bound is not None and bound.data() is None:  # freed: the address may be another MjData's now
+        del _BOUND[data_address]
+        return None
+    return bound
+
+
+@_PASSIVE_T
+def _passive(model_address: int, data_address: int) -> None:
+    previous = _PREVIOUS["passive"]
+    if previous is not None:
+        previous(model_address, data_address)
+    bound = _bound(data_address)
+    if bound is not None:
+        data = bound.data()
+        for hook in bound.hooks:
+            hook.passive(bound.model, data)
+
+
+@_SENSOR_T
+def _sensor(model_address: int, data_address: int, stage: int) -> None:
+    previous = _PREVIOUS["sensor"]
+    if previous is not None:
+        previous(model_address, data_address, stage)
+    bound = _bound(data_address)
+    if bound is not None:
+        data = bound.data()
+        for hook in bound.hooks:
+            hook.sensor(bound.model, data, stage)
+
+
+def _install() -> None:
+    """Set the dispatchers as MuJoCo's passive and sensor callbacks, chaining a C one set before."""
+    for name, dispatcher, get, put in (
+        ("passive", _passive, mujoco.get_mjcb_passive, mujoco.set_mjcb_passive),
+        ("sensor", _sensor, mujoco.get_mjcb_sensor, mujoco.set_mjcb_sensor),
+    ):
+        current = get()
+        if current is dispatcher:
+            continue
+        if current is not None and not isinstance(current, ctypes._CFuncPtr):
+            raise ValueError(
+                f"bind: MuJoCo's mjcb_{name} is already set to {current!r}, a Python callable, which the fingertips' "
+                f"callback cannot call for models that have no Python object; set it as a ctypes function pointer "
+                f"(it is then called first), or clear it (mujoco.set_mjcb_{name}(None))"
+            )
+        _PREVIOUS[name] = current
+        put(dispatcher)
+
+
+def register(data: mujoco.MjData, model: mujoco.MjModel, hook: Hook) -> None:
+    """Run ``hook`` inside every ``mj_step``/``mj_forward`` of ``data`` (``model``'s), after any
+    earlier hook of it."""
+    _install()
+    bound = _bound(data._address)
+    if bound is None:
+        bound = _BOUND[data._address] = _Bound(weakref.ref(data), model, [])
+    bound.hooks.append(hook)
+
+
+def unregister(data: mujoco.MjData, hook: Hook) -> None:
+    """Stop running ``hook`` for ``data`` (nothing if it is not registered)."""
+    bound = _bound(data._address)
+    if bound is not None and hook in bound.hooks:
+        bound.hooks.remove(hook)
+
+
+def hooks_of(data: mujoco.MjData) -> tuple[Hook, ...]:
+    """The hooks registered for ``data``, in the order they run."""
+    bound = _bound(data._address)
+    return tuple(bound.hooks) if bound is not None else ()
+
+
+class GelPassive:
+    """The gel's force law on pad strip joints as MuJoCo passive forces, every physics step.
+
+    For each strip of area A (m^2) and indentation q (m), the joint's spring force (whatever
+    ``jnt_stiffness`` made it) is replaced by the gel's, -A P(q) (N; P the gel law, Pa:
+    models/README.md, "Pad compliance"), so every static state is exact under any integrator.
+    How the law's stiffness A dP/dq (N/m, up to 180x the small-strain one near the housing
+    stop) stays stable at the model's step depends on the integrator:
+
+    - ``discrete`` (implicit in position): ``jnt_stiffness`` = A dP/dq, folded into the step's
+      metric M + h D + h^2 K: a Newton-linearized backward Euler, stable at any step.
+    - ``Euler``, ``RK4``, ``implicit``, ``implicitfast`` (the stiffness is explicit), two
+      devices on the strip's own slide, each written every step from the tangent k = A dP/dq:
+
+      * *mass scaling*, as explicit finite-element codes do it (mass added where an element's
+        stable time step is below the analysis step): the armature that brings the strip's ring
+        frequency to omega = sqrt(k / m) <= :data:`EXPLICIT_OMEGA_H` / h (m the strip's gel mass
+        plus armature, kg: armature = max(0, k (h / 0.5)^2 - m_gel));
+      * the *numerical damping backward Euler has*: damping c = h k (N s/m) beside the gel's own
+        loss.  Backward Euler (the ``discrete`` step) dissipates a spring's ringing at a damping
+        ratio omega h / 2, i.e. c = omega h sqrt(k m) = h k; the explicit integrators do not,
+        and a strip on a hard contact then rings in a limit cycle (measured: the pressed pad of
+        tests/test_attach.py at 2 ms under Euler swung 10-123 % of its load without it).
+
+      Armature is inertia on the strip's slide only and damping acts on its velocity: neither
+      has weight nor any effect on a static state, which the law gives exactly.  MuJoCo reads
+      both for the next step (it builds the mass matrix and passive forces before this hook).
+      What they change is the pad's dynamics above 1 / (2 h) (the strip's ring-up, faster than
+      a step resolves): tests/test_attach_sensordata.py measures a touch against the
+      ``discrete`` reference.
+
+    Parameters
+    ----------
+    model : the compiled model (its ``jnt_stiffness`` or ``dof_armature`` entries of the strip
+        joints are written every step).
+    qadr, dof, joint : the strip joints' qpos addresses, dof addresses and joint ids.
+    area_m2 : each strip's area, m^2.
+    grid_m, pressure_pa, tangent_pa_m : the gel law P(q) (Pa) and dP/dq (Pa/m) on a grid of q (m).
+    hold_s : 0 (the law at every step, ``physics.gel_update=substep``), or a period, s, over which
+        the law is linearized once, at the period's first step (``control``: P(q0) + dP/dq (q - q0),
+        as the house loop holds it; the periods counted from t = 0 on ``data.time``).
+    """
+
+    def __init__(
+        self,
+        model: mujoco.MjModel,
+        qadr: np.ndarray,
+        dof: np.ndarray,
+        joint: np.ndarray,
+        area_m2: np.ndarray,
+        grid_m: np.ndarray,
+        pressure_pa: np.ndarray,
+        tangent_pa_m: np.ndarray,
+        hold_s: float = 0.0,
+    ) -> None:
+        self.model = model
+        self._qadr, self._dof, self._jnt = np.asarray(qadr), np.asarray(dof), np.asarray(joint)
+        self._area = np.asarray(area_m2, float)
+        self._grid, self._pressure, self._tangent = grid_m, pressure_pa, tangent_pa_m
+        self.implicit = model.opt.integrator == mujoco.mjtIntegrator.mjINT_DISCRETE
+        self._gel_mass_kg = model.body_mass[model.jnt_bodyid[self._jnt]].copy()
+        self._h = float(model.opt.timestep)
+        self._gel_damping = model.dof_damping[self._dof].copy()  # the gel's own loss, N s/m
+        self._h2 = (self._h / EXPLICIT_OMEGA_H) ** 2
+        self._hold_s, self._held_period = float(hold_s), None
+        self._q0 = self._p0 = self._k0 = np.zeros(len(self._qadr))
+        model.jnt_stiffnesspoly[self._jnt] = 0.0
+        if not self.implicit:
+            model.jnt_stiffness[self._jnt] = 0.0  # the law is all in the passive force
+            self._scale_masses(self._area * np.interp(model.qpos0[self._qadr], grid_m, tangent_pa_m))
+
+    def _scale_masses(self, stiffness_n_m: np.ndarray) -> None:
+        self.model.dof_armature[self._dof] = np.maximum(stiffness_n_m * self._h2 - self._gel_mass_kg, 0.0)
+        self.model.dof_damping[self._dof] = self._gel_damping + self._h * stiffness_n_m
+
+    def armature_kg(self) -> np.ndarray:
+        """The strips' armature now, kg (zero under ``discrete``)."""
+        return self.model.dof_armature[self._dof].copy()
+
+    def _law(self, data: mujoco.MjData) -> tuple[np.ndarray, np.ndarray]:
+        """The strips' gel force (N) and stiffness (N/m) at ``data``'s state: the law, or its
+        linearization held over the period (``hold_s``), the same for every call at one time."""
+        q = data.qpos[self._qadr]
+        if self._hold_s <= 0.0:
+            return -self._area * np.interp(q, self._grid, self._pressure), self._area * np.interp(q, self._grid, self._tangent)
+        period = int((data.time + 0.5 * self._h) // self._hold_s)
+        if period != self._held_period:  # a new period (or a reset): linearize the law at q
+            self._held_period, self._q0 = period, q
+            self._p0 = self._area * np.interp(q, self._grid, self._pressure)
+            self._k0 = self._area * np.interp(q, self._grid, self._tangent)
+        return -self._p0 - self._k0 * (q - self._q0), self._k0
+
+    def prepare(self, data: mujoco.MjData) -> None:
+        """Before an ``mj_step`` of ``data``: the ``discrete`` integrator's stiffness at the
+        step's own state.  MuJoCo reads ``jnt_stiffness`` for the step's implicit metric before
+        the passive callback, so in a plain loop the hook's tangent is one step old (the force,
+        the law's own, is not); a loop that can call this first (:meth:`FingertipLoop.step`)
+        linearizes at the step's state, as the house loop does."""
+        if self.implicit:
+            self.model.jnt_stiffness[self._jnt] = self._law(data)[1]
+
+    def passive(self, model: mujoco.MjModel, data: mujoco.MjData) -> None:
+        force, stiffness = self._law(data)
+        data.qfrc_passive[self._dof] += force - data.qfrc_spring[self._dof]
+        if self.implicit:
+            model.jnt_stiffness[self._jnt] = stiffness
+        else:
+            self._scale_masses(stiffness)
+
+    def sensor(self, model: mujoco.MjModel, data: mujoco.MjData, stage: int) -> None:
+        return None

@@ -1,0 +1,232 @@
+"""piezotip.attach as a drop-in: any integrator at MuJoCo's default step, a plain ``mj_step`` loop,
+readings in ``data.sensordata`` (cosim/mjhooks.py, cosim/attach.py).
+
+The scene is tests/test_attach.py's: a plate resting with its weight on one pad (true pressure
+m g / A), the other pad free.  The reference for the touch is the same scene under the house's
+``discrete`` integrator at 0.1 ms.
+"""
+
+from __future__ import annotations
+
+import ctypes
+
+import mujoco
+import numpy as np
+import pytest
+from test_attach import PLATE_KG, PRESSURE_PA, scene_xml
+
+from piezotip.cosim import mjhooks
+from piezotip.cosim.attach import SENSOR_FIELDS, STATUS_CODES, attach, sensor_name
+
+G = 9.81
+#: MuJoCo's own defaults (no <option>: Euler, 2 ms) and every other integrator at 2 ms.
+OPTIONS = {
+    "mujoco-default": "",
+    "RK4": '<option integrator="RK4"/>',
+    "implicit": '<option integrator="implicit"/>',
+    "implicitfast": '<option integrator="implicitfast"/>',
+    "discrete": '<option integrator="discrete" timestep="0.002"/>',
+}
+
+
+def bound(option: str = "", **attach_kwargs):
+    spec = mujoco.MjSpec.from_string(scene_xml(option))
+    tips = attach(spec, sites=["pressed", "free"], **attach_kwargs)
+    model = spec.compile()
+    data = mujoco.MjData(model)
+    return model, data, tips.bind(model, data)
+
+
+def sensors(data: mujoco.MjData, tip: str) -> dict[str, float]:
+    return {field: float(data.sensor(sensor_name(tip, field)).data[0]) for field in SENSOR_FIELDS}
+
+
+@pytest.mark.parametrize("option", OPTIONS.values(), ids=OPTIONS.keys())
+def test_a_plain_mj_step_loop_reads_the_plates_weight_from_sensordata(option):
+    model, data, sim = bound(option)
+    assert model.opt.timestep == 0.002 and sim.period_s == pytest.approx(0.004)  # 5 ms -> two 2 ms steps
+    pressed, free = [], []
+    while data.time < 2.0:
+        mujoco.mj_step(model, data)
+        if data.time > 1.0:
+            pressed.append(sensors(data, "pressed"))
+            free.append(sensors(data, "free"))
+    # The statics are the gel law's under every integrator (the strips' force is the law): within
+    # 1e-5, the law's table (measured: 1.2e-6 under the explicit integrators' ramped contact, the
+    # plate still settling by a micronewton; 1e-7 under discrete).
+    assert sim.pad_state("pressed").normal_force_n == pytest.approx(PLATE_KG * G, rel=1e-5)
+    assert all(s["true_pressure_pa"] == pytest.approx(PRESSURE_PA, rel=1e-5) for s in pressed)
+    ok = [s for s in pressed if s["status"] == STATUS_CODES["ok"]]
+    assert len(ok) >= 0.9 * len(pressed)
+    for s in ok:
+        assert abs(s["pressure_pa"] - PRESSURE_PA) <= 3 * s["sigma_pa"]
+        assert s["mode"] == 1
+    assert {s["status"] for s in free} <= {STATUS_CODES["below_detection"], STATUS_CODES["settling"]}
+
+
+def test_every_mode_that_reads_ok_holds_the_applied_pressure_under_mujocos_defaults():
+    """MuJoCo's default options; each of the fingertip's modes driven in turn in a plain loop,
+    one second to ring up and settle, then one second of readings from sensordata."""
+    model, data, sim = bound(OPTIONS["mujoco-default"])
+    read_ok = []
+    for mode in sim.tips.config.sensor.modes:
+        sim.set_mode("pressed", mode)
+        readings = []
+        start_s = data.time
+        while data.time < start_s + 2.0:
+            mujoco.mj_step(model, data)
+            if data.time > start_s + 1.0:
+                readings.append(sensors(data, "pressed"))
+        assert all(r["mode"] == mode for r in readings)
+        ok = [r for r in readings if r["status"] == STATUS_CODES["ok"]]
+        for r in ok:
+            assert abs(r["pressure_pa"] - PRESSURE_PA) <= 3 * r["sigma_pa"], (mode, r)
+        if len(ok) >= 0.5 * len(readings):
+            read_ok.append(mode)
+    assert read_ok == list(sim.tips.config.sensor.modes)  # 2.45 kPa is within every mode's range (measured: all four)
+
+
+@pytest.mark.parametrize("option", [OPTIONS["mujoco-default"], OPTIONS["RK4"]], ids=["Euler", "RK4"])
+def test_the_touch_under_an_explicit_integrator_is_as_close_to_the_reference_as_the_houses_own(option):
+    """The plate dropped on the pad: its gel force against a discrete 0.1 ms reference, over the
+    first 0.3 s.  The explicit integrators' mass scaling and damping may cost no more than the
+    house's discrete integrator at the same 2 ms step does (6.2 % of the load, measured)."""
+
+    def trace(option_xml: str) -> tuple[np.ndarray, np.ndarray]:
+        model, data, sim = bound(option_xml)
+        t, load = [], []
+        while data.time < 0.3 - 1e-9:
+            mujoco.mj_step(model, data)
+            t.append(data.time)
+            load.append(sim.pad_state("pressed").gel_force_n / (PLATE_KG * G))
+        return np.array(t), np.array(load)
+
+    t_ref, load_ref = trace('<option integrator="discrete" timestep="0.0001"/>')
+    t_disc, load_disc = trace(OPTIONS["discrete"])
+    t, load = trace(option)
+    house_error = np.abs(load_disc - np.interp(t_disc, t_ref, load_ref)).max()
+    error = np.abs(load - np.interp(t, t_ref, load_ref))
+    assert error.max() <= 1.5 * house_error
+    assert error[t > 0.1].max() < 1e-3  # settled on the same load
+
+
+def test_mass_scaling_only_under_explicit_integrators():
+    _, _, implicit = bound(OPTIONS["discrete"])
+    assert not implicit.gel.armature_kg().any()
+    model, data, explicit = bound(OPTIONS["mujoco-default"])
+    for _ in range(500):
+        mujoco.mj_step(model, data)
+    armature = explicit.gel.armature_kg()
+    # At 2 ms even the unloaded gel needs it (its strip rings at omega h = 2.2 on its own mass);
+    # the pressed pad's strips, stiffer, need more.
+    assert armature[3:].min() > 0
+    assert armature[:3].sum() > armature[3:].sum()
+
+
+def test_a_model_without_fingertips_steps_bit_for_bit_as_before():
+    xml = """<mujoco><worldbody><geom type="plane" size="1 1 .1"/>
+      <body pos="0 0 .2"><freejoint/><geom type="box" size=".05 .04 .03"/></body>
+      <body pos=".02 0 .5"><freejoint/><geom type="sphere" size=".03"/></body></worldbody>
+      <sensor><user name="theirs" dim="1" needstage="acc"/></sensor></mujoco>"""
+
+    def run() -> np.ndarray:
+        model = mujoco.MjModel.from_xml_string(xml)
+        data = mujoco.MjData(model)
+        states = []
+        for _ in range(400):
+            mujoco.mj_step(model, data)
+            states.append(np.concatenate([data.qpos, data.qvel, data.sensordata]))
+        return np.array(states)
+
+    before = run()
+    _, _, sim = bound()  # the callbacks are installed from here on
+    sim.step()
+    assert mujoco.get_mjcb_passive() is not None
+    after = run()
+    np.testing.assert_array_equal(after, before)
+
+
+def test_two_bound_models_do_not_interfere():
+    def readings(interleave: bool) -> np.ndarray:
+        a, b = bound(), bound(config={"sensor.seed": 7})
+        out = []
+        for _ in range(300):
+            for model, data, _ in (a, b) if interleave else (a,):
+                mujoco.mj_step(model, data)
+            out.append(a[1].sensordata.copy())
+        return np.array(out)
+
+    np.testing.assert_array_equal(readings(interleave=True), readings(interleave=False))
+
+
+def test_set_mode_acts_in_a_plain_loop_and_a_reset_restarts_the_readout():
+    model, data, sim = bound()
+    first = []
+    for _ in range(50):
+        mujoco.mj_step(model, data)
+        first.append(list(data.sensordata))
+    sim.set_mode("pressed", 2)
+    for _ in range(10):
+        mujoco.mj_step(model, data)
+    assert data.sensor(sensor_name("pressed", "mode")).data[0] == 2
+    mujoco.mj_resetData(model, data)  # time goes back: the readout starts as at bind, in mode 1
+    again = []
+    for _ in range(50):
+        mujoco.mj_step(model, data)
+        again.append(list(data.sensordata))
+    # The same noise; the first step after the reset still has the strips' last armature and
+    # damping (MuJoCo builds the mass matrix before the hook sees the reset): 1e-6 apart.
+    np.testing.assert_allclose(np.array(again), np.array(first), rtol=1e-5, equal_nan=True)
+
+
+def test_step_and_a_plain_loop_read_the_same():
+    _, _, sim = bound()
+    model, data, plain = bound()
+    for _ in range(100):
+        sim.step()
+    # A plain loop samples the period's end state in the next step's sensor stage: one step more.
+    for _ in range(100 * plain.substeps + 1):
+        mujoco.mj_step(model, data)
+    assert sim.readings() == plain.readings()
+
+
+def test_a_python_callback_already_set_is_refused_and_a_c_one_is_kept():
+    calls = []
+    try:
+        spec = mujoco.MjSpec.from_string(scene_xml())
+        tips = attach(spec, sites=["pressed"])
+        model = spec.compile()  # (a Python callback fails MuJoCo's own compiling: set it after)
+        mujoco.set_mjcb_passive(lambda m, d: None)
+        with pytest.raises(ValueError, match="mjcb_passive is already set"):
+            tips.bind(model, mujoco.MjData(model))
+        mujoco.set_mjcb_passive(None)
+        theirs = ctypes.CFUNCTYPE(None, ctypes.c_void_p, ctypes.c_void_p)(lambda m, d: calls.append(d))
+        mujoco.set_mjcb_passive(theirs)
+        model, data, _ = bound()
+        mujoco.mj_step(model, data)
+        assert data._address in calls  # chained: theirs runs first, for every model
+    finally:
+        mujoco.set_mjcb_passive(None)
+        mjhooks._PREVIOUS["passive"] = None
+
+
+def test_unbind_stops_the_fingertips():
+    _, data, sim = bound()
+    sim.unbind()
+    assert sim not in mjhooks.hooks_of(data)
+    with pytest.raises(RuntimeError, match="unbound"):
+        sim.step()
+
+
+@pytest.mark.parametrize("bad", [float("nan"), float("inf"), 1e30])
+def test_a_control_mujoco_would_zero_is_an_error_naming_the_actuator(bad):
+    xml = scene_xml().replace("</worldbody>", "</worldbody><actuator><motor name='press_motor' joint='press'/></actuator>")
+    spec = mujoco.MjSpec.from_string(xml)
+    tips = attach(spec, sites=["pressed"])
+    model = spec.compile()
+    data = mujoco.MjData(model)
+    sim = tips.bind(model, data)
+    data.ctrl[0] = bad
+    with pytest.raises(ValueError, match=r"press_motor = "):
+        sim.step()
+    assert data.time == 0.0  # refused before stepping
