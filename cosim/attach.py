@@ -45,7 +45,7 @@ from . import mjhooks
 from .loop import SimulationDiverged, coverage_cells, coverage_weights, make_fingertip, make_unit
 from .pad_bridge import PadBridge, PadReading
 from .pad_geometry import PadGeometry
-from .pad_model import HARD_PAD_SOLIMP, PadPlacement, _remap_keys, add_pad_strips, copy_pad_class, pad_time_constant_s
+from .pad_model import COMPLIANT_PAD_SOLIMP, HARD_PAD_SOLIMP, PadPlacement, _remap_keys, add_pad_strips, copy_pad_class, pad_time_constant_s
 from .scene import finite_state
 
 __all__ = [
@@ -94,15 +94,20 @@ _REFUSED = {
     mujoco.mjtEnableBit.mjENBL_OVERRIDE: "it replaces the pads' hard contact parameters (the gel is the pads' compliance)",
 }
 
-#: The pads' contact impedance under an explicit integrator (MuJoCo solimp: d0, dwidth, width m,
-#: midpoint, power): the house's ramp (models/README.md, "Pad contacts") over 10 um instead of
-#: 30: d = 0.1 at first touch, MuJoCo's maximum 0.9999 past 10 um.  The hard contact (0.9999
-#: from first touch) rests 0.1 um deep, and under an explicit step a resting load's contacts then
-#: open for a step now and then (a 200 g box on a 16-pad skin at Euler 2 ms bounced at 21 Hz,
-#: its pads' load swinging 86-114 %); resting some micrometres deep they do not (steady to
-#: 1e-5 at 10 um and 30 um; 3 um, 3e-4; 1 um, 1e-3).  10 um keeps loaded contacts near the
-#: hard friction the user's impratio was set for.
-EXPLICIT_PAD_SOLIMP = (0.1, 0.9999, 1.0e-5, 0.1, 3.0)
+#: The pads' contacts under an explicit integrator (Euler, RK4, implicit, implicitfast): the
+#: house's compliant impedance (models/README.md, "Pad contacts": d ramps from 0.1 at first touch
+#: to 0.9999 over 30 um, a loaded contact resting 12-25 um deep) and a time constant of 3 steps
+#: (the house's 2 ms floor or 2 steps otherwise).  Measured at Euler 2 ms, hard contacts (0.9999
+#: from first touch, resting 0.1 um deep) open for a step now and then under a resting load: a
+#: 200 g box on a 16-pad skin bounced at 21 Hz, its pads' load swinging 86-114 %; and a 12 g
+#: finger on a 20 N s/m slide pressing 0.5-5 N rang at 51-69 % of its grip (10 um ramp: 0-69 %;
+#: the house's 30 um ramp at 2 steps: 0-17 %; at 3 steps: steady at all three).  What it costs:
+#: the pad's contact is softer (a plate dropped on a pad follows the discrete reference 12 %
+#: off at its worst, 6 % at 2 steps), and the friction of a held object creeps more at the
+#: user's impratio than at the house's 1000 (docs/attach.md).
+EXPLICIT_PAD_SOLIMP = COMPLIANT_PAD_SOLIMP
+EXPLICIT_CONTACT_STEPS = 3
+
 
 #: The element under the pad (the house gripper's: the paper's 7.5 x 5 mm element).
 _ELEMENT = PadGeometry()
@@ -726,11 +731,13 @@ def attach(
     # The house's class `pad` (contacts, housing stop), its time constant at this model's step.
     # Hard contacts: the house's compliant ones need impratio 100 to hold without creep, and the
     # user's options are the user's (cosim.pad_model.resolve_pad_contact; models/README.md).
-    # Under an explicit integrator the hardness ramps in over the first 10 um (EXPLICIT_PAD_SOLIMP).
+    # Under an explicit integrator, the house's compliant contact, 3 steps (EXPLICIT_PAD_SOLIMP).
     pad_class = copy_pad_class(spec, PAD_CLASS, GEL_MATERIAL)
     implicit = spec.option.integrator == mujoco.mjtIntegrator.mjINT_DISCRETE
     pad_class.geom.solimp = list(HARD_PAD_SOLIMP if implicit else EXPLICIT_PAD_SOLIMP)
     constant = pad_time_constant_s(spec.option.timestep)
+    if not implicit:
+        constant = max(constant, EXPLICIT_CONTACT_STEPS * spec.option.timestep)
     pad_class.geom.solref = [constant, pad_class.geom.solref[1]]
     pad_class.joint.solref_limit = [constant, pad_class.joint.solref_limit[1]]
     keyed = [(bool(len(key.qpos)), bool(len(key.qvel))) for key in spec.keys]

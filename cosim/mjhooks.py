@@ -211,7 +211,7 @@ class GelPassive:
         self._h = float(model.opt.timestep)
         self._gel_damping = model.dof_damping[self._dof].copy()  # the gel's own loss, N s/m
         self._h2 = (self._h / EXPLICIT_OMEGA_H) ** 2
-        self._hold_s, self._held_period = float(hold_s), None
+        self._hold_s, self._held_period, self._last_s, self._last_q = float(hold_s), None, -np.inf, None
         self._q0 = self._p0 = self._k0 = np.zeros(len(self._qadr))
         model.jnt_stiffnesspoly[self._jnt] = 0.0
         if not self.implicit:
@@ -233,7 +233,12 @@ class GelPassive:
         if self._hold_s <= 0.0:
             return -self._area * np.interp(q, self._grid, self._pressure), self._area * np.interp(q, self._grid, self._tangent)
         period = int((data.time + 0.5 * self._h) // self._hold_s)
-        if period != self._held_period:  # a new period (or a reset): linearize the law at q
+        # Time going back, or the state changed at the same time (a reset or an edited state
+        # forwarded again): linearize afresh.
+        if data.time < self._last_s - 0.5 * self._h or (data.time == self._last_s and not np.array_equal(q, self._last_q)):
+            self._held_period = None
+        self._last_s, self._last_q = data.time, q
+        if period != self._held_period:  # a new period: linearize the law at q
             self._held_period, self._q0 = period, q
             self._p0 = self._area * np.interp(q, self._grid, self._pressure)
             self._k0 = self._area * np.interp(q, self._grid, self._tangent)

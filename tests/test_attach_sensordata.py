@@ -87,10 +87,12 @@ def test_every_mode_that_reads_ok_holds_the_applied_pressure_under_mujocos_defau
 
 
 @pytest.mark.parametrize("option", [OPTIONS["mujoco-default"], OPTIONS["RK4"]], ids=["Euler", "RK4"])
-def test_the_touch_under_an_explicit_integrator_is_as_close_to_the_reference_as_the_houses_own(option):
+def test_the_touch_under_an_explicit_integrator_stays_near_the_reference(option):
     """The plate dropped on the pad: its gel force against a discrete 0.1 ms reference, over the
-    first 0.3 s.  The explicit integrators' mass scaling and damping may cost no more than the
-    house's discrete integrator at the same 2 ms step does (6.2 % of the load, measured)."""
+    first 0.3 s.  The explicit integrators' softer contact (3 steps, the house's 30 um ramp:
+    cosim.attach.EXPLICIT_PAD_SOLIMP) and their strips' mass scaling and damping may cost at most
+    twice what the house's discrete integrator at the same 2 ms step does (measured: 6.2 % of the
+    load for discrete, 8.9 % Euler, 11.7 % RK4: the softer contact loads the pad a step later)."""
 
     def trace(option_xml: str) -> tuple[np.ndarray, np.ndarray]:
         model, data, sim = bound(option_xml)
@@ -106,7 +108,7 @@ def test_the_touch_under_an_explicit_integrator_is_as_close_to_the_reference_as_
     t, load = trace(option)
     house_error = np.abs(load_disc - np.interp(t_disc, t_ref, load_ref)).max()
     error = np.abs(load - np.interp(t, t_ref, load_ref))
-    assert error.max() <= 1.5 * house_error
+    assert error.max() <= 2.0 * house_error
     assert error[t > 0.1].max() < 1e-3  # settled on the same load
 
 
@@ -230,3 +232,17 @@ def test_a_control_mujoco_would_zero_is_an_error_naming_the_actuator(bad):
     with pytest.raises(ValueError, match=r"press_motor = "):
         sim.step()
     assert data.time == 0.0  # refused before stepping
+
+
+def test_a_reset_within_the_first_period_linearizes_the_gel_law_again():
+    """``physics.gel_update=control`` holds the law's linearization over a period; a reset that
+    lands in the same period (an episode shorter than a period) must not keep the old one."""
+    model, data, sim = bound(OPTIONS["discrete"], config={"physics.gel_update": "control"})
+    gel = sim.gel
+    data.qpos[gel._qadr] = 1e-3  # every strip 1 mm in, at t = 0: the law linearized there
+    mujoco.mj_forward(model, data)
+    mujoco.mj_resetData(model, data)  # t = 0 again (the same period), the strips at rest
+    mujoco.mj_forward(model, data)
+    law = -gel._area * np.interp(data.qpos[gel._qadr], gel._grid, gel._pressure)
+    gel_force = data.qfrc_passive[gel._dof] - data.qfrc_damper[gel._dof] - data.qfrc_gravcomp[gel._dof]
+    np.testing.assert_allclose(gel_force, law, atol=1e-9)
