@@ -849,12 +849,6 @@ def sensor_name(tip: str, field: str) -> str:
     return f"{PREFIX}{tip}/{field}"
 
 
-def _sensor_values(reading: TipReading) -> list[float]:
-    """A reading as the values of :data:`SENSOR_FIELDS`, in order."""
-    status = STATUS_CODES.get(reading.status, -1)
-    return [reading.estimate_pa, reading.sigma_pa, float(status), float(reading.mode), reading.true_pressure_pa]
-
-
 class FingertipLoop:
     """Attached fingertips on one model and its data, running inside every ``mj_step``.
 
@@ -917,7 +911,10 @@ class FingertipLoop:
         self.channels: dict[str, SensorChannel] = {}
         for name, (edges, _, _) in self._layouts.items():
             self.channels[name] = make_channel(config, fingertip, self._unit, edges, np.random.default_rng(rng.integers(2**63)))
-        self._readings: dict[str, TipReading] = {}
+        self._readings: dict[str, TipReading] | None = None
+        self._samples: list[tuple | None] = [None] * len(self.channels)
+        # Per fingertip, in order: its channel, its strips' reader, its coverage cells' shares.
+        self._pipeline = [(self.channels[name], self._readers[name], self._layouts[name][2]) for name in self.channels]
         first = [math.nan, math.nan, float(STATUS_CODES["settling"]), float(min(config.sensor.modes)), math.nan]
         self._values = np.tile(first, len(self.channels))
         self._last_s = self.data.time
@@ -950,19 +947,20 @@ class FingertipLoop:
         self._write(data)
 
     def _sample(self) -> None:
-        """Every fingertip's pressures, sensor and readout, once (one period since the last)."""
-        readings = {}
-        for name, channel in self.channels.items():
-            _, (cells,) = self._readers[name].read()
-            reading = channel.update_trusted(cells, self.period_s)
+        """Every fingertip's pressures, sensor and readout, once (one period since the last):
+        the sensors' values now, the :class:`TipReading` objects when :meth:`readings` asks."""
+        values, samples, period_s, codes = self._values, self._samples, self.period_s, STATUS_CODES
+        for k, (channel, reader, fractions) in enumerate(self._pipeline):
+            _, (cells,) = reader.read()
+            reading = channel.update_trusted(cells, period_s)
             estimate = channel.estimate(reading)
-            truth = math.fsum(p * f for p, f in zip(cells, self._layouts[name][2], strict=True))
-            voltage = reading.v1 * self._unloaded_v[reading.mode]
-            readings[name] = TipReading(
-                estimate.pressure_pa, estimate.uncertainty_pa, estimate.status, reading.mode, voltage, reading.v1, truth
-            )
-        self._readings = readings
-        self._values = np.array([v for r in readings.values() for v in _sensor_values(r)])
+            # The coverage's mean pressure (one cell: fsum of one value is that value).
+            truth = cells[0] * fractions[0] if len(cells) == 1 else math.fsum(p * f for p, f in zip(cells, fractions, strict=True))
+            samples[k] = (reading, estimate, truth)
+            j = len(SENSOR_FIELDS) * k
+            status = codes.get(estimate.status, -1)
+            values[j : j + len(SENSOR_FIELDS)] = (estimate.pressure_pa, estimate.uncertainty_pa, status, reading.mode, truth)
+        self._readings = None  # made from the samples when asked
 
     def _write(self, data: mujoco.MjData) -> None:
         data.sensordata[self._sensor_adr] = self._values
@@ -1003,8 +1001,21 @@ class FingertipLoop:
     def readings(self) -> dict[str, TipReading]:
         """Each fingertip's :class:`TipReading` at the last sample (:meth:`step`'s end, or the
         last period ``mj_step`` reached), by name."""
-        if not self._readings:
+        if self._samples[0] is None:
             raise RuntimeError("no readings yet: call step() (or mj_step for one period) first")
+        if self._readings is None:
+            self._readings = {
+                name: TipReading(
+                    estimate.pressure_pa,
+                    estimate.uncertainty_pa,
+                    estimate.status,
+                    reading.mode,
+                    reading.v1 * self._unloaded_v[reading.mode],
+                    reading.v1,
+                    truth,
+                )
+                for name, (reading, estimate, truth) in zip(self.channels, self._samples, strict=True)
+            }
         return dict(self._readings)
 
     def set_mode(self, name: str, mode: int) -> None:

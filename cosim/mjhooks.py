@@ -214,13 +214,24 @@ class GelPassive:
         self._hold_s, self._held_period, self._last_s, self._last_q = float(hold_s), None, -np.inf, None
         self._q0 = self._p0 = self._k0 = np.zeros(len(self._qadr))
         model.jnt_stiffnesspoly[self._jnt] = 0.0
+        # The model's arrays this hook writes every step, as views (an MjModel attribute makes a
+        # new view at each access: a microsecond a step each); the MjData's, likewise, per MjData.
+        self._armature, self._damping, self._stiffness = model.dof_armature, model.dof_damping, model.jnt_stiffness
+        self._views_of: mujoco.MjData | None = None
         if not self.implicit:
             model.jnt_stiffness[self._jnt] = 0.0  # the law is all in the passive force
             self._scale_masses(self._area * np.interp(model.qpos0[self._qadr], grid_m, tangent_pa_m))
 
     def _scale_masses(self, stiffness_n_m: np.ndarray) -> None:
-        self.model.dof_armature[self._dof] = np.maximum(stiffness_n_m * self._h2 - self._gel_mass_kg, 0.0)
-        self.model.dof_damping[self._dof] = self._gel_damping + self._h * stiffness_n_m
+        self._armature[self._dof] = np.maximum(stiffness_n_m * self._h2 - self._gel_mass_kg, 0.0)
+        self._damping[self._dof] = self._gel_damping + self._h * stiffness_n_m
+
+    def _views(self, data: mujoco.MjData) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``data``'s qpos, qfrc_passive and qfrc_spring (kept while the same MjData comes back)."""
+        if data is not self._views_of:
+            self._data_views = data.qpos, data.qfrc_passive, data.qfrc_spring
+            self._views_of = data
+        return self._data_views
 
     def armature_kg(self) -> np.ndarray:
         """The strips' armature now, kg (zero under ``discrete``)."""
@@ -229,7 +240,7 @@ class GelPassive:
     def _law(self, data: mujoco.MjData) -> tuple[np.ndarray, np.ndarray]:
         """The strips' gel force (N) and stiffness (N/m) at ``data``'s state: the law, or its
         linearization held over the period (``hold_s``), the same for every call at one time."""
-        q = data.qpos[self._qadr]
+        q = self._views(data)[0][self._qadr]
         if self._hold_s <= 0.0:
             return -self._area * np.interp(q, self._grid, self._pressure), self._area * np.interp(q, self._grid, self._tangent)
         period = int((data.time + 0.5 * self._h) // self._hold_s)
@@ -251,14 +262,16 @@ class GelPassive:
         the law's own, is not); a loop that can call this first (:meth:`FingertipLoop.step`)
         linearizes at the step's state, as the house loop does."""
         if self.implicit:
-            self.model.jnt_stiffness[self._jnt] = self._law(data)[1]
+            self._stiffness[self._jnt] = self._law(data)[1]
 
     def passive(self, model: mujoco.MjModel, data: mujoco.MjData) -> None:
         force, stiffness = self._law(data)
-        data.qfrc_passive[self._dof] += force - data.qfrc_spring[self._dof]
+        _, passive, spring = self._views(data)
         if self.implicit:
-            model.jnt_stiffness[self._jnt] = stiffness
-        else:
+            passive[self._dof] += force - spring[self._dof]
+            self._stiffness[self._jnt] = stiffness
+        else:  # the strips' jnt_stiffness is 0 (__init__): no spring force to take out
+            passive[self._dof] += force
             self._scale_masses(stiffness)
 
     def sensor(self, model: mujoco.MjModel, data: mujoco.MjData, stage: int) -> None:
