@@ -25,11 +25,12 @@ import piezotip
 PAD_HALF_M = 0.01
 PAD_AREA_M2 = (2 * PAD_HALF_M) ** 2
 
-# Site frames: +z out of the finger (towards the box), +x up the finger (towards the palm, where
-# the element is clamped).  xyaxes gives a frame's x and y; its z is their cross product.
+# No <option>: MuJoCo's defaults (Euler, 2 ms).  Site frames: +z out of the finger (towards the
+# box), +x up the finger (towards the palm, where the element is clamped).  xyaxes gives a frame's
+# x and y; its z is their cross product.  examples/gymnasium_mujoco_env.py and
+# examples/dm_control_physics.py carry the same gripper (each runs alone; a test keeps them one).
 GRIPPER_XML = f"""
 <mujoco model="two-finger gripper">
-  <option integrator="discrete" timestep="0.001"/>
   <worldbody>
     <geom name="table" type="box" size="0.1 0.1 0.005" pos="0 0 0.08"/>
     <body name="left_finger" pos="-0.03 0 0.11">

@@ -212,3 +212,12 @@ def test_dm_control_example_runs(dm_control_runs, capsys):
     assert dm_control_runs.main(["--seconds", "0.2"]) == 0
     out = capsys.readouterr().out
     assert all(tip in out for tip in dm_control_runs.TIPS)
+
+
+def test_the_attach_loop_example_is_the_same_gripper_and_runs(capsys):
+    """examples/attach_loop.py: the same gripper (MuJoCo's defaults) in piezotip's own loop."""
+    attach_loop = _load_example("attach_loop")
+    assert attach_loop.GRIPPER_XML == gym_example.GRIPPER_XML
+    assert attach_loop.main(["--grip-n", "1", "--seconds", "1"]) == 0
+    out = capsys.readouterr().out
+    assert "one step = 4 ms (2 physics steps)" in out and "left_pad" in out
