@@ -7,38 +7,60 @@
 Gymnasium-Robotics' Shadow Hand (``envs/assets/hand/reach.xml``: the hand palm up on its
 mount, read from the installed package, never copied) gets a box site on the palm side of each
 distal phalanx (first, middle, ring and little finger, thumb); ``piezotip.attach`` puts a gel
-pad, its element and readout on each.  An 80 mm ball of 100 g is dropped onto the palm, the
-thumb closes beside it and the fingers close over it with the hand's own position actuators,
-and the hand holds it.  Every control period (5 ms) the script records what each fingertip
-reads (estimate, sigma, status, mode, voltage) and the truth the readout never sees; each
-fingertip's drive mode follows the pressure with the house multimode controller's selector
-(up a mode when saturated or past its switch pressure, down when below detection).
+pad, its element and readout on each, and ``bind`` makes MuJoCo's own ``mj_step`` run them.  An
+80 mm ball of 100 g is dropped onto the palm, the thumb closes beside it and the fingers close
+over it with the hand's own position servos (:class:`GraspScript`), and the hand holds it.
+
+The loop is a plain ``mujoco.mj_step`` loop: every step sets the scripted servos' targets in
+``data.ctrl`` and calls ``mj_step``.  Once a period (the readout's sample: 5 ms rounded to the
+hand's 2 ms steps, 4 ms) it reads each fingertip's five sensors from ``data.sensordata`` by name
+(``piezotip/ff_pad/pressure_pa``, ``sigma_pa``, ``status``, ``mode``, ``true_pressure_pa``),
+notes whether the pad touches the ball (MuJoCo's contacts), and drives the fingertip's mode with
+the house multimode controller's selector through ``sim.set_mode`` (up a mode when saturated or
+past its switch pressure, down when below detection).  It records what ``data.sensordata``
+holds and nothing more: the sensed voltage is only in ``sim.readings()`` and nothing here needs
+it.  Of the checks ``sim.step()`` would make, it keeps the one that matters in a plain loop:
+that MuJoCo did not reset a diverged state and step on.
 
 Writes ``readings.npz`` and ``readings.csv`` (units in the column names) and ``skin.png``
 (five panels: the true pressure, the estimate with its 3-sigma band where the status is "ok",
-the status along the bottom, the hold shaded) into ``--out``, and prints per fingertip the peak
-true pressure and the share of its "ok" readings whose 3-sigma band holds the truth (over the
-run, and in the hold).  Headless (matplotlib's Agg).
+the status along the bottom, the hold shaded, and under each every "ok" reading's error in its
+own sigmas) into ``--out``, and prints per fingertip the peak true pressure and the share of
+its "ok" readings whose 3-sigma band holds the truth (over the run, and in the hold).  Headless
+(matplotlib's Agg).
 
-Three of the hand's options change before attaching, each one the pads need:
+The hand's options are as reach.xml has them (MuJoCo's Euler at 2 ms, 20 solver iterations:
+``attach`` takes any integrator at any step, docs/attach.md) but for two of its friction's,
+both for the grasp, not the fingertips (the bare hand without them slides the ball as fast):
 
-- ``timestep`` 2 ms -> 1 ms: a fingertip's period (5 ms, the readout's sample) is a whole number
-  of the model's steps, and 2 ms does not divide 5 ms (``attach`` refuses it, naming both).  1 ms
-  is the house gripper's step, the one the pads' hard contacts are tuned at (models/README.md).
-- ``integrator`` Euler -> discrete (implicit in position): the gel stiffens 180x towards its
-  housing stop, which explicit Euler integrates stably only below 0.14 ms; ``attach`` refuses
-  the hand's Euler with exactly that message.
-- ``cone`` pyramidal -> elliptic, the house gripper's (models/README.md: "a held object does not
-  creep down as with pyramidal cones").  ``attach`` leaves the model's cone alone, but under the
-  hand's pyramidal cone the same grasp loses the ball: the fingertips touch it 12-79 % of the
-  hold, and the true pressure of three of them jumps by 100-220 % from one period to the next.
+- ``cone`` pyramidal -> elliptic.  Under the hand's pyramidal cone the squeezed ball slides
+  towards the wrist at about 11 mm/s, out from under the fingertips: in the hold they touch it
+  3 % (first finger), 26 %, 52 % and 88 % (little finger) of the periods, with 0-7 "ok" readings
+  each.
+- ``impratio`` 1 -> 100 (MuJoCo's ratio of friction to normal impedance, its remedy for slip).
+  At the hand's 1, MuJoCo's soft friction lets the squeezed ball slide at 6 mm/s under the
+  elliptic cone too, with the fingertips as without them: the four fingertips' loads fall
+  through the hold (from 2.8 to 4 s the first finger's 17 -> 0.9 kPa, the little finger's 23 ->
+  19 kPa, 8-33 %/s), the first finger lets go at 4.06 s, the middle at 4.6 s, the ring at 5.3 s,
+  and the readout reads "settling" for most of the hold (its 57, 104, 43 and 0 "ok" readings
+  all hold the truth: the little finger's falling load reads "settling" throughout).  At 10 the
+  ball still slides 2 mm/s; at 30-300 it stays (every load within 0.5 % over the hold); at 1000
+  the squeeze pinches it out of the hand at about 2 s.  Under the pyramidal cone, 100 keeps the
+  ball but not its loads (3-8 % drift over the hold, the thumb pressed against it).
 
 The readings to judge the readout by are those of the hold (:func:`hold_from_s`): from the hand
 closed, its servos settled (five time constants, 0.5 s) and one readout inference window on
-(``sensor.inference.WINDOW_S``, 0.5 s), 2.8 s.  While the fingers close and settle, their pads
-stick and slip on the ball (the true pressure saws by 20-60 % at 50-70 Hz); the readout averages
-that over its ring-up and still reads "ok" now and then, with a 1-5 % sigma, and those readings
-miss the instantaneous truth by up to 22 sigma.
+(``sensor.inference.WINDOW_S``, 0.5 s), 2.8 s.  While the fingers close (1.5-2 s), their pads
+stick and slip on the ball: the true pressure jumps by 17-42 % from one period to the next (95th
+percentile), and the readout reads "settling" through most of it.
+
+What it shows (4 s): the first, middle, ring and little finger hold the ball at 26.6, 31.6,
+32.1 and 29.7 kPa (steady within 0.5 %), read "ok" at 296, 295, 300 and 301 of the hold's 301
+periods ("settling" at the others), and every one of those 1192 readings holds the truth within
+3 sigma (sigma 0.5-0.6 % of the load; the largest error 1.5 sigma).  Over the whole run, closing
+included, so do all 1720 of their "ok" readings.  The thumb presses the ball from 0.95 s (up to
+3.9 kPa) until the fingers push it off at 1.68 s; 52 of its 53 "ok" readings hold the truth (one
+at 3.2 sigma, at 1.28 s), and in the hold it reads below detection.
 
 Everything else of the hand (its geoms, contacts, joints, tendons, servos and their gains) is
 as shipped.
@@ -60,7 +82,6 @@ import numpy as np
 import piezotip
 from piezotip.cosim.control import ModeSelector
 from piezotip.cosim.control.selector import allowed_ranges
-from piezotip.cosim.rows import STATUS_CODES
 from piezotip.sensor.inference import WINDOW_S
 
 # ---------------------------------------------------------------------------------------
@@ -120,15 +141,21 @@ def hand_assets() -> Path | None:
     return None
 
 
+#: The two friction options the grasp changes (module docstring): MuJoCo's elliptic cone for the
+#: hand's pyramidal one, and a ratio of frictional to normal impedance of 100 for the hand's 1.
+GRASP_CONE = mujoco.mjtCone.mjCONE_ELLIPTIC
+GRASP_IMPRATIO = 100.0
+
+
 def build_scene(scene: Path) -> mujoco.MjSpec:
-    """The hand, its five pad sites, the ball, and the two options the pads need (module docstring)."""
+    """The hand as shipped but for its friction cone and impratio (:data:`GRASP_CONE`,
+    :data:`GRASP_IMPRATIO`: the grasp's, module docstring), its five pad sites and the ball."""
     try:
         spec = mujoco.MjSpec.from_file(str(scene))
     except ValueError as err:  # Gymnasium-Robotics 1.4.0 and 1.4.1 set <option apirate>, which MuJoCo refuses
         raise ValueError(f"the Shadow Hand's {scene} does not load ({err}); it needs gymnasium-robotics>=1.4.2") from err
-    spec.option.timestep = 0.001
-    spec.option.integrator = mujoco.mjtIntegrator.mjINT_DISCRETE
-    spec.option.cone = mujoco.mjtCone.mjCONE_ELLIPTIC
+    spec.option.cone = GRASP_CONE
+    spec.option.impratio = GRASP_IMPRATIO
     for tip, (body, pos, xyaxes) in PAD_SITES.items():
         site = spec.body(body).add_site(name=f"{tip}_pad", type=mujoco.mjtGeom.mjGEOM_BOX, pos=list(pos))
         site.size = [PAD_HALF_LENGTH_M, PAD_HALF_WIDTH_M, 0.0005]  # z: not used, a thin box to show
@@ -236,31 +263,36 @@ def _start_open(model: mujoco.MjModel, data: mujoco.MjData, targets: dict[str, f
 # ---------------------------------------------------------------------------------------
 
 
+#: The fingertip's five MuJoCo sensors, ``piezotip/<fingertip>_pad/<field>`` (docs/attach.md).
+FIELDS = ("pressure_pa", "sigma_pa", "status", "mode", "true_pressure_pa")
+#: The status sensor's codes: 0 ok, 1 below detection, 2 saturated, 3 settling.
+STATUS_NAMES = ("ok", "below_detection", "saturated", "settling")
+OK = STATUS_NAMES.index("ok")
+
+
 @dataclass(frozen=True)
 class SkinRecord:
-    """What the fingertips read, one row per control period, one column per fingertip.
+    """What the fingertips read, one row per readout sample (once a period), one column per fingertip.
 
     Attributes
     ----------
     fingertips : the column names ("ff", "mf", "rf", "lf", "th").
-    time_s : the end of each period, s.
-    estimate_pa, sigma_pa : the readout's estimate and its one-sigma uncertainty, Pa (NaN where unknown).
-    status : the readout's status, an index into :data:`STATUS_CODES`.
-    mode : the vibration mode that period's reading was driven in.
-    voltage_v : the sensed amplitude, V.
-    true_pressure_pa : the gel's mean pressure on the element's coverage, Pa (the truth).
-    touching : whether a strip of the pad touched the ball at the period's end (MuJoCo's contacts).
+    time_s : the time of the state each row's sample read, s (a whole number of periods).
+    pressure_pa, sigma_pa, status, mode, true_pressure_pa : the fingertip's five sensors
+        (:data:`FIELDS`) as ``data.sensordata`` holds them: the readout's estimate and its
+        one-sigma uncertainty (Pa, NaN where unknown), its status (a code, :data:`STATUS_NAMES`),
+        the mode driven, and the gel's mean pressure on the element's coverage (Pa: the truth).
+    touching : whether a strip of the pad touched the ball in that state (MuJoCo's contacts).
     detection_limit_pa : mode 1's detection limit, Pa (the lowest pressure any mode reads).
     closed_s, hold_from_s : when the hand closed and where the hold's readings start, s.
     """
 
     fingertips: tuple[str, ...]
     time_s: np.ndarray
-    estimate_pa: np.ndarray
+    pressure_pa: np.ndarray
     sigma_pa: np.ndarray
     status: np.ndarray
     mode: np.ndarray
-    voltage_v: np.ndarray
     true_pressure_pa: np.ndarray
     touching: np.ndarray
     detection_limit_pa: float
@@ -274,25 +306,25 @@ class SkinRecord:
 
     def ok(self) -> np.ndarray:
         """Where the status is "ok" and the estimate finite (the readings the contract covers)."""
-        return (self.status == STATUS_CODES.index("ok")) & np.isfinite(self.estimate_pa) & np.isfinite(self.sigma_pa)
+        return (self.status == OK) & np.isfinite(self.pressure_pa) & np.isfinite(self.sigma_pa)
 
     def within_3_sigma(self) -> np.ndarray:
         """Where an "ok" reading's estimate +- 3 sigma holds the truth (False elsewhere)."""
         with np.errstate(invalid="ignore"):
-            return self.ok() & (np.abs(self.estimate_pa - self.true_pressure_pa) <= 3.0 * self.sigma_pa)
+            return self.ok() & (np.abs(self.pressure_pa - self.true_pressure_pa) <= 3.0 * self.sigma_pa)
 
 
+@dataclass(frozen=True)
 class _Estimate:
-    """A :class:`TipReading` as the mode selector reads a readout estimate."""
+    """A fingertip's sensors as the mode selector reads a readout estimate."""
 
-    __slots__ = ("pressure_pa", "status", "uncertainty_pa")
-
-    def __init__(self, reading) -> None:
-        self.pressure_pa, self.uncertainty_pa, self.status = reading.estimate_pa, reading.sigma_pa, reading.status
+    pressure_pa: float
+    uncertainty_pa: float
+    status: str
 
 
 def _touching(model: mujoco.MjModel, data: mujoco.MjData, strip_pad: dict[int, int], ball_geom: int, count: int) -> np.ndarray:
-    """Per pad, whether one of its strips touches the ball now."""
+    """Per pad, whether one of its strips touches the ball in ``data``'s contacts."""
     out = np.zeros(count, dtype=bool)
     for contact in data.contact[: data.ncon]:
         g1, g2 = int(contact.geom[0]), int(contact.geom[1])
@@ -303,13 +335,18 @@ def _touching(model: mujoco.MjModel, data: mujoco.MjData, strip_pad: dict[int, i
     return out
 
 
+#: MuJoCo's warnings on which it resets the data to the model's initial state and steps on.
+_RESETS = (mujoco.mjtWarning.mjWARN_BADQPOS, mujoco.mjtWarning.mjWARN_BADQVEL, mujoco.mjtWarning.mjWARN_BADQACC)
+
+
 def run(scene: Path, seconds: float, script: GraspScript = GraspScript()) -> SkinRecord:
-    """Close the hand on the ball for ``seconds`` of simulated time and record every fingertip."""
+    """Close the hand on the ball for ``seconds`` of simulated time in a plain ``mj_step`` loop
+    and record every fingertip's sensors each time the readout samples."""
     spec = build_scene(scene)
     tips = piezotip.attach(spec, sites=[f"{tip}_pad" for tip in FINGERTIPS])
     model = spec.compile()
     data = mujoco.MjData(model)
-    sim = tips.bind(model, data)
+    sim = tips.bind(model, data)  # from here on mj_step runs the fingertips
     actuators = _start_open(model, data, script.targets(0.0))
 
     # The house multimode controller's selector (its switch pressures are the fingertip's own).
@@ -318,35 +355,48 @@ def run(scene: Path, seconds: float, script: GraspScript = GraspScript()) -> Ski
     _, _, p_min_pa, _ = allowed_ranges(tips.fingertip, modes)
     strip_pad = {model.body(strip).id: k for k, pad in enumerate(tips.pads) for strip in pad.strips}
     ball_geom = model.geom("ball").id
+    # Each fingertip's five sensors' addresses in data.sensordata (fingertips x FIELDS).
+    address = np.array([[model.sensor(f"piezotip/{name}/{field}").adr[0] for field in FIELDS] for name in sim.names])
 
-    periods = round(seconds / sim.period_s)
-    shape = (periods, len(FINGERTIPS))
-    columns = {key: np.full(shape, np.nan) for key in ("estimate_pa", "sigma_pa", "voltage_v", "true_pressure_pa")}
-    status, mode, touching = np.zeros(shape, dtype=np.int8), np.zeros(shape, dtype=np.int8), np.zeros(shape, dtype=bool)
-    for k in range(periods):
-        for joint, target in script.targets(k * sim.period_s).items():
+    # The readout samples once a period (sim.substeps steps, sim.period_s): in the callback of
+    # the step that starts at a period's end.  As for every MuJoCo sensor, the values after an
+    # mj_step (and its contacts) are those of the state it started from.
+    steps = round(seconds / model.opt.timestep)
+    periods = steps // sim.substeps
+    columns = {field: np.full((periods, len(FINGERTIPS)), np.nan) for field in FIELDS}
+    touching = np.zeros((periods, len(FINGERTIPS)), dtype=bool)
+    resets = [data.warning[w].number for w in _RESETS]
+    for i in range(periods * sim.substeps + 1):
+        t = data.time
+        for joint, target in script.targets(t).items():
             data.ctrl[actuators[joint]] = target
-        sim.step()
-        readings = sim.readings()
-        for j, name in enumerate(sim.names):
-            r = readings[name]
-            columns["estimate_pa"][k, j], columns["sigma_pa"][k, j] = r.estimate_pa, r.sigma_pa
-            columns["voltage_v"][k, j], columns["true_pressure_pa"][k, j] = r.voltage, r.true_pressure_pa
-            status[k, j], mode[k, j] = STATUS_CODES.index(r.status), r.mode
-            drive, _ = selectors[name].update(_Estimate(r))
-            if drive != r.mode:
-                sim.set_mode(name, drive)
+        mujoco.mj_step(model, data)
+        if i == 0 or i % sim.substeps:
+            continue
+        if [data.warning[w].number for w in _RESETS] != resets:  # MuJoCo reset the data and stepped on
+            raise RuntimeError(f"the simulation diverged before t = {data.time:.4f} s (MuJoCo reset the data to its initial state)")
+        k = i // sim.substeps - 1
+        values = data.sensordata[address]
+        for f, field in enumerate(FIELDS):
+            columns[field][k] = values[:, f]
         touching[k] = _touching(model, data, strip_pad, ball_geom, len(FINGERTIPS))
+        for j, name in enumerate(sim.names):
+            pressure, sigma, status, mode, _ = values[j]
+            drive, _ = selectors[name].update(_Estimate(float(pressure), float(sigma), STATUS_NAMES[int(status)]))
+            if drive != mode:
+                sim.set_mode(name, drive)  # from the next period on: it rings up, "settling" meanwhile
     return SkinRecord(
         fingertips=tuple(name.removesuffix("_pad") for name in sim.names),
         time_s=sim.period_s * np.arange(1, periods + 1),
-        status=status,
-        mode=mode,
+        pressure_pa=columns["pressure_pa"],
+        sigma_pa=columns["sigma_pa"],
+        status=columns["status"].astype(np.int8),
+        mode=columns["mode"].astype(np.int8),
+        true_pressure_pa=columns["true_pressure_pa"],
         touching=touching,
         detection_limit_pa=p_min_pa[modes[0]],
         closed_s=script.closed_s,
         hold_from_s=hold_from_s(model, script),
-        **columns,
     )
 
 
@@ -356,11 +406,10 @@ def run(scene: Path, seconds: float, script: GraspScript = GraspScript()) -> Ski
 
 #: The per-fingertip columns of the CSV and the npz: (record field, column name with its unit).
 COLUMNS = (
-    ("estimate_pa", "estimate_pa"),
+    ("pressure_pa", "pressure_pa"),
     ("sigma_pa", "sigma_pa"),
     ("status", "status"),
     ("mode", "mode"),
-    ("voltage_v", "voltage_v"),
     ("true_pressure_pa", "true_pressure_pa"),
     ("touching", "touching_ball"),
 )
@@ -374,7 +423,7 @@ def save_readings(record: SkinRecord, out: Path) -> tuple[Path, Path]:
         npz,
         time_s=record.time_s,
         fingertips=np.array(record.fingertips),
-        status_names=np.array(STATUS_CODES),
+        status_names=np.array(STATUS_NAMES),
         detection_limit_pa=record.detection_limit_pa,
         closed_s=record.closed_s,
         hold_from_s=record.hold_from_s,
@@ -388,8 +437,8 @@ def save_readings(record: SkinRecord, out: Path) -> tuple[Path, Path]:
         for k, t in enumerate(record.time_s):
             for j, tip in enumerate(record.fingertips):
                 row = [_csv_value(getattr(record, field)[k, j]) for field, _ in COLUMNS]
-                row[status] = STATUS_CODES[int(record.status[k, j])]
-                writer.writerow([f"{t:.3f}", tip, *row])
+                row[status] = STATUS_NAMES[int(record.status[k, j])]
+                writer.writerow([f"{t:.4f}", tip, *row])
     return npz, path
 
 
@@ -452,6 +501,8 @@ PRESSURE_FLOOR_PA = 0.1
 
 #: How far the error strip under each panel reaches, sigmas (errors beyond are drawn at its edge).
 ERROR_STRIP_SIGMA = 10.0
+#: Mode switches closer than this fraction of the run share one label ("m2, m3").
+MODE_LABEL_SPAN = 0.03
 
 
 def plot_skin(record: SkinRecord, path: Path) -> Path:
@@ -473,8 +524,8 @@ def plot_skin(record: SkinRecord, path: Path) -> Path:
             axes.append(panel.add_subplot(grid[row], sharex=axes[0] if axes else None))
     ok, summary = record.ok(), summarize(record)
     with np.errstate(invalid="ignore", divide="ignore"):
-        error = np.where(ok, (record.estimate_pa - record.true_pressure_pa) / record.sigma_pa, np.nan)
-    top = max(10 * PRESSURE_FLOOR_PA, float(np.nanmax(np.where(ok, record.estimate_pa + 3 * record.sigma_pa, record.true_pressure_pa))))
+        error = np.where(ok, (record.pressure_pa - record.true_pressure_pa) / record.sigma_pa, np.nan)
+    top = max(10 * PRESSURE_FLOOR_PA, float(np.nanmax(np.where(ok, record.pressure_pa + 3 * record.sigma_pa, record.true_pressure_pa))))
     for j, s in enumerate(summary):
         ax, strip = axes[2 * j], axes[2 * j + 1]
         for a in (ax, strip):
@@ -482,21 +533,24 @@ def plot_skin(record: SkinRecord, path: Path) -> Path:
             a.axvline(record.closed_s, color="0.6", lw=0.8, ls="--")
         truth = record.true_pressure_pa[:, j]
         ax.plot(t, np.where(truth > 0, truth, np.nan), color="tab:blue", lw=2.5, alpha=0.45, label="true pressure")
-        est, sigma = np.where(ok[:, j], record.estimate_pa[:, j], np.nan), np.where(ok[:, j], record.sigma_pa[:, j], np.nan)
+        est, sigma = np.where(ok[:, j], record.pressure_pa[:, j], np.nan), np.where(ok[:, j], record.sigma_pa[:, j], np.nan)
         low = np.maximum(np.nan_to_num(est - 3 * sigma), 0.5 * PRESSURE_FLOOR_PA)
         band = "estimate $\\pm 3\\sigma$"
         ax.fill_between(t, low, np.nan_to_num(est + 3 * sigma), where=ok[:, j], color="tab:orange", alpha=0.5, lw=0, label=band)
         ax.plot(t, est, ".", ms=2.5, color="saddlebrown", label='estimate (status "ok")')
         ax.axhline(record.detection_limit_pa, color="0.4", ls=":", lw=1, label="detection limit (mode 1)")
-        for code, name in enumerate(STATUS_CODES):
+        for code, name in enumerate(STATUS_NAMES):
             color, alpha = STATUS_STYLE[name]
             spans = [(t[a] - (t[1] - t[0]), t[b - 1] - t[a] + (t[1] - t[0])) for a, b in _runs(record.status[:, j] == code)]
             ax.broken_barh(spans, (0, 0.05), transform=ax.get_xaxis_transform(), color=color, alpha=alpha, lw=0)
+        labels: list[tuple[float, list[str]]] = []  # switches closer than a label's width share one
         for k in np.flatnonzero(np.diff(record.mode[:, j])) + 1:
-            where = (t[k], 1.0)
-            ax.annotate(
-                f"m{record.mode[k, j]}", where, xycoords=("data", "axes fraction"), fontsize=7, ha="center", va="bottom", color="0.3"
-            )
+            if labels and t[k] - labels[-1][0] < MODE_LABEL_SPAN * (t[-1] - t[0]):
+                labels[-1][1].append(f"m{record.mode[k, j]}")
+            else:
+                labels.append((t[k], [f"m{record.mode[k, j]}"]))
+        for at, names in labels:
+            ax.annotate(", ".join(names), (at, 1.0), xycoords=("data", "axes fraction"), fontsize=7, ha="left", va="bottom", color="0.3")
         ax.set_yscale("log")
         ax.set_ylim(PRESSURE_FLOOR_PA, 3 * top)
         ax.set_ylabel("pressure [Pa]")
