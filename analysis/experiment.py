@@ -8,8 +8,10 @@ code and settings (never tuned per object).  The user's ``--set`` overrides appl
 object's and the controller's.  Each run is judged by the referee (:mod:`analysis.referee`);
 the table says, per object and controller: the outcome and its reason, peak and held pressure,
 the time from first contact to detected touch and which sense felt it (the fingertips or the
-finger joints), mode switches, the peak grip, whether the run left the model's valid range,
-and whether the gripper could physically do it at all.
+finger joints), mode switches, the peak grip, the grip economy, the touch (the largest finger
+force from the first contact to lift-off, and the time from the start of closing to the first
+contact), whether the run left the model's valid range, and whether the gripper could
+physically do it at all.
 """
 
 from __future__ import annotations
@@ -29,6 +31,7 @@ from .referee import needed_grip_n
 from .runner import json_safe
 from .sweep import SweepRun
 from .sweep_output import OUTCOME_COLOUR
+from .sweep_rows import TOUCH_COLUMNS
 
 
 @dataclass(frozen=True)
@@ -111,6 +114,8 @@ COLUMNS = (
     "needed_grip_n",
     "grip_margin",
     "peak_contact_n",
+    "touch_peak_n",
+    "time_to_touch_s",
     "outside_model",
 )
 
@@ -185,6 +190,7 @@ def experiment_row(row: dict) -> dict:
         "mode_switches": row["mode_switches"],
         "peak_grip_force_n": row["peak_grip_force_n"],
         **{key: row.get(key, math.nan) for key in ("hold_grip_n", "needed_grip_n", "grip_margin", "peak_contact_n")},
+        **{key: row.get(key, math.nan) for key in TOUCH_COLUMNS},
         "outside_model": row["outside_model"],
     }
 
@@ -216,7 +222,7 @@ def format_table(rows: list[dict]) -> str:
     """The experiment's table as text."""
     head = (
         f"{'object':<16} {'controller':<12} {'outcome':<12} {'peak P [Pa]':>11} {'held [N]':>8} {'needs [N]':>9} {'margin':>6}"
-        f" {'peak [N]':>8} {'touch [ms]':>10} {'by':<9} {'sw':>3}  reason"
+        f" {'peak [N]':>8} {'touch [N]':>9} {'to touch [s]':>12} {'touch [ms]':>10} {'by':<9} {'sw':>3}  reason"
     )
     lines = [head, "-" * len(head)]
     for r in rows:
@@ -224,8 +230,8 @@ def format_table(rows: list[dict]) -> str:
         flag = " [outside model]" if r["outside_model"] else ""
         lines.append(
             f"{r['object']:<16} {r['controller']:<12} {r['outcome']:<12} {r['peak_pressure_pa']:>11.3g} {r['hold_grip_n']:>8.3g}"
-            f" {r['needed_grip_n']:>9.3g} {r['grip_margin']:>6.2f} {r['peak_contact_n']:>8.3g} {touch:>10.1f}"
-            f" {r.get('touch_sense') or '-':<9} {r['mode_switches']:>3}  {r['reason']}{flag}"
+            f" {r['needed_grip_n']:>9.3g} {r['grip_margin']:>6.2f} {r['peak_contact_n']:>8.3g} {r['touch_peak_n']:>9.3g}"
+            f" {r['time_to_touch_s']:>12.3f} {touch:>10.1f} {r.get('touch_sense') or '-':<9} {r['mode_switches']:>3}  {r['reason']}{flag}"
         )
     return "\n".join(lines)
 
@@ -251,6 +257,8 @@ def write_outputs(rows: list[dict], out_dir: Path, plot: bool = True) -> list[Pa
         "needed_grip_n": "N",
         "grip_margin": "hold_grip_n / needed_grip_n",
         "peak_contact_n": "N",
+        "touch_peak_n": "N (the largest true finger force from the first contact until the object leaves the table)",
+        "time_to_touch_s": "s (from the start of closing to the first true contact)",
     }
     from piezotip.provenance import versions
 

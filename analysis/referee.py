@@ -25,6 +25,11 @@ Outcomes, in the order they are decided (the first that applies wins):
 
 The run's validity is separate: ``outside_model`` lists where the gel or the element left the
 model's valid range (the outcome stands; the flag says how far to trust it).
+
+Besides the outcome, the referee measures (:class:`Verdict`): the grip economy (the grip held
+against the grip needed), the touch (``touch_peak_n``, ``time_to_touch_s``) and, where the
+scenario puts an extra load on the held object (``disturb.*``), the answer to it
+(``disturb_slip_mm``, ``disturb_reaction_ms``, ``disturb_grip_margin``).
 """
 
 from __future__ import annotations
@@ -36,6 +41,15 @@ from dataclasses import dataclass
 import numpy as np
 
 OUTCOMES = ("success", "crushed", "slipped", "dropped", "never_lifted", "blind", "timeout", "fault")
+
+#: The recorded ``phase`` codes the referee reads (cosim.control.Phase's values, which the record
+#: keeps stable): the closing's start and the hold.
+CLOSE_PHASE = 1
+HOLD_PHASE = 4
+
+#: The share by which the true grip must rise over its value at a disturbance's onset to count as
+#: the controller's answer (``disturb_reaction_ms``): 10 %.
+REACTION_RISE = 0.1
 
 
 @dataclass(frozen=True)
@@ -62,6 +76,23 @@ class Criteria:
 
 
 @dataclass(frozen=True)
+class Disturbance:
+    """A load change while the object is held, as the referee needs it (scenarios.config.DisturbConfig).
+
+    Attributes
+    ----------
+    extra_load_n : the extra downward load that came on, N.
+    ramp_s : its rise time, s.
+    needed_grip_n : the least grip that holds the object under it, N per finger:
+        (m g + extra) / (2 mu) (:func:`needed_grip_n` with ``extra_load_n``).
+    """
+
+    extra_load_n: float
+    ramp_s: float
+    needed_grip_n: float
+
+
+@dataclass(frozen=True)
 class Verdict:
     """The referee's judgement of one run (lengths m, speeds m/s, forces N, times s).
 
@@ -71,6 +102,17 @@ class Verdict:
     (:func:`needed_grip_n`); ``grip_margin`` their ratio (1 holds it exactly; people keep 1.1-1.4);
     ``peak_contact_n`` the largest true force of either finger at any time (touch, lift, touchdown
     and release included; over every physics step where the record has the peaks), N.
+
+    The touch (:func:`touch_metrics`): ``touch_peak_n`` is the largest true force of either
+    finger from the first contact until the object leaves the table, N; ``time_to_touch_s`` the
+    time from the start of closing to the first contact, s.  NaN where never touched.
+
+    A load change while held (:func:`disturbance_metrics`; NaN without one, or where the object
+    was never held when it came): ``disturb_slip_mm`` the object's largest movement relative to
+    the pads from the load's onset to the end of the hold, mm; ``disturb_reaction_ms`` the time
+    from the onset until the true grip has risen by 10 % over its value then, ms;
+    ``disturb_hold_grip_n`` the new hold's grip, N; ``disturb_needed_grip_n`` the grip that holds
+    the object under the load, (m g + extra) / (2 mu), N; ``disturb_grip_margin`` their ratio.
     """
 
     outcome: str
@@ -92,6 +134,13 @@ class Verdict:
     needed_grip_n: float = math.nan
     grip_margin: float = math.nan
     peak_contact_n: float = math.nan
+    touch_peak_n: float = math.nan
+    time_to_touch_s: float = math.nan
+    disturb_slip_mm: float = math.nan
+    disturb_reaction_ms: float = math.nan
+    disturb_hold_grip_n: float = math.nan
+    disturb_needed_grip_n: float = math.nan
+    disturb_grip_margin: float = math.nan
 
     @property
     def success(self) -> bool:
@@ -103,18 +152,19 @@ class Verdict:
         return d
 
 
-def needed_grip_n(mass_kg: float, friction: float, gravity_m_s2: float = 9.81, fingers: int = 2) -> float:
+def needed_grip_n(mass_kg: float, friction: float, gravity_m_s2: float = 9.81, fingers: int = 2, extra_load_n: float = 0.0) -> float:
     """The least normal force per finger that holds an object against gravity by friction, N.
 
     Coulomb friction on ``fingers`` parallel contacts, each carrying at most ``friction`` times
     its normal force ``G``: the object is held while ``fingers * friction * G >= m g``, so
     ``G = m g / (fingers * friction)`` (m g / (2 mu) for a two-finger grip).  ``mass_kg`` in kg,
-    ``friction`` the pad-object coefficient (dimensionless), ``gravity_m_s2`` in m/s^2.
+    ``friction`` the pad-object coefficient (dimensionless), ``gravity_m_s2`` in m/s^2.  An
+    ``extra_load_n`` (N, downward, a disturbance's) adds to the weight: (m g + extra) / (2 mu).
     """
-    if not (mass_kg > 0 and friction > 0 and gravity_m_s2 > 0 and fingers > 0):
-        got = f"{mass_kg!r} kg, friction {friction!r}, {gravity_m_s2!r} m/s^2, {fingers!r} fingers"
-        raise ValueError(f"needed_grip_n needs positive mass, friction, gravity and fingers, got {got}")
-    return mass_kg * gravity_m_s2 / (fingers * friction)
+    if not (mass_kg > 0 and friction > 0 and gravity_m_s2 > 0 and fingers > 0 and 0 <= extra_load_n < math.inf):
+        got = f"{mass_kg!r} kg, friction {friction!r}, {gravity_m_s2!r} m/s^2, {fingers!r} fingers, {extra_load_n!r} N extra"
+        raise ValueError(f"needed_grip_n needs positive mass, friction, gravity and fingers and a finite extra load >= 0, got {got}")
+    return (mass_kg * gravity_m_s2 + extra_load_n) / (fingers * friction)
 
 
 def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
@@ -136,6 +186,109 @@ def _landing_speed(vz: np.ndarray, table: np.ndarray, after: int) -> float:
     return max(speeds)
 
 
+def touch_metrics(
+    time_s: np.ndarray, phase: np.ndarray | None, force_n: np.ndarray, touching: np.ndarray, off_table: np.ndarray
+) -> tuple[float, float]:
+    """(``touch_peak_n``, ``time_to_touch_s``): how hard, and how soon, the fingers first touch.
+
+    Parameters
+    ----------
+    time_s : the record's times, s.
+    phase : its ``phase`` codes (cosim.control.Phase), or None where the record has none.
+    force_n : the larger of the two fingers' true forces on the object per sample (their peak
+        over the period's physics steps where recorded), N.
+    touching : per sample, whether either finger's true force exceeds the contact threshold
+        (Criteria.contact_force_n, 1 uN): the first such sample is the first contact.
+    off_table : per sample, whether the object is more than Criteria.placed_tolerance_m (2 mm)
+        above its start: the referee's lift-off.
+
+    ``touch_peak_n`` (N) is ``force_n``'s largest value from the first contact up to the last
+    sample before the object first leaves the table (2 mm up, as the referee's ``off_table``
+    says) after it; to the end of the record where it never leaves.  ``time_to_touch_s`` (s) is
+    the time from the start of closing (the first sample recorded in the close phase, the phase
+    the controller commanded at that time) to the first contact: within one control period,
+    the record's resolution; negative where something touched the object before the fingers
+    closed, NaN without a close phase.  Both NaN where nothing ever touched the object.
+    """
+    contact = np.flatnonzero(touching)
+    if contact.size == 0:
+        return math.nan, math.nan
+    first = int(contact[0])
+    lifted = np.flatnonzero(off_table[first:])
+    end = first + int(lifted[0]) if lifted.size else time_s.size
+    peak = float(np.max(force_n[first : max(end, first + 1)]))
+    closing = np.flatnonzero(phase == CLOSE_PHASE) if phase is not None else np.zeros(0, int)
+    to_touch = float(time_s[first] - time_s[closing[0]]) if closing.size else math.nan
+    return peak, to_touch
+
+
+def disturb_onset_s(time_s: np.ndarray, phase: np.ndarray | None, hold_s: float) -> float:
+    """When a disturbance's load came on, s: the middle of the hold as the controller's phases
+    define it, the first sample recorded in the hold phase plus half of ``hold_s`` (s) (the
+    loop's schedule, cosim.disturb.onset_s); NaN where the record never holds."""
+    held = np.flatnonzero(phase == HOLD_PHASE) if phase is not None else np.zeros(0, int)
+    return float(time_s[held[0]]) + 0.5 * hold_s if held.size else math.nan
+
+
+def disturbance_metrics(
+    data: dict[str, np.ndarray], hold_s: float, disturbance: Disturbance, clear: np.ndarray
+) -> dict[str, float]:
+    """The answer to a load change while held (:class:`Verdict`'s ``disturb_*``), from the record.
+
+    The load came on at :func:`disturb_onset_s`; the disturbance lasts from there to the end of
+    the hold (its last sample in the hold phase).  Over it:
+
+    - ``disturb_slip_mm``: the object's largest movement relative to the pads, mm: its centre
+      in the gripper's frame (x, y, height less the lift's position: the fingers only translate
+      with the lift), against where it was at the onset;
+    - ``disturb_reaction_ms``: from the onset to the first sample from which the true grip (the
+      two fingers' mean true force on the object, N) stays at least 10 % (REACTION_RISE) over its
+      value at the onset to the end of the hold, ms.  The rise must last: pads sliding under the
+      load chatter, and their force swings by +-50 % from one period to the next (the gentle
+      controller's box read 1.15x 40 ms after the onset while it slid out of the fingers), which
+      is no answer.  NaN where the grip never rises for good (a drop included);
+    - ``disturb_hold_grip_n``: the new hold's grip, N: the true grip's median over the samples
+      from the ramp's end to the end of the hold in which the object was carried clear of the
+      table (``clear``); ``disturb_needed_grip_n`` the disturbance's ``needed_grip_n``;
+      ``disturb_grip_margin`` their ratio.
+
+    All but the needed grip are NaN where the record never held, or ended before the onset.
+    """
+    t = np.asarray(data["time_s"], float)
+    result = dict.fromkeys(("disturb_slip_mm", "disturb_reaction_ms", "disturb_hold_grip_n", "disturb_grip_margin"), math.nan)
+    result["disturb_needed_grip_n"] = float(disturbance.needed_grip_n)
+    phase = data.get("phase")
+    onset = disturb_onset_s(t, phase, hold_s)
+    held = np.flatnonzero(phase == HOLD_PHASE) if phase is not None else np.zeros(0, int)
+    if not math.isfinite(onset) or t[-1] < onset:
+        return result
+    # The hold's end: the last sample of its first run in the hold phase (a later hold is none).
+    breaks = np.flatnonzero(np.diff(held) != 1)
+    end = int(held[breaks[0]]) if breaks.size else int(held[-1])
+    start = int(np.searchsorted(t, onset + 1e-9 * max(1.0, abs(onset)), side="right")) - 1  # the last sample at or before the onset
+    if start < 0 or end < start:
+        return result
+    window = slice(start, end + 1)
+    rel = np.stack([data["object_x_m"], data["object_y_m"], data["object_height_m"] - data["lift_m"]], axis=1)[window]
+    result["disturb_slip_mm"] = 1e3 * float(np.linalg.norm(rel - rel[0], axis=1).max())
+    grip = 0.5 * (data["left_finger_force_n"] + data["right_finger_force_n"])
+    g0 = float(grip[start])
+    if g0 > 0:  # (the onset's own sample is below the rise: ``below`` is never empty)
+        below = np.flatnonzero(grip[window] < (1.0 + REACTION_RISE) * g0)
+        risen = start + int(below[-1]) + 1  # the first sample of the rise that lasts to the end
+        if risen <= end:
+            result["disturb_reaction_ms"] = 1e3 * float(t[risen] - onset)
+    settled = np.zeros(t.size, bool)
+    settled[window] = t[window] >= onset + disturbance.ramp_s - 1e-9
+    settled &= clear
+    if settled.any():
+        hold = float(np.median(grip[settled]))
+        result["disturb_hold_grip_n"] = hold
+        need = float(disturbance.needed_grip_n)
+        result["disturb_grip_margin"] = hold / need if need > 0 else math.nan
+    return result
+
+
 def judge(
     data: dict[str, np.ndarray],
     lift_height_m: float,
@@ -146,6 +299,7 @@ def judge(
     error: str | None = None,
     criteria: Criteria = Criteria(),
     needed_grip: float | None = None,
+    disturbance: Disturbance | None = None,
 ) -> Verdict:
     """Judge one recorded run.
 
@@ -167,12 +321,18 @@ def judge(
     error : the message of an error that stopped the run (a divergence), or None.
     needed_grip : the least grip that holds the object, N per finger (:func:`needed_grip_n`
         of its simulated mass and friction); None leaves ``needed_grip_n`` and ``grip_margin`` NaN.
+    disturbance : the load change the run put on the held object (:class:`Disturbance`), or None
+        (the ``disturb_*`` fields NaN).  Its onset is read from the record's ``phase`` column, as
+        are the start of closing and the hold (:func:`touch_metrics`, :func:`disturbance_metrics`).
     """
     c = criteria
     t = np.asarray(data.get("time_s", ()), float)
     if t.size == 0:
         nothing = Verdict("fault", error or "nothing was recorded", *([False] * 6), *([math.nan] * 2), 0.0, 0.0, 0.0, 0.0, 0.0)
-        return dataclasses.replace(nothing, needed_grip_n=math.nan if needed_grip is None else float(needed_grip))
+        needed_disturbed = math.nan if disturbance is None else float(disturbance.needed_grip_n)
+        return dataclasses.replace(
+            nothing, needed_grip_n=math.nan if needed_grip is None else float(needed_grip), disturb_needed_grip_n=needed_disturbed
+        )
     z = data["object_height_m"]
     z0 = float(z[0])
     rise = z - z0
@@ -215,6 +375,9 @@ def judge(
     hold_grip = float(np.median(0.5 * (left + right)[clear])) if clear.any() else math.nan
     needed = math.nan if needed_grip is None else float(needed_grip)
     crushed = crush_force_n is not None and peak_grip > crush_force_n
+    phase = data.get("phase")
+    touch_peak, time_to_touch = touch_metrics(t, phase, grip, touching, off_table)
+    disturbed = disturbance_metrics(data, hold_s, disturbance, clear) if disturbance is not None else {}
 
     kinds = {e["kind"]: e for e in events}
 
@@ -280,6 +443,9 @@ def judge(
         needed_grip_n=needed,
         grip_margin=hold_grip / needed if needed > 0 else math.nan,
         peak_contact_n=peak_grip,
+        touch_peak_n=touch_peak,
+        time_to_touch_s=time_to_touch,
+        **disturbed,
     )
 
 

@@ -12,7 +12,7 @@ from piezotip.scenarios.config import ObjectConfig, ScenarioConfig
 from piezotip.sensor import Fingertip
 
 from .plotting import save_figure
-from .referee import judge, needed_grip_n, outside_model
+from .referee import Disturbance, judge, needed_grip_n, outside_model
 
 
 def _finite_max(values: np.ndarray) -> float:
@@ -26,14 +26,34 @@ def describe_object(obj: ObjectConfig) -> str:
     return text + (f", crushes above {obj.crush_force_n:g} N" if obj.crush_force_n is not None else "")
 
 
-def object_needed_grip_n(model) -> float:
+def object_needed_grip_n(model, extra_load_n: float = 0.0) -> float:
     """The least grip that holds the scene's object, N per finger, from the compiled model's truth
     (the object body's mass, the pad-object friction, which the pads' geoms carry, and gravity):
-    :func:`~analysis.referee.needed_grip_n`, m g / (2 mu)."""
+    :func:`~analysis.referee.needed_grip_n`, m g / (2 mu); with an extra downward load
+    ``extra_load_n`` (N), (m g + extra) / (2 mu)."""
     from piezotip.cosim.scene import gravity_m_s2
 
     pad = model.geom("left_pad_seg0_geom").id
-    return needed_grip_n(float(model.body("object").mass[0]), float(model.geom_friction[pad, 0]), gravity_m_s2(model))
+    mass_kg, friction = float(model.body("object").mass[0]), float(model.geom_friction[pad, 0])
+    return needed_grip_n(mass_kg, friction, gravity_m_s2(model), extra_load_n=extra_load_n)
+
+
+def object_disturbance(config: ScenarioConfig, model=None) -> Disturbance | None:
+    """The load change ``config`` puts on the held object (``disturb.*``) as the referee judges it,
+    or None where none comes on.  From the compiled ``model``'s truth (the object body's weight,
+    which ``disturb.extra_load_n`` None stands for, as the loop applies it: cosim.loop), or
+    without a model from the config's object at standard gravity (9.81 m/s^2)."""
+    d = config.disturb
+    if not d.active:
+        return None
+    if model is None:
+        o = config.object
+        extra = d.load_n(o.mass_kg * 9.81)
+        return Disturbance(extra, d.ramp_s, needed_grip_n(o.mass_kg, o.friction, extra_load_n=extra))
+    from piezotip.cosim.scene import gravity_m_s2
+
+    extra = d.load_n(float(model.body("object").mass[0]) * gravity_m_s2(model))
+    return Disturbance(extra, d.ramp_s, object_needed_grip_n(model, extra))
 
 
 def mode_changes(data: dict[str, np.ndarray], pads: tuple[str, ...]) -> tuple[int, list[int]]:
@@ -55,11 +75,14 @@ def summary(
     events: list[dict] | None = None,
     finished: bool = True,
     needed_grip: float | None = None,
+    disturbance: Disturbance | None = None,
 ) -> dict:
     """The run's JSON summary: scenario, times, steps, pressures, modes, the referee's outcome, files.
 
     ``needed_grip``: the least grip that holds the object, N per finger (:func:`object_needed_grip_n`
-    of the simulated model); None computes it from the config's object at standard gravity."""
+    of the simulated model); None computes it from the config's object at standard gravity.
+    ``disturbance``: the load change the run put on the held object (:func:`object_disturbance` of
+    the simulated model); None computes it from the config (None again where it has none)."""
     pads = tuple(config.sensor.pads)
     sim_time = float(data["time_s"][-1]) if data else 0.0
     switches, used = mode_changes(data, pads) if data else (0, [])
@@ -88,7 +111,10 @@ def summary(
     c = config.controller
     if needed_grip is None:
         needed_grip = needed_grip_n(config.object.mass_kg, config.object.friction)
-    verdict = judge(data, c.lift_height_m, c.hold_s, config.object.crush_force_n, events or [], finished, error, needed_grip=needed_grip)
+    if disturbance is None:
+        disturbance = object_disturbance(config)
+    crush = config.object.crush_force_n
+    verdict = judge(data, c.lift_height_m, c.hold_s, crush, events or [], finished, error, needed_grip=needed_grip, disturbance=disturbance)
     result.update(verdict.as_dict())
     result["limits"] = model_limits(config, result["max_pressure_pa"], data, pads)
     result["outside_model"] = outside_model(result["limits"])
@@ -127,6 +153,34 @@ def _grip_economy(s: dict) -> str:
     return text + f"; peak contact {s['peak_contact_n']:.3g} N"
 
 
+def _finite(value) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+
+
+def _touch(s: dict) -> str:
+    """The first touch in words (the summary's ``touch_peak_n``, ``time_to_touch_s``)."""
+    peak, when = s.get("touch_peak_n"), s.get("time_to_touch_s")
+    if not _finite(peak):
+        return "never touched"
+    first = f"first contact {when:.3f} s after closing began" if _finite(when) else "first contact"
+    return f"{first}, {peak:.3g} N at most before lift-off"
+
+
+def _disturbance(s: dict) -> str | None:
+    """The answer to a load change in words (the summary's ``disturb_*``), or None without one."""
+    need = s.get("disturb_needed_grip_n")
+    if not _finite(need):
+        return None
+    slip, reaction = s.get("disturb_slip_mm"), s.get("disturb_reaction_ms")
+    held, margin = s.get("disturb_hold_grip_n"), s.get("disturb_grip_margin")
+    if not _finite(slip):
+        return "load change: never held when it was due"
+    answer = f"the grip rose 10 % for good {reaction:.0f} ms after the onset" if _finite(reaction) else "the grip never rose 10 % for good"
+    hold = f"held {held:.3g} N" if _finite(held) else "never carried clear"
+    hold += f" where {need:.3g} N holds it" + (f" ({margin:.2f}x)" if _finite(margin) else "")
+    return f"load change: moved {slip:.2f} mm in the fingers; {answer}; {hold}"
+
+
 def format_summary(s: dict) -> str:
     """A readable block of the summary."""
     lines = [
@@ -137,9 +191,13 @@ def format_summary(s: dict) -> str:
         f" ended {1e3 * (s['object_final_height_m'] - s['object_start_height_m']):+.1f} mm from its start"
         f" (landing {s['landing_speed_m_s']:.3f} m/s)",
         f"  grip {_grip_economy(s)}",
+        f"  touch: {_touch(s)}",
         f"  max pad pressure {s['max_pressure_pa']:.4g} Pa (true), {s['max_estimate_pa']:.4g} Pa (largest estimate)",
         f"  modes used {s['modes_used']}, {s['mode_switches']} switches",
     ]
+    disturbed = _disturbance(s)
+    if disturbed is not None:
+        lines.append(f"  {disturbed}")
     lim = s.get("limits")
     if lim:
         flags = [

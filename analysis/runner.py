@@ -220,7 +220,7 @@ def _run(name, overrides, out, csv, render, plot, quiet, preset, video, video_fp
     from piezotip.cosim.recorder import Recorder
     from piezotip.provenance import versions
 
-    from .run_report import object_needed_grip_n, plot_run, summary
+    from .run_report import object_disturbance, object_needed_grip_n, plot_run, summary
 
     config = scenarios.get(name, overrides, preset)
     out = check_out_dir(Path(out))
@@ -273,7 +273,8 @@ def _run(name, overrides, out, csv, render, plot, quiet, preset, video, video_fp
     files = [str(f) for f in result.files]
     events = [asdict(e) for e in sim.controller.events]
     needed = object_needed_grip_n(sim.model)
-    report = summary(config, data, result.wall_time_s, files, result.error, events, sim.controller.finished, needed)
+    disturbance = object_disturbance(config, sim.model)
+    report = summary(config, data, result.wall_time_s, files, result.error, events, sim.controller.finished, needed, disturbance)
     if data and plot:
         files.append(str(plot_run(config, sim.fingertip, data, out, report)))
     if strip is not None and strip.images:

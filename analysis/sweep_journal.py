@@ -16,7 +16,7 @@ import math
 import os
 from pathlib import Path
 
-from .sweep_rows import ERROR_OUTCOME, GRIP_ECONOMY_COLUMNS
+from .sweep_rows import ERROR_OUTCOME, REFEREE_COLUMNS
 
 #: The journal's name in a sweep's output folder.
 JOURNAL_NAME = "points.jsonl"
@@ -33,6 +33,13 @@ _NUMBER_COLUMNS = (
     "needed_grip_n",
     "grip_margin",
     "peak_contact_n",
+    "touch_peak_n",
+    "time_to_touch_s",
+    "disturb_slip_mm",
+    "disturb_reaction_ms",
+    "disturb_hold_grip_n",
+    "disturb_needed_grip_n",
+    "disturb_grip_margin",
     "sim_time_s",
 )
 
@@ -48,8 +55,8 @@ def normalized(row: dict) -> dict:
 
     row = json.loads(json.dumps(json_safe(row)))
     for key in _NUMBER_COLUMNS:
-        if row.get(key, None) is None and (key in row or key in GRIP_ECONOMY_COLUMNS):
-            row[key] = math.nan  # null, or a journal written before the grip-economy columns
+        if row.get(key, None) is None and (key in row or key in REFEREE_COLUMNS):
+            row[key] = math.nan  # null, or a journal written before the referee's columns
     return row
 
 

@@ -28,6 +28,13 @@ EXTRA_COLUMNS = (
     "needed_grip_n",
     "grip_margin",
     "peak_contact_n",
+    "touch_peak_n",
+    "time_to_touch_s",
+    "disturb_slip_mm",
+    "disturb_reaction_ms",
+    "disturb_hold_grip_n",
+    "disturb_needed_grip_n",
+    "disturb_grip_margin",
     "outside_model",
     "sim_time_s",
     "error",
@@ -35,6 +42,17 @@ EXTRA_COLUMNS = (
 
 #: The referee's grip economy (analysis.referee.Verdict): grip held, needed, their ratio, peak contact.
 GRIP_ECONOMY_COLUMNS = ("hold_grip_n", "needed_grip_n", "grip_margin", "peak_contact_n")
+
+#: The referee's touch (analysis.referee.touch_metrics): the peak finger force from the first
+#: contact to lift-off, N, and the time from the start of closing to the first contact, s.
+TOUCH_COLUMNS = ("touch_peak_n", "time_to_touch_s")
+
+#: The referee's answer to a load change while held (analysis.referee.disturbance_metrics; NaN
+#: in a run without one): slip, mm; reaction, ms; the new hold's grip and need, N; their ratio.
+DISTURB_COLUMNS = ("disturb_slip_mm", "disturb_reaction_ms", "disturb_hold_grip_n", "disturb_needed_grip_n", "disturb_grip_margin")
+
+#: The referee's numbers a row copies from the run's summary (NaN where the summary has none).
+REFEREE_COLUMNS = (*GRIP_ECONOMY_COLUMNS, *TOUCH_COLUMNS, *DISTURB_COLUMNS)
 
 #: The outcome of a point whose run raised.
 ERROR_OUTCOME = "error"
@@ -88,12 +106,17 @@ def point_row(summary: Mapping, data: Mapping[str, np.ndarray]) -> dict:
         "touch_sense": touch_sense(summary.get("events") or []),
         "mode_switches": summary["mode_switches"],
         "peak_grip_force_n": summary["peak_grip_force_n"],
-        **{key: summary.get(key, math.nan) for key in GRIP_ECONOMY_COLUMNS},
+        **{key: _number(summary.get(key)) for key in REFEREE_COLUMNS},
         "outside_model": "; ".join(summary.get("outside_model", [])),
         "sim_time_s": summary["sim_time_s"],
         "error": summary.get("error") or "",
         "object_config": summary.get("object"),
     }
+
+
+def _number(value) -> float:
+    """A summary's number, NaN for a missing one (or JSON's null)."""
+    return math.nan if value is None else value
 
 
 def error_row(message: str) -> dict:

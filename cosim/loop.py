@@ -30,12 +30,13 @@ from piezotip.sensor.spread import spread_weights
 from piezotip.sensor.unit_channel import UnitChannel
 
 from .control import Command, Controller, Observation, PadSignal, RobotLimits, make_observation, make_pad_signal
+from .disturb import LoadDisturbance
 from .pad_bridge import PadBridge
 from .pad_geometry import PAD_NAMES, PAD_SIDES, PadGeometry
 from .period import PeriodPhysics
 from .recorder import Recorder
 from .rows import _STATUS_INDEX, RowBuilder, row_columns
-from .scene import build_scene, check_reach, finite_state, reset_home, robot_limits
+from .scene import build_scene, check_reach, finite_state, gravity_m_s2, reset_home, robot_limits
 
 
 class SimulationDiverged(RuntimeError):
@@ -230,12 +231,22 @@ class CoSimulation:
         # fingers' peak over its steps (PEAK_COLUMNS); other objects do not pay for it.
         self._track_peaks = config.object.crush_force_n is not None
         self._finger_peaks = (0.0, 0.0)
+        # A load change while held (disturb.*): None where none comes on, so that the per-step
+        # path of every other run is untouched (the actuators' stage is wrapped below).
+        self._object_body = m.body("object").id
+        self.disturbance: LoadDisturbance | None = None
+        if config.disturb.active:
+            weight_n = float(m.body_mass[self._object_body]) * gravity_m_s2(m)  # what extra_load_n None stands for
+            xfrc = self.data.xfrc_applied[self._object_body]
+            self.disturbance = LoadDisturbance(config.disturb.load_n(weight_n), config.disturb.ramp_s, config.controller.hold_s, xfrc)
         self._prepare_step()
         if self.mounted is not None:
             # The mounted gripper's drive in place of the house's one finger servo, on this
             # instance (as wrap_stages puts its instruments): the default never takes this branch.
             for name in ("_physics", "_observe", "_actuate", "model_settings", "apply_model_settings"):
                 setattr(self, name, getattr(self, f"{name}_mounted"))
+        if self.disturbance is not None:
+            self._actuate_undisturbed, self._actuate = self._actuate, self._actuate_disturbed
 
     def _mount(self, config: ScenarioConfig) -> None:
         """The scene, home, pads and limits with ``gripper.mjcf`` on the lift (cosim.gripper_mount)."""
@@ -330,6 +341,8 @@ class CoSimulation:
             _STATUS_INDEX,
         )
         self._row_builder.bind(self._object_xpos, self._object_qvel, self._sensordata)
+        if self.disturbance is not None:  # a copy's load acts on its own data
+            self.disturbance.bind(d.xfrc_applied[self._object_body])
 
     def _bind_period(self) -> None:
         """(Re)bind the period's kernel to this model and data, through the step and gel-force
@@ -450,6 +463,12 @@ class CoSimulation:
         forcerange[self._finger_act, 1] = limit
         for pad, mode in command.modes.items():
             self.channels[pad].select_mode(mode)
+
+    def _actuate_disturbed(self, command: Command) -> None:
+        """:meth:`_actuate` (or the mounted drive's), then the extra load on the object for the
+        next period, scheduled by the phase just commanded (cosim.disturb)."""
+        self._actuate_undisturbed(command)
+        self.disturbance.command(command.phase, self.time_s, self.dt)
 
     def _check_stable(self) -> None:
         """SimulationDiverged, naming MuJoCo's warnings or the non-finite state, unless the

@@ -643,6 +643,58 @@ class GripperConfig(_CheckedOnConstruction):
         check_gripper(self)  # the file loads, and names what these keys name (a ValueError naming the key)
 
 
+#: The most extra load a disturbance may put on the object, N: the weight of the gripper's rated
+#: payload (RATED_MASS_KG's 10 kg at standard gravity, 9.81 m/s^2), what its fingers and lift
+#: are built to carry (models/gripper.xml).
+MAX_EXTRA_LOAD_N = RATED_MASS_KG[1] * 9.81
+
+
+@dataclass(frozen=True)
+class DisturbConfig(_CheckedOnConstruction):
+    """A load change while the object is held: an extra downward force on the object, as a
+    pour of water into a held cup or a hand pressing on it would put on.
+
+    The load comes on at the middle of the hold, as the controller's phases define it: the time
+    the controller's phase first turns to hold (the recorded ``phase`` column) plus half of
+    ``controller.hold_s``.  It rises linearly from zero over ``ramp_s`` and then stays on to the
+    end of the run (cosim.disturb.LoadDisturbance applies it, as MuJoCo's ``xfrc_applied`` on
+    the object's centre of mass, once per control period at the ramp's mean over that period:
+    the impulse the ramp delivers).  A controller that never holds is never disturbed.  The
+    referee measures the answer (analysis.referee: ``disturb_slip_mm``, ``disturb_reaction_ms``,
+    ``disturb_grip_margin``).
+
+    Attributes
+    ----------
+    extra_load_n : the extra downward load, N: 0 for none (every scenario but grasp-disturb),
+        None for the object's own weight (its simulated mass times the model's gravity:
+        grasp-disturb's), else 0 to MAX_EXTRA_LOAD_N = 98.1 N, the rated payload's weight.
+    ramp_s : how long the load takes to come on, s: 0.05, about how fast a hand sets a weight
+        down (a positive number: a step, 0, has no rise to answer in time).
+    """
+
+    extra_load_n: float | None = 0.0
+    ramp_s: float = 0.05
+
+    def validate(self) -> None:
+        load = self.extra_load_n
+        if load is not None and not (_is_number(load) and 0.0 <= load <= MAX_EXTRA_LOAD_N):
+            raise ValueError(
+                f"disturb.extra_load_n must be None (the object's weight) or within 0-{MAX_EXTRA_LOAD_N:g} N "
+                f"(none to the gripper's rated 10 kg payload's weight), got {_short(load)}"
+            )
+        if not (_is_number(self.ramp_s) and 0.0 < self.ramp_s < math.inf):
+            raise ValueError(f"disturb.ramp_s must be a positive number of seconds (the load's rise time), got {_short(self.ramp_s)}")
+
+    @property
+    def active(self) -> bool:
+        """Whether any load comes on (None, the object's weight, does)."""
+        return self.extra_load_n is None or self.extra_load_n > 0.0
+
+    def load_n(self, weight_n: float) -> float:
+        """The extra load, N, for an object of weight ``weight_n`` (N; what None stands for)."""
+        return float(weight_n) if self.extra_load_n is None else float(self.extra_load_n)
+
+
 def _names_once(key: str, names) -> None:
     """A non-empty list of names, each once; a list written unquoted (``[a, b]``, which reads as
     one name) gets the quoting it needs."""
@@ -668,6 +720,7 @@ class ScenarioConfig:
     controller : the controller's config: the class its ``kind`` is registered with
         (:mod:`piezotip.controllers`), the gentle controller's by default (GentleConfig).
     gripper : the gripper on the lift (:class:`GripperConfig`): the house's by default.
+    disturb : a load change while the object is held (:class:`DisturbConfig`): none by default.
     """
 
     name: str
@@ -678,6 +731,7 @@ class ScenarioConfig:
     sensor: SensorConfig = field(default_factory=SensorConfig)
     controller: ControllerConfig = field(default_factory=GentleConfig)
     gripper: GripperConfig = field(default_factory=GripperConfig)
+    disturb: DisturbConfig = field(default_factory=DisturbConfig)
 
     def validate(self) -> ScenarioConfig:
         """Check every value, then the ranges that depend on several; return self so it chains."""
@@ -688,11 +742,13 @@ class ScenarioConfig:
                 f"controller.kind {self.controller.kind!r} takes a {registration.config.__name__}, got a "
                 f"{type(self.controller).__name__} (piezotip.controllers.configure builds the one a kind takes)"
             )
-        for part in (self.object, self.physics, self.sensor, self.controller, self.gripper):
+        for part in (self.object, self.physics, self.sensor, self.controller, self.gripper, self.disturb):
             part.validate()
         steps = self.duration_s / self.physics.control_period_s
-        if steps > MAX_RECORDED_STEPS:
-            longest = MAX_RECORDED_STEPS * self.physics.control_period_s
+        longest = MAX_RECORDED_STEPS * self.physics.control_period_s
+        # Compared as durations: duration / period of a duration of exactly `longest` can round
+        # past MAX_RECORDED_STEPS (hypothesis found 10739.908... s at 0.01074 s).
+        if self.duration_s > longest:
             raise ValueError(
                 f"duration_s {self.duration_s!r} s is {steps:.3g} control periods of {self.physics.control_period_s:g} s: at most "
                 f"{MAX_RECORDED_STEPS:.0e} are recorded (300 MB of run.npz, read back whole by the referee), {longest:g} s"

@@ -5,7 +5,7 @@ Objects come from :mod:`scenarios.objects` (one definition each)."""
 from __future__ import annotations
 
 from . import register
-from .config import ScenarioConfig
+from .config import DisturbConfig, ScenarioConfig
 from .objects import OBJECTS
 
 
@@ -55,3 +55,16 @@ def grasp_slippery() -> ScenarioConfig:
 def grasp_10kg() -> ScenarioConfig:
     """A 10 kg, 80 mm dense block: the heaviest load the gripper is rated for."""
     return ScenarioConfig(name="grasp-10kg", description="grasp a 10 kg dense block", object=OBJECTS["block-10kg"])
+
+
+@register
+def grasp_disturb() -> ScenarioConfig:
+    """The default job's 100 g box, and at the middle of the hold an extra downward load of its own
+    weight comes on over 50 ms (disturb.extra_load_n None: the object's weight; DisturbConfig):
+    how fast, and how far, the grip answers a load change."""
+    return ScenarioConfig(
+        name="grasp-disturb",
+        description="grasp the 100 g box; mid-hold its weight again comes on over 50 ms (a load change)",
+        object=OBJECTS["box-100g"],
+        disturb=DisturbConfig(extra_load_n=None),
+    )

@@ -37,6 +37,7 @@ from piezotip.scenarios.config import (
     INTEGRATORS,
     LOAD_SPREADS,
     MAX_CONTROL_PERIOD_S,
+    MAX_EXTRA_LOAD_N,
     MAX_PERSIST_S,
     MAX_RECORDED_STEPS,
     MAX_SEED,
@@ -48,6 +49,7 @@ from piezotip.scenarios.config import (
     RATED_MASS_KG,
     SENSOR_DYNAMICS,
     ControllerConfig,
+    DisturbConfig,
     ObjectConfig,
     PhysicsConfig,
     ScenarioConfig,
@@ -216,6 +218,7 @@ def scenario_configs(draw) -> ScenarioConfig:
         physics=physics,
         sensor=sensor,
         controller=draw(controller_configs(sensor.modes)),
+        disturb=DisturbConfig(extra_load_n=draw(st.none() | st.floats(0.0, MAX_EXTRA_LOAD_N)), ramp_s=draw(_positive_floats())),
     )
 
 

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from piezotip.analysis.referee import OUTCOMES, Criteria, judge, outside_model
+from piezotip.analysis.referee import OUTCOMES, Criteria, Disturbance, disturb_onset_s, judge, outside_model
 
 DT = 0.005
 LIFT = 0.05
@@ -191,3 +191,167 @@ def test_grip_economy_is_nan_where_nothing_was_carried_or_needed_unknown():
     assert np.isnan(v.hold_grip_n) and np.isnan(v.grip_margin) and v.needed_grip_n == 0.5
     v = verdict(clean_record())
     assert np.isnan(v.needed_grip_n) and np.isnan(v.grip_margin) and v.hold_grip_n == pytest.approx(1.0)
+
+
+# -- the touch: touch_peak_n and time_to_touch_s (issue 43, item 5) -------------------------
+
+#: The recorded phase codes (cosim.control.Phase).
+P_CLOSE, P_SQUEEZE, P_LIFT, P_HOLD, P_PLACE = 1, 2, 3, 4, 5
+
+
+def touch_record() -> dict[str, np.ndarray]:
+    """A hand-made grasp whose touch is known: closing starts at sample 20 (0.1 s); a finger's
+    force of 0.1 uN (under the 1 uN contact threshold) at samples 90-99; the left finger touches
+    at sample 100 (0.5 s), the right at 102; 3 N at 150 and 4 N at 209, the last sample on the
+    table; the object is 10 mm up from sample 210 on (9 N there, 7 N while held: after lift-off)."""
+    n = 800
+    t = np.arange(n) * DT
+    phase = np.zeros(n)
+    for start, code in ((20, P_CLOSE), (120, P_SQUEEZE), (200, P_LIFT), (300, P_HOLD), (500, P_PLACE)):
+        phase[start:] = code
+    left, right = np.zeros(n), np.zeros(n)
+    left[90:100] = 1e-7
+    left[100:700], right[102:700] = 0.2, 0.2
+    right[150], left[209], right[210], left[400] = 3.0, 4.0, 9.0, 7.0
+    z = np.full(n, Z0)
+    z[210:600] += 0.01
+    return {
+        "time_s": t,
+        "phase": phase,
+        "lift_m": -0.26 + (z - Z0),
+        "object_height_m": z,
+        "object_x_m": np.zeros(n),
+        "object_y_m": np.zeros(n),
+        "object_vz_m_s": np.zeros(n),
+        "object_speed_m_s": np.zeros(n),
+        "table_force_n": np.where(z > Z0, 0.0, WEIGHT),
+        "left_finger_force_n": left,
+        "right_finger_force_n": right,
+    }
+
+
+def test_touch_peak_is_the_largest_finger_force_from_first_contact_until_lift_off():
+    v = verdict(touch_record())
+    assert v.touch_peak_n == 4.0  # sample 209's; 9 N at the lift-off sample and 7 N held come after
+    assert v.peak_contact_n == 9.0  # (the whole run's peak, for contrast)
+    assert v.time_to_touch_s == pytest.approx(0.5 - 0.1, abs=1e-12)  # sample 100 less sample 20
+    assert {"touch_peak_n", "time_to_touch_s"} <= set(v.as_dict())
+
+
+def test_touch_peak_reads_the_fingers_peak_between_samples_where_recorded():
+    d = touch_record()
+    d["left_finger_peak_force_n"] = d["left_finger_force_n"].copy()
+    d["right_finger_peak_force_n"] = d["right_finger_force_n"].copy()
+    d["right_finger_peak_force_n"][180] = 5.5  # between two samples, on the table
+    assert verdict(d).touch_peak_n == 5.5
+
+
+def test_touch_metrics_are_nan_when_never_touched_and_the_time_without_a_close_phase():
+    d = touch_record()
+    d["left_finger_force_n"][:] = d["right_finger_force_n"][:] = 0.0
+    v = verdict(d)
+    assert np.isnan(v.touch_peak_n) and np.isnan(v.time_to_touch_s)
+    d = touch_record()
+    del d["phase"]
+    v = verdict(d)
+    assert v.touch_peak_n == 4.0 and np.isnan(v.time_to_touch_s)
+
+
+def test_touch_peak_runs_to_the_end_of_a_record_that_never_leaves_the_table():
+    d = touch_record()
+    d["object_height_m"][:] = Z0
+    assert verdict(d).touch_peak_n == 9.0
+
+
+# -- a load change while held: disturb_* (issue 43, item 4) ----------------------------------
+
+
+def disturbed_record() -> dict[str, np.ndarray]:
+    """A hand-made hold with a load change: the hold is samples 300-499 (1.5-2.495 s) of a 1 s
+    hold, so the load comes on at 2.0 s (sample 400); the grip is 1 N, 1.05 N at 402 (short of
+    +10 %), 1.2 N at 403-404, dips to 1.05 N at 405 (pads chattering), 1.5 N from 406 on (3 N at
+    420-425), and the object sinks 1.5 mm in the fingers from 420 and sways 2 mm sideways at 450:
+    2.5 mm from where it was; after the hold (550) it sinks 10 mm more, which is not counted."""
+    n = 800
+    t = np.arange(n) * DT
+    phase = np.zeros(n)
+    for start, code in ((20, P_CLOSE), (120, P_SQUEEZE), (200, P_LIFT), (300, P_HOLD), (500, P_PLACE)):
+        phase[start:] = code
+    up = np.zeros(n)
+    up[200:600] = LIFT
+    lift = -0.26 + up
+    z = Z0 + up
+    z[420:600] -= 0.0015
+    z[550:600] -= 0.01
+    x = np.zeros(n)
+    x[450] = 0.002
+    grip = np.zeros(n)
+    grip[100:700] = 1.0
+    grip[402], grip[403:405], grip[405], grip[406:600] = 1.05, 1.2, 1.05, 1.5
+    grip[420:426] = 3.0
+    return {
+        "time_s": t,
+        "phase": phase,
+        "lift_m": lift,
+        "object_height_m": z,
+        "object_x_m": x,
+        "object_y_m": np.zeros(n),
+        "object_vz_m_s": np.zeros(n),
+        "object_speed_m_s": np.zeros(n),
+        "table_force_n": np.where(up > 0, 0.0, WEIGHT),
+        "left_finger_force_n": grip.copy(),
+        "right_finger_force_n": grip.copy(),
+    }
+
+
+LOAD = Disturbance(extra_load_n=WEIGHT, ramp_s=0.05, needed_grip_n=1.2)
+
+
+def test_the_disturbance_starts_at_the_middle_of_the_recorded_hold():
+    d = disturbed_record()
+    assert disturb_onset_s(d["time_s"], d["phase"], HOLD) == pytest.approx(1.5 + 0.5)
+    assert np.isnan(disturb_onset_s(d["time_s"], np.zeros_like(d["phase"]), HOLD))
+
+
+def test_disturbance_metrics_from_a_hand_made_record():
+    v = verdict(disturbed_record(), disturbance=LOAD)
+    assert v.disturb_slip_mm == pytest.approx(2.5, rel=1e-9)  # sqrt(1.5^2 + 2^2), within the hold only
+    assert v.disturb_reaction_ms == pytest.approx(30.0, abs=1e-6)  # sample 406 (2.03 s): the lasting rise
+    assert v.disturb_hold_grip_n == 1.5  # the median from the ramp's end (2.05 s) to the hold's end
+    assert v.disturb_needed_grip_n == 1.2
+    assert v.disturb_grip_margin == pytest.approx(1.25)
+    keys = {"disturb_slip_mm", "disturb_reaction_ms", "disturb_hold_grip_n", "disturb_needed_grip_n", "disturb_grip_margin"}
+    assert keys <= set(v.as_dict())
+
+
+def test_a_grip_that_rises_and_is_then_lost_has_no_reaction():
+    d = disturbed_record()
+    d["left_finger_force_n"][480:] = d["right_finger_force_n"][480:] = 0.0  # let go before the hold ends
+    v = verdict(d, disturbance=LOAD)
+    assert np.isnan(v.disturb_reaction_ms) and np.isfinite(v.disturb_slip_mm)
+
+
+def test_disturbance_metrics_are_nan_without_one_or_without_a_hold():
+    v = verdict(disturbed_record())
+    assert all(np.isnan(getattr(v, k)) for k in ("disturb_slip_mm", "disturb_reaction_ms", "disturb_needed_grip_n", "disturb_grip_margin"))
+    d = disturbed_record()
+    d["phase"][d["phase"] == P_HOLD] = P_LIFT  # never held
+    v = verdict(d, disturbance=LOAD)
+    assert np.isnan(v.disturb_slip_mm) and np.isnan(v.disturb_reaction_ms) and np.isnan(v.disturb_hold_grip_n)
+    assert v.disturb_needed_grip_n == 1.2  # known without a hold
+
+
+def test_the_referees_phase_codes_are_the_controllers():
+    from piezotip.analysis import referee
+    from piezotip.cosim.control import Phase
+
+    assert (referee.CLOSE_PHASE, referee.HOLD_PHASE) == (Phase.CLOSE, Phase.HOLD)
+
+
+def test_needed_grip_under_an_extra_load_adds_it_to_the_weight():
+    from piezotip.analysis.referee import needed_grip_n
+
+    # (m g + extra) / (2 mu): 100 g under 9.81 m/s^2 with its own weight again, mu 1: 0.981 N.
+    assert needed_grip_n(0.1, 1.0, 9.81, extra_load_n=0.981) == pytest.approx(0.981, rel=1e-12)
+    with pytest.raises(ValueError, match="extra load"):
+        needed_grip_n(0.1, 1.0, extra_load_n=-1.0)

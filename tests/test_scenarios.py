@@ -97,3 +97,17 @@ def test_a_batch_of_overrides_is_checked_once_applied():
     assert cfg.physics.substeps == 2
     with pytest.raises(ValueError, match=r"physics\.control_period_s"):
         scenarios.get("grasp", ["physics.timestep_s=0.0015"])
+
+
+def test_a_run_of_exactly_the_longest_recorded_duration_is_accepted():
+    """duration_s = MAX_RECORDED_STEPS control periods, where duration / period rounds past the
+    limit (hypothesis found it: 10739.908162665997 s of 0.010739908162665996 s periods)."""
+    from piezotip.scenarios.config import MAX_RECORDED_STEPS
+
+    period, step = 0.010739908162665996, 0.005369954081332998
+    config = scenarios.get("grasp", [f"physics.timestep_s={step!r}", f"physics.control_period_s={period!r}", "duration_s=1.0"])
+    longest = MAX_RECORDED_STEPS * period
+    assert longest / period > MAX_RECORDED_STEPS  # the rounding the check must not trip on
+    assert scenarios.with_overrides(config, [f"duration_s={longest!r}"]).duration_s == longest
+    with pytest.raises(ValueError, match="control periods"):
+        scenarios.with_overrides(config, [f"duration_s={longest * (1 + 1e-9)!r}"])
