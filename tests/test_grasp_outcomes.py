@@ -18,15 +18,8 @@ def grasp(tmp_path, name, *overrides):
     return run_scenario(name, list(overrides), tmp_path, plot=False, quiet=True)
 
 
-#: The default (gentle) controller drops grasp-disturb's box when its weight again comes on
-#: mid-hold (tests/test_disturb.py measures why; docs/cosimulation.md, "A load change").
-_DISTURBED = pytest.mark.xfail(
-    strict=True, reason="measured: the gentle controller answers the load change 100 ms late, the box slides 51 mm out: dropped"
-)
-
-
 @pytest.mark.slow
-@pytest.mark.parametrize("name", [pytest.param(n, marks=_DISTURBED) if n == "grasp-disturb" else n for n in scenarios.names()])
+@pytest.mark.parametrize("name", scenarios.names())
 def test_every_registered_scenario_is_a_success_a_watcher_would_agree_with(tmp_path, name):
     summary, data = grasp(tmp_path, name)
     assert summary["outcome"] == "success", summary["reason"]

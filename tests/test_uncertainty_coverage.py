@@ -25,11 +25,8 @@ GROSS_SIGMAS = 10.0
 #: Readings within this many control periods of a change of the true pressure larger than the
 #: reported 3 sigma are on the detection horizon.
 HORIZON_PERIODS = 2
-#: The library's grasps whose coverage is pooled (the documented 99.24 %): all but grasp-disturb,
-#: whose box the default controller lets slide out of the fingers under the load change
-#: (tests/test_disturb.py): 96.0 % of its 528 "ok" readings are covered (measured, mujoco 4.0.0),
-#: which would pull the pool to 99.02 %.  Its gross errors are checked with the others' below.
-POOLED = [name for name in scenarios.names() if name != "grasp-disturb"]
+#: The library's grasps whose coverage is pooled (the documented 99.24 %).
+POOLED = scenarios.names()
 
 
 @pytest.fixture(scope="module")

@@ -43,7 +43,7 @@ from piezotip.controllers import register
 from piezotip.scenarios.config import GentleConfig
 
 from .interface import Observation
-from .lift import load_is_steady
+from .lift import grip_for_load_n, load_is_steady, ratchet_grip_n
 from .multimode import MultimodeGrasp
 from .phases import Phase
 
@@ -336,8 +336,24 @@ class GentleGrasp(MultimodeGrasp):
             self._enter(Phase.HOLD, t, f"carrying {self._weight_n:.3g} N with {self.grip_n:.3g} N of grip")
 
     def _follow_load(self, t: float, dt_s: float) -> None:
-        """Never: the grip is the probe's, raised only by a slip (the hold's load, while the lift
-        brakes and settles, is the gripper's inertia as much as the object's weight)."""
+        """The grip is the probe's, raised by a slip, and in the hold by a load change: once the
+        lift has settled (six load-filter time constants: its braking forgotten, the load the
+        object's), a load read this period (unfiltered: an extra load along the pads uses the
+        grip's margin within a few periods, before a filtered load shows it) that has used half
+        the grip's margin, grown past the held weight by sqrt(grip_safety), is followed: safety
+        x load / 2 mu at the probe's friction, never down.  Elsewhere not: while the lift moves,
+        brakes and settles its load is the gripper's inertia as much as the object's weight.
+        Without it an extra load along the pads (``grasp-disturb``: the box's weight again)
+        leaves their pressure as it was, and the box slid out before the lift's slip check
+        answered."""
+        lift = self.lift
+        if self.phase is not Phase.HOLD or t - self._t_phase < 6.0 * self.cfg.load_filter_s:
+            return
+        load_n = max(lift.raw_load_n, lift.load_n)
+        if load_n > math.sqrt(self.cfg.grip_safety) * lift.held_load_n:
+            wanted = grip_for_load_n(load_n, self.friction, self.cfg.grip_safety, self.grip_floor_n)
+            if not self._over_cap(t, wanted, load_n, carried=True):
+                self.grip_n = ratchet_grip_n(self.grip_n, wanted, self.grip_cap_n, self.grip_rate_n_s, dt_s)
 
 
 __all__ = ["GentleGrasp", "carried_nothing_at_first", "grip_read_n", "load_is_steady", "probe_verdict"]
