@@ -5,7 +5,9 @@ preset and the point's overrides (:meth:`analysis.sweep_grid.Point.key`), on a l
 (after a newline when a kill tore the last line); a sweep run again with the same folder skips
 the points already there (:func:`load_done`; a point that raised is run again).  A line that is
 not a row (torn, garbage, not UTF-8) is skipped with a warning naming the file and line, and
-its point runs again: a resumed sweep has the rows an uninterrupted one has.
+its point runs again: a resumed sweep has the rows an uninterrupted one has.  So does a line
+shaped like a row whose row lacks columns or holds values of the wrong type (:func:`row_problem`):
+it would otherwise stop every resume in the tables.
 """
 
 from __future__ import annotations
@@ -16,7 +18,7 @@ import math
 import os
 from pathlib import Path
 
-from .sweep_rows import ERROR_OUTCOME, REFEREE_COLUMNS
+from .sweep_rows import ERROR_OUTCOME, EXTRA_COLUMNS, REFEREE_COLUMNS, RESULT_COLUMNS
 
 #: The journal's name in a sweep's output folder.
 JOURNAL_NAME = "points.jsonl"
@@ -43,6 +45,11 @@ _NUMBER_COLUMNS = (
     "sim_time_s",
 )
 
+#: The columns a journaled row must have to be a row: every column a row is made with
+#: (:mod:`analysis.sweep_rows`), but the referee's, which :func:`normalized` fills with NaN for a
+#: journal written before them.  The sweep's tables, its text table and the experiment's read them.
+REQUIRED_COLUMNS = tuple(c for c in (*RESULT_COLUMNS, *EXTRA_COLUMNS) if c not in REFEREE_COLUMNS)
+
 # The sweep's logger, by the name it has always had (a user's logging settings name it): the
 # journal's warnings are the sweep's.
 log = logging.getLogger("piezotip.analysis.sweep")
@@ -60,13 +67,36 @@ def normalized(row: dict) -> dict:
     return row
 
 
+def row_problem(row: dict) -> str | None:
+    """Why a journaled ``row`` (a dict) is not a row the sweep can use, or None: a column of
+    :data:`REQUIRED_COLUMNS` missing, an ``outcome`` or ``reason`` that is not text, a ``success``
+    that is not true or false, a number column (:data:`_NUMBER_COLUMNS`) holding anything but a
+    number or null.  A resumed sweep uses its rows as they are, so a row that fails here would
+    stop it later (a ``KeyError`` in the tables, every time it is resumed)."""
+    missing = [c for c in REQUIRED_COLUMNS if c not in row]
+    if missing:
+        shown = ", ".join(missing[:4]) + (f" and {len(missing) - 4} more" if len(missing) > 4 else "")
+        return f"a row missing {len(missing)} of its {len(REQUIRED_COLUMNS)} columns ({shown})"
+    wrong = [c for c in ("outcome", "reason") if not isinstance(row[c], str)]
+    wrong += [] if isinstance(row["success"], bool) else ["success"]
+    wrong += [c for c in _NUMBER_COLUMNS if not _is_number_or_null(row.get(c))]
+    if wrong:
+        return f"a row whose {', '.join(wrong)} {'is' if len(wrong) == 1 else 'are'} of the wrong type"
+    return None
+
+
+def _is_number_or_null(value) -> bool:
+    return value is None or (isinstance(value, (int, float)) and not isinstance(value, bool))
+
+
 def load_done(path: Path) -> dict[str, dict]:
     """The rows already in ``points.jsonl`` by key, the last one of a key winning (a point that
     raised is not done).
 
     A line that is not a row (not UTF-8, not JSON, JSON that is not ``{"key": str, "row": {...}}``,
-    a torn line a kill left) is skipped with a warning naming the file and the line number, on
-    the ``piezotip.analysis.sweep`` logger; its point, if any, runs again."""
+    a row missing columns or holding a value of the wrong type: :func:`row_problem`, a torn line a
+    kill left) is skipped with a warning naming the file and the line number, on the
+    ``piezotip.analysis.sweep`` logger; its point, if any, runs again."""
     done: dict[str, dict] = {}
     if not path.exists():
         return done
@@ -86,6 +116,8 @@ def load_done(path: Path) -> dict[str, dict]:
             problem = "not JSON (torn: the file ends inside it)" if number == len(lines) and not text.endswith(b"\n") else "not JSON"
         if problem is None and not (isinstance(entry, dict) and isinstance(entry.get("key"), str) and isinstance(entry.get("row"), dict)):
             problem = 'not a row ({"key": ..., "row": {...}})'
+        if problem is None and (damage := row_problem(entry["row"])) is not None:
+            problem = f"{damage}; its point runs again"
         if problem is not None:
             log.warning("%s:%d: skipped a line that is %s", path, number, problem)
             continue

@@ -320,6 +320,7 @@ def _parts(key: tuple, given: str, fingertips: tuple[str, ...], actuators: tuple
     common = [a for a, b in zip(paths[0], paths[1], strict=False) if a == b]
     branches = tuple(model.body(p[len(common)]).name for p in paths)
     tree = _subtree(model, paths[0][0])
+    _refuse_free_joints(model, tree, given)
     fingers = [_subtree(model, model.body(b).id) for b in branches]
     untouched = tuple(tuple(sorted(model.body(b).name for b in tree - fingers[1 - i])) for i in range(2))
     found = tuple(_actuator(model, name, tree, given) for name in actuators)
@@ -360,6 +361,22 @@ def _parts(key: tuple, given: str, fingertips: tuple[str, ...], actuators: tuple
         tuple((towards / np.linalg.norm(towards)).tolist()),
         tuple(centre.tolist()),
     )
+
+
+def _refuse_free_joints(model: mujoco.MjModel, tree: set[int], given: str) -> None:
+    """Raise ValueError naming the file, the body and the joint when a body of the mounted
+    ``tree`` moves on a free joint (``<freejoint>``, ``<joint type="free">``): the mounted gripper
+    hangs from the lift's palm, where MuJoCo takes no free joint (a file's top body may have one
+    when it is a model alone, a floating hand); left in, it fails the scene's compile, which names
+    the scene file, not the gripper's."""
+    for j in range(model.njnt):
+        body = int(model.jnt_bodyid[j])
+        if body in tree and int(model.jnt_type[j]) == mujoco.mjtJoint.mjJNT_FREE:
+            joint = f"the free joint {model.joint(j).name!r}" if model.joint(j).name else "a free joint"
+            raise ValueError(
+                f"gripper.mjcf {given!r}: body {model.body(body).name!r} has {joint} (<freejoint>); the gripper is mounted "
+                "on the lift's palm, which moves it: remove the free joint"
+            )
 
 
 def _overlapping(model: mujoco.MjModel, data: mujoco.MjData, tree: set[int], fingers: list[set[int]]) -> tuple:
@@ -906,14 +923,18 @@ def mount_gripper(config: ScenarioConfig, gel: GelParams | None = None) -> Mount
     ------
     ValueError
         naming the key: a file that does not load or lacks what the config names
-        (:func:`gripper_parts`), actuators that do not close the gripper, an object wider than
-        its open pads.
+        (:func:`gripper_parts`; a free joint on the gripper), a file that does not compile mounted
+        in the scene (the gripper's file named, not the scene's), actuators that do not close the
+        gripper, an object wider than its open pads.
     """
     gel = gel or GelParams()
     parts = gripper_parts(config.gripper)
     geometry = parts.geometry(config.physics.pad_segments)
     phys = config.physics
-    model = build_model(SCENE_FILE, timestep=phys.timestep_s, edit=_mount_edit(config, parts, geometry, gel))
+    try:
+        model = build_model(SCENE_FILE, timestep=phys.timestep_s, edit=_mount_edit(config, parts, geometry, gel))
+    except ValueError as err:  # the house scene compiles alone: what fails is the gripper mounted in it
+        raise ValueError(f"gripper.mjcf {parts.path!r} does not mount in the scene: {err}") from err
     model.opt.integrator = _INTEGRATORS[phys.integrator]
     apply_pad_contact(model, resolve_pad_contact(phys.pad_contact, mounted=True))
     actuators = [model.actuator(PREFIX + a.name).id for a in parts.actuators]

@@ -15,9 +15,12 @@ columns from the NPZ one at a time as they are asked for (:class:`Columns`).
 
 A run killed outright (SIGKILL, a power cut) or stopped by a full disk leaves its completed
 chunks: :func:`read_recording` reads a recording from the NPZ, or from the chunks when the run
-never closed it (a torn temporary chunk is not one of them).  Use the recorder as a context
-manager and :meth:`close` is called on any exit that Python sees, including an exception or
-KeyboardInterrupt.
+never closed it (a torn temporary chunk is not one of them; a chunk a machine's crash tore
+under its final name ends what is read, with a warning naming it).  Use the recorder as a
+context manager and :meth:`close` is called on any exit that Python sees, including an
+exception or KeyboardInterrupt.  A write the file system refuses for want of room raises an
+OSError (ENOSPC) saying the disk is full, naming the file and the bytes it took
+(:func:`_naming_a_full_disk`).
 
 A new recording replaces an old one of the same stem, removing only the files a recording
 writes, by name (``<stem>.npz``, its temporary ``<stem>.tmp.npz``, ``<stem>.csv``, and in
@@ -30,11 +33,15 @@ means a folder never mixes a recording with files nobody can account for.
 
 from __future__ import annotations
 
+import contextlib
 import csv
+import errno
+import io
 import json
 import logging
 import os
 import re
+import shutil
 import zipfile
 from collections.abc import Iterator, Mapping
 from pathlib import Path
@@ -198,8 +205,10 @@ class Recorder:
             _write_atomic(self.chunk_dir / _META, json.dumps({"columns": self._columns, "metadata": self.metadata}).encode())
         path = self._chunk_path(index)
         tmp = path.with_name(f"chunk_{index:06d}.tmp.npy")
+        column_major = np.asfortranarray(chunk)  # a column is one contiguous read (close)
         try:
-            np.save(tmp, np.asfortranarray(chunk))  # column-major: a column is one contiguous read (close)
+            with _naming_a_full_disk(tmp, f"chunk {index:06d}", _npy_bytes(column_major), fwrite=True):
+                np.save(tmp, column_major)
             os.replace(tmp, path)
         except BaseException:
             tmp.unlink(missing_ok=True)
@@ -210,11 +219,14 @@ class Recorder:
         self._last_chunk = chunk
         if self.csv_path is not None:
             new = not self.csv_path.exists()
-            with self.csv_path.open("a", newline="") as fh:
-                writer = csv.writer(fh)
-                if new:
-                    writer.writerow(self._columns)
-                writer.writerows(chunk.tolist())
+            text = io.StringIO(newline="")
+            writer = csv.writer(text)
+            if new:
+                writer.writerow(self._columns)
+            writer.writerows(chunk.tolist())
+            payload = text.getvalue().encode()
+            with _naming_a_full_disk(self.csv_path, "the CSV's rows", len(payload), appended=True), self.csv_path.open("ab") as fh:
+                fh.write(payload)
 
     def data(self) -> Mapping[str, np.ndarray]:
         """Everything recorded so far, as columns: in memory while recording; once closed, the
@@ -330,6 +342,55 @@ class _ChunkFile:
         return data
 
 
+#: What a write that the file system refuses for want of room raises with (a full disk, a quota).
+_FULL_ERRNOS = frozenset({errno.ENOSPC, errno.EDQUOT})
+
+
+def _npy_bytes(array: np.ndarray) -> int:
+    """The size of ``array``'s ``.npy`` file as :func:`np.save` writes it, bytes (header and data)."""
+    header = io.BytesIO()
+    np.lib.format.write_array_header_1_0(header, np.lib.format.header_data_from_array_1_0(array))
+    return len(header.getvalue()) + array.nbytes
+
+
+@contextlib.contextmanager
+def _naming_a_full_disk(path: Path, what: str, expected_bytes: int, appended: bool = False, fwrite: bool = False):
+    """Turn a write to ``path`` that the file system refused for want of room into an OSError
+    (ENOSPC) that says so, naming the file, ``what`` was written and the bytes.
+
+    Why: numpy writes an array to a file with C's ``fwrite``, whose short write on a full disk
+    surfaces as ``OSError("19500 requested and 17904 written")`` (values, not bytes; no errno,
+    no file), and Python's own writes as ``[Errno 28] No space left on device`` without the
+    file.  A write counts as refused for room when it raised ENOSPC or EDQUOT, or, with
+    ``fwrite`` (numpy's), no errno at all and fewer bytes on disk than ``expected_bytes`` (its
+    short write); any other error passes unchanged.  ``appended``: the file is appended to, its
+    bytes before this write are not counted."""
+    before = _size(path) if appended else 0
+    try:
+        yield
+    except OSError as err:
+        written = max(_size(path) - before, 0)
+        if err.errno not in _FULL_ERRNOS and not (fwrite and err.errno is None and written < expected_bytes):
+            raise
+        try:
+            free = f"{shutil.disk_usage(path.parent).free} bytes free there"
+        except OSError:
+            free = "its free space unknown"
+        raise OSError(
+            errno.ENOSPC,
+            f"{path}: disk full ({os.strerror(errno.ENOSPC)}): the file system took {written} of the {expected_bytes} bytes of "
+            f"{what} ({free}; a quota or a file size limit stops writes too): {err}",
+        ) from err
+
+
+def _size(path: Path) -> int:
+    """``path``'s size in bytes, 0 when it is not there."""
+    try:
+        return path.stat().st_size
+    except OSError:
+        return 0
+
+
 def _write_npz(path: Path, metadata: dict, columns: list[str], chunk_paths: list[Path]) -> None:
     """``<stem>.npz`` from the chunks, one column in memory at a time: the file ``np.savez(path,
     metadata_json=np.array(json.dumps(metadata)), **columns)`` writes (the same members in the
@@ -343,15 +404,17 @@ def _write_npz(path: Path, metadata: dict, columns: list[str], chunk_paths: list
     rows = sum(c.rows for c in chunks)
     header = {"descr": np.lib.format.dtype_to_descr(dtype), "fortran_order": False, "shape": (rows,)}
     tmp = path.with_suffix(".tmp.npz")
+    data_bytes = len(columns) * rows * dtype.itemsize  # the columns' values, headers and the ZIP's own records aside
     try:
-        with zipfile.ZipFile(tmp, mode="w", compression=zipfile.ZIP_STORED, allowZip64=True) as zf:
-            with zf.open("metadata_json.npy", "w", force_zip64=True) as fid:
-                np.lib.format.write_array(fid, np.array(json.dumps(metadata)))
-            for index, name in enumerate(columns):
-                with zf.open(f"{name}.npy", "w", force_zip64=True) as fid:
-                    np.lib.format.write_array_header_1_0(fid, header)
-                    for chunk in chunks:
-                        fid.write(chunk.column(index))
+        with _naming_a_full_disk(tmp, f"the recording's {len(columns)} columns", data_bytes):
+            with zipfile.ZipFile(tmp, mode="w", compression=zipfile.ZIP_STORED, allowZip64=True) as zf:
+                with zf.open("metadata_json.npy", "w", force_zip64=True) as fid:
+                    np.lib.format.write_array(fid, np.array(json.dumps(metadata)))
+                for index, name in enumerate(columns):
+                    with zf.open(f"{name}.npy", "w", force_zip64=True) as fid:
+                        np.lib.format.write_array_header_1_0(fid, header)
+                        for chunk in chunks:
+                            fid.write(chunk.column(index))
         os.replace(tmp, path)
     except BaseException:
         tmp.unlink(missing_ok=True)
@@ -360,15 +423,35 @@ def _write_npz(path: Path, metadata: dict, columns: list[str], chunk_paths: list
 
 def _write_atomic(path: Path, payload: bytes) -> None:
     tmp = path.with_name(path.name + ".tmp")
-    tmp.write_bytes(payload)
+    with _naming_a_full_disk(tmp, path.name, len(payload)):
+        tmp.write_bytes(payload)
     os.replace(tmp, path)
+
+
+def _read_chunk(path: Path, width: int) -> np.ndarray:
+    """A completed chunk's rows, or ValueError saying how it is torn: unreadable, shorter than
+    its header says, or not a table of ``width`` float columns.
+
+    A chunk is renamed to its final name once written, but a machine that crashes before the
+    file system has stored its bytes can leave the name with the bytes short or zero (the rename
+    was kept, the data not): such a chunk is torn under its final name."""
+    try:
+        chunk = np.load(path, allow_pickle=False)
+    except FileNotFoundError:
+        raise
+    except Exception as err:  # numpy raises ValueError, EOFError, OSError ... for a short or garbled file
+        raise ValueError(f"{type(err).__name__}: {' '.join(str(err).split())[:200]}") from None
+    if chunk.ndim != 2 or chunk.shape[1] != width or chunk.dtype.kind != "f":
+        raise ValueError(f"a {chunk.dtype} array of shape {chunk.shape}, not rows of {width} float columns")
+    return chunk
 
 
 def read_recording(path: str | Path) -> tuple[dict[str, np.ndarray], dict]:
     """A recording's columns and metadata, from ``<stem>.npz`` or, for a run that was killed
     before it closed its recorder, from the completed chunks in ``<stem>.chunks/``
-    (``chunk_000000.npy``, ``chunk_000001.npy``, ... in order, up to the first one missing; a
-    torn temporary, ``chunk_NNNNNN.tmp.npy``, or any other file there is not read).
+    (``chunk_000000.npy``, ``chunk_000001.npy``, ... in order, up to the first one missing or
+    torn under its final name by a machine's crash, with a warning naming it on this module's
+    logger; a torn temporary, ``chunk_NNNNNN.tmp.npy``, or any other file there is not read).
 
     ``path`` is the stem or either file's path.  Raises FileNotFoundError naming the path when
     neither exists.
@@ -383,14 +466,21 @@ def read_recording(path: str | Path) -> tuple[dict[str, np.ndarray], dict]:
             return {k: f[k] for k in f.files if k != "metadata_json"}, meta
     if (chunks / _META).exists():
         info = json.loads((chunks / _META).read_text())
+        columns = info["columns"]
         found = sorted(int(m.group(1)) for p in chunks.iterdir() if (m := _CHUNK_FILE.fullmatch(p.name)))
         parts = []
         for expected, index in enumerate(found):
             if index != expected:
                 log.warning("%s: chunk %06d is missing; read the %d chunks before it", chunks, expected, expected)
                 break
-            parts.append(np.load(chunks / f"chunk_{index:06d}.npy"))
-        columns = info["columns"]
+            try:
+                parts.append(_read_chunk(chunks / f"chunk_{index:06d}.npy", len(columns)))
+            except FileNotFoundError:  # removed since the folder was listed
+                log.warning("%s: chunk %06d is missing; read the %d chunks before it", chunks, index, index)
+                break
+            except ValueError as torn:
+                log.warning("%s: chunk %06d is torn (%s); read the %d chunks before it", chunks, index, torn, index)
+                break
         table = np.concatenate(parts) if parts else np.empty((0, len(columns)))
         return {c: table[:, i] for i, c in enumerate(columns)}, info["metadata"]
     raise FileNotFoundError(f"no recording at {str(stem)!r} (neither {npz.name} nor {chunks.name}/)")

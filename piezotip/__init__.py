@@ -11,12 +11,18 @@ The packages beneath: :mod:`piezotip.sensor` (the fingertip's physics, numpy/sci
 (configs, presets, objects), :mod:`piezotip.analysis` (reports, referee, bench, sweeps).
 
 ``import piezotip`` stays cheap (no MuJoCo, scipy or matplotlib): the API's names load on
-first use.
+first use (the module's ``__getattr__``).  Type checkers and IDEs read the ``TYPE_CHECKING``
+block below instead, which imports the same names from where they live, so ``piezotip.run``
+and the others have their real signatures there (the package ships ``py.typed``).
 """
 
 from __future__ import annotations
 
 __version__ = "0.1.0"
+
+#: True only for type checkers (mypy, pyright and IDEs treat a name ``TYPE_CHECKING`` as true):
+#: a literal, because ``import typing`` would cost ``import piezotip`` about 2 ms.
+TYPE_CHECKING = False
 
 _API = {
     "run": "piezotip.api",
@@ -32,25 +38,55 @@ _API = {
     "attach": "piezotip.cosim.attach",  # the fingertip on the user's own MjSpec (docs/attach.md)
 }
 
-__all__ = [*_API, "controllers", "__version__"]
-
-
 #: Submodules loaded on first use (``piezotip.controllers.register``, ...).
 _SUBMODULES = ("controllers",)
 
+# A literal list, so that type checkers read it (mypy's --no-implicit-reexport, pyright);
+# tests/test_packaging.py checks that it names every lazy export, and that the block below
+# imports each of them.
+__all__ = [
+    "GraspEnv",
+    "MultimodePolicy",
+    "Result",
+    "__version__",
+    "attach",
+    "column_unit",
+    "config",
+    "controllers",
+    "dynamic_range",
+    "fingertip",
+    "run",
+    "scenario_names",
+    "sweep",
+]
 
-def __getattr__(name: str):
-    if name in _SUBMODULES:
-        import importlib
+if TYPE_CHECKING:  # what type checkers see: the real objects (never run)
+    from piezotip import controllers as controllers
+    from piezotip.analysis.sweep import sweep as sweep
+    from piezotip.api import Result as Result
+    from piezotip.api import column_unit as column_unit
+    from piezotip.api import config as config
+    from piezotip.api import dynamic_range as dynamic_range
+    from piezotip.api import fingertip as fingertip
+    from piezotip.api import run as run
+    from piezotip.api import scenario_names as scenario_names
+    from piezotip.cosim.attach import attach as attach
+    from piezotip.gym_env import GraspEnv as GraspEnv
+    from piezotip.gym_env import MultimodePolicy as MultimodePolicy
+else:  # what runs: each name imported on first use
 
-        return importlib.import_module(f"piezotip.{name}")
-    if name in _API:
-        import importlib
+    def __getattr__(name: str) -> object:
+        if name in _SUBMODULES:
+            import importlib
 
-        value = getattr(importlib.import_module(_API[name]), name)
-        globals()[name] = value
-        return value
-    raise AttributeError(f"module 'piezotip' has no attribute {name!r}")
+            return importlib.import_module(f"piezotip.{name}")
+        if name in _API:
+            import importlib
+
+            value = getattr(importlib.import_module(_API[name]), name)
+            globals()[name] = value
+            return value
+        raise AttributeError(f"module 'piezotip' has no attribute {name!r}")
 
 
 def __dir__() -> list[str]:

@@ -34,11 +34,14 @@ Where: ``$PIEZOTIP_CACHE_DIR``, else ``$XDG_CACHE_HOME/piezotip``, else ``~/.cac
 ``PIEZOTIP_CACHE=off`` turns caching off, on disk and in memory (:func:`enabled`): every run
 then computes its own set-up, which is what ``bench --throughput`` compares against.
 
-Bounded: the folder holds at most ``$PIEZOTIP_CACHE_MAX_MB`` megabytes (default
+Bounded: the cache's entries take at most ``$PIEZOTIP_CACHE_MAX_MB`` megabytes (default
 :data:`DEFAULT_MAX_MB`).  Every new configuration (a sweep over sensor units, each edit of the
-sensor's code) adds entries that nothing else will read, so after a write that takes the folder
-over its bound the least recently used entries go (a read marks an entry used) until it is
-under :data:`PRUNE_TO` of it.  An entry removed under a reader is computed again, like a torn one.
+sensor's code) adds entries that nothing else will read, so after a write that takes them over
+the bound the least recently used entries go (a read marks an entry used) until they are under
+:data:`PRUNE_TO` of it.  An entry removed under a reader is computed again, like a torn one.
+Pruning counts and removes the cache's own entries only (:func:`is_own_entry`: named as
+:func:`entry_key` names them, ``<namespace>-<40 hex digits>.npz``, and holding an entry's
+manifest), never another file in the folder: the folder may be one a user keeps files in.
 
 What checking costs: the fingerprint hashes some 3 MB of code once per process (about 5 ms, the
 compiled modules most of it, 2.5 ms more than the Python sources alone); checking the 14 entries
@@ -53,7 +56,10 @@ import json
 import logging
 import math
 import os
+import re
+import stat
 import tempfile
+import zipfile
 from collections.abc import Callable, Iterable
 from pathlib import Path
 
@@ -78,6 +84,12 @@ FORMAT = 1
 DEFAULT_MAX_MB = 200.0
 #: Pruning goes down to this fraction of the bound, so that it runs once in many writes.
 PRUNE_TO = 0.8
+
+#: A namespace: lower-case words joined by hyphens (what :data:`ENTRY_NAME` can tell apart from
+#: the 40 hex digits of the key that follow it).
+_NAMESPACE = re.compile(r"[a-z0-9]+(?:-[a-z0-9]+)*")
+#: An entry's file name, as :func:`entry_key` makes it: the only files pruning counts or removes.
+ENTRY_NAME = re.compile(rf"{_NAMESPACE.pattern}-[0-9a-f]{{40}}\.npz")
 
 
 def enabled() -> bool:
@@ -114,20 +126,32 @@ def max_bytes() -> int:
 def prune(folder: Path, limit_bytes: int) -> list[Path]:
     """Remove the least recently used entries of ``folder`` (by modification time, which a read
     refreshes) while its entries take more than ``limit_bytes``, down to PRUNE_TO of it; returns
-    the entries removed.  Another process's removal of the same entry is not an error."""
+    the entries removed.  Another process's removal of the same entry is not an error.
+
+    Only the cache's own entries count and go (:func:`is_own_entry`): any other file there (a
+    user's ``.npz``, a temporary being written, a file merely named like an entry) is neither
+    counted nor removed."""
     entries = []
     total = 0
     with os.scandir(folder) as it:
         for item in it:
-            if not item.name.endswith(".npz") or item.name.startswith(".tmp-"):
+            if not ENTRY_NAME.fullmatch(item.name):
                 continue
             try:
-                st = item.stat()
+                st = item.stat(follow_symlinks=False)
             except OSError:
+                continue
+            if not stat.S_ISREG(st.st_mode):  # a link or a folder named like an entry is not one
                 continue
             entries.append((st.st_mtime_ns, st.st_size, item.path))
             total += st.st_size
-    removed = []
+    removed: list[Path] = []
+    if total <= limit_bytes:
+        return removed
+    # Over the bound (once in many writes): now open them, since a file with an entry's name but
+    # no manifest is someone else's, and neither counts nor goes.
+    entries = [e for e in entries if is_own_entry(Path(e[2]))]
+    total = sum(size for _, size, _ in entries)
     if total <= limit_bytes:
         return removed
     target = PRUNE_TO * limit_bytes
@@ -141,6 +165,19 @@ def prune(folder: Path, limit_bytes: int) -> list[Path]:
         total -= size
         removed.append(Path(path))
     return removed
+
+
+def is_own_entry(path: Path) -> bool:
+    """Whether ``path`` is an entry this cache wrote: named as :func:`entry_key` names entries
+    (:data:`ENTRY_NAME`) and a ``.npz`` holding the manifest member (:data:`MANIFEST`).  Its
+    content is not checked (reading does that); a file gone or unreadable is not one."""
+    if not ENTRY_NAME.fullmatch(path.name):
+        return False
+    try:
+        with zipfile.ZipFile(path) as npz:
+            return f"{MANIFEST}.npy" in npz.namelist()
+    except (OSError, zipfile.BadZipFile, ValueError):
+        return False
 
 
 def code_files(extra_modules: Iterable[str] = ()) -> list[Path]:
@@ -192,7 +229,11 @@ def source_fingerprint(extra_modules: Iterable[str] = ()) -> str:
 
 
 def entry_key(namespace: str, key: object, extra_modules: Iterable[str] = ()) -> str:
-    """The file name stem of an entry: a hash of everything it depends on."""
+    """The file name stem of an entry: a hash of everything it depends on,
+    ``<namespace>-<40 hex digits>``.  Raises ValueError for a namespace that is not lower-case
+    words joined by hyphens (pruning would not know its entries: :data:`ENTRY_NAME`)."""
+    if not _NAMESPACE.fullmatch(namespace):
+        raise ValueError(f"cache namespace {namespace!r} must be lower-case letters and digits, words joined by '-'")
     text = f"{namespace}\n{key!r}\n{source_fingerprint(extra_modules)}"
     return f"{namespace}-{hashlib.sha256(text.encode()).hexdigest()[:40]}"
 

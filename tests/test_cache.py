@@ -226,12 +226,19 @@ def test_the_folder_stays_under_its_bound_dropping_the_least_recently_used(cache
 
 
 def test_prune_counts_only_entries_and_tolerates_a_concurrent_removal(tmp_path, monkeypatch):
+    """Only the cache's entries count and go: not a user's ``.npz`` (the oldest file there), a
+    temporary, a text file (issue 44: a user's file in the folder went)."""
     import os
 
-    for k, (name, nbytes) in enumerate((("a.npz", 300), ("b.npz", 300), ("c.npz", 300), (".tmp-x.npz", 10_000), ("notes.txt", 10_000))):
+    entries = [f"{entry_key('t', k)}.npz" for k in range(3)]
+    for name in entries:  # an entry: its name and its manifest member (what prune opens)
+        np.savez(tmp_path / name, **{cache_module.MANIFEST: np.array(b"{}"), "v": np.zeros(30)})
+    for name, nbytes in (("a.npz", 300), (".tmp-x.npz", 10_000), ("notes.txt", 10_000)):
         (tmp_path / name).write_bytes(b"x" * nbytes)
+    for k, name in enumerate(["a.npz", *entries, ".tmp-x.npz", "notes.txt"]):
         os.utime(tmp_path / name, ns=(k * 10**9, k * 10**9))
-    assert cache_module.prune(tmp_path, 900) == []  # 900 bytes of entries: within the bound
+    size = (tmp_path / entries[0]).stat().st_size
+    assert cache_module.prune(tmp_path, 3 * size) == []  # three entries: within the bound, whatever else is there
     unlink = os.unlink
 
     def raced(path):  # another process removes the entry first
@@ -239,9 +246,9 @@ def test_prune_counts_only_entries_and_tolerates_a_concurrent_removal(tmp_path, 
         raise FileNotFoundError(path)
 
     monkeypatch.setattr(cache_module.os, "unlink", raced)
-    removed = cache_module.prune(tmp_path, 700)  # down to 80 % of 700: the two oldest go
-    assert [p.name for p in removed] == ["a.npz", "b.npz"]
-    assert sorted(p.name for p in tmp_path.iterdir()) == [".tmp-x.npz", "c.npz", "notes.txt"]
+    removed = cache_module.prune(tmp_path, int(2.3 * size))  # down to 80 % of 2.3 entries: the two oldest go
+    assert [p.name for p in removed] == entries[:2]
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted([".tmp-x.npz", "a.npz", entries[2], "notes.txt"])
 
 
 @pytest.mark.parametrize("text", ["-1", "lots", "nan", "inf"])

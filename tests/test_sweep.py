@@ -14,7 +14,7 @@ from piezotip.analysis import sweep as sweep_module
 from piezotip.analysis import sweep_cluster
 from piezotip.analysis.sweep import run_points
 from piezotip.analysis.sweep_grid import grid_points, parse_grid, split_values
-from piezotip.analysis.sweep_rows import ERROR_OUTCOME, RESULT_COLUMNS
+from piezotip.analysis.sweep_rows import ERROR_OUTCOME, RESULT_COLUMNS, error_row
 
 #: A short, cheap scenario: the fast preset, the grasp cut at 3 s (touch, squeeze, lift begins).
 SHORT = ("duration_s=3.0",)
@@ -195,8 +195,9 @@ def test_a_running_scheduler_takes_the_same_work(tmp_path, capsys):
 
 
 def _pid_point(scenario, overrides, preset, run_dir=None, options=None) -> dict:
-    """A point's row at no cost, with the process that ran it."""
-    return {"outcome": "success", "reason": "lifted", "success": True, "max_pressure_pa": 1.0, "wall_time_s": 0.0, "pid": os.getpid()}
+    """A point's row at no cost, every column a row has (a resume takes no less), with the process that ran it."""
+    row = {"outcome": "success", "reason": "lifted", "success": True, "max_pressure_pa": 1.0, "wall_time_s": 0.0, "pid": os.getpid()}
+    return error_row("") | row
 
 
 def test_a_single_point_to_run_runs_here_and_a_scheduler_always_gets_the_work():

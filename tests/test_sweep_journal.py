@@ -10,6 +10,7 @@ from piezotip.analysis import sweep as sweep_module
 from piezotip.analysis import sweep_cluster
 from piezotip.analysis.sweep import run_points
 from piezotip.analysis.sweep_grid import grid_points
+from piezotip.analysis.sweep_rows import error_row
 
 #: A short, cheap scenario: the fast preset, the grasp cut at 3 s (as tests/test_sweep.py).
 SHORT = ("duration_s=3.0",)
@@ -32,9 +33,9 @@ def _comparable(rows: list[dict]) -> list[dict]:
 
 
 def _fake_point(scenario, overrides, preset, run_dir=None, options=None) -> dict:
-    """A point's row at no cost: its numbers from its overrides."""
+    """A point's row at no cost, every column a row has (a resume takes no less): its numbers from its overrides."""
     mass = float(overrides[-1].partition("=")[2])
-    return {"outcome": "success", "reason": "lifted", "success": True, "max_pressure_pa": 1e4 * mass, "wall_time_s": 0.0}
+    return error_row("") | {"outcome": "success", "reason": "lifted", "success": True, "max_pressure_pa": 1e4 * mass, "wall_time_s": 0.0}
 
 
 def _never(*args, **kwargs):
