@@ -30,6 +30,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import warnings
+import weakref
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
@@ -849,8 +850,10 @@ def sensor_name(tip: str, field: str) -> str:
     return f"{PREFIX}{tip}/{field}"
 
 
-class FingertipLoop:
-    """Attached fingertips on one model and its data, running inside every ``mj_step``.
+class _FingertipHook:
+    """Attached fingertips on one model and its data, running inside every ``mj_step`` (the
+    object MuJoCo's callbacks run: it holds the MjData weakly; :class:`FingertipLoop` is what
+    :meth:`Fingertips.bind` returns).
 
     From :meth:`Fingertips.bind` on, MuJoCo's own stepping runs the fingertips (through its
     passive and sensor callbacks, :mod:`cosim.mjhooks`): the gel law on every strip at every
@@ -873,7 +876,9 @@ class FingertipLoop:
         if data.qpos.shape != (model.nq,) or data.qvel.shape != (model.nv,):
             raise ValueError("bind: data is not the model's (make it with mujoco.MjData(model))")
         config, fingertip = tips.config, tips.fingertip
-        self.model, self.data, self.tips = model, data, tips
+        # The data weakly: MuJoCo's callbacks keep these fingertips registered for as long as the
+        # MjData lives (cosim.mjhooks), so a strong reference here would keep it alive for good.
+        self.model, self._data, self.tips = model, weakref.ref(data), tips
         _check_options(model.opt, "bind")
         self.timestep_s = float(model.opt.timestep)
         self.substeps = max(1, round(config.physics.control_period_s / self.timestep_s))
@@ -923,6 +928,14 @@ class FingertipLoop:
     @property
     def names(self) -> tuple[str, ...]:
         return tuple(self.channels)
+
+    @property
+    def data(self) -> mujoco.MjData:
+        """The MjData the fingertips run in (held weakly: dropping it unbinds them)."""
+        data = self._data()
+        if data is None:
+            raise RuntimeError("the MjData these fingertips were bound to is gone")
+        return data
 
     def unbind(self) -> None:
         """Stop running the fingertips in ``data``'s steps (the model's strips keep their last law)."""
@@ -1036,6 +1049,28 @@ class FingertipLoop:
         if name not in self.channels:
             raise ValueError(f"fingertip {name!r} is not attached; the fingertips: {', '.join(self.channels)}")
         return self.channels[name]
+
+
+
+class FingertipLoop:
+    """The running fingertips :meth:`Fingertips.bind` returns: their readings, modes and pads,
+    and :meth:`step`, piezotip's own loop (every attribute and method of the fingertips running
+    inside ``mj_step``, ``_FingertipHook``'s docstring).
+
+    MuJoCo's callbacks keep the fingertips running for as long as the MjData lives, whether this
+    object is kept or not (a plain loop that keeps its model and data keeps its fingertips); this
+    object keeps the MjData alive (``data``), and nothing else of piezotip's does: dropped, an
+    MjData and its fingertips go.
+    """
+
+    def __init__(self, tips: Fingertips, model: mujoco.MjModel, data: mujoco.MjData) -> None:
+        self._hook = _FingertipHook(tips, model, data)
+        self.data = data
+
+    def __getattr__(self, name: str):
+        if name == "_hook":  # not yet set (a failed __init__, a copy): no recursion
+            raise AttributeError(name)
+        return getattr(self._hook, name)
 
 
 #: The largest control MuJoCo takes: past it (or NaN) it sets the control to 0 with a warning

@@ -126,11 +126,18 @@ def _install() -> None:
 
 def register(data: mujoco.MjData, model: mujoco.MjModel, hook: Hook) -> None:
     """Run ``hook`` inside every ``mj_step``/``mj_forward`` of ``data`` (``model``'s), after any
-    earlier hook of it."""
+    earlier hook of it, for as long as ``data`` lives (held weakly; the hook strongly, so that a
+    loop that keeps only its model and data keeps its fingertips: hooks must not hold ``data``)."""
     _install()
-    bound = _bound(data._address)
+    address = data._address
+    bound = _bound(address)
     if bound is None:
-        bound = _BOUND[data._address] = _Bound(weakref.ref(data), model, [])
+
+        def forget(ref: weakref.ref, address: int = address) -> None:  # the MjData is gone: so are its hooks
+            if (entry := _BOUND.get(address)) is not None and entry.data is ref:
+                del _BOUND[address]
+
+        bound = _BOUND[address] = _Bound(weakref.ref(data, forget), model, [])
     bound.hooks.append(hook)
 
 
@@ -217,7 +224,7 @@ class GelPassive:
         # The model's arrays this hook writes every step, as views (an MjModel attribute makes a
         # new view at each access: a microsecond a step each); the MjData's, likewise, per MjData.
         self._armature, self._damping, self._stiffness = model.dof_armature, model.dof_damping, model.jnt_stiffness
-        self._views_of: mujoco.MjData | None = None
+        self._views_of = None  # a weak reference to the MjData the views are of (the hooks must not keep it alive)
         if not self.implicit:
             model.jnt_stiffness[self._jnt] = 0.0  # the law is all in the passive force
             self._scale_masses(self._area * np.interp(model.qpos0[self._qadr], grid_m, tangent_pa_m))
@@ -228,9 +235,9 @@ class GelPassive:
 
     def _views(self, data: mujoco.MjData) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """``data``'s qpos, qfrc_passive and qfrc_spring (kept while the same MjData comes back)."""
-        if data is not self._views_of:
+        if self._views_of is None or data is not self._views_of():
             self._data_views = data.qpos, data.qfrc_passive, data.qfrc_spring
-            self._views_of = data
+            self._views_of = weakref.ref(data)
         return self._data_views
 
     def armature_kg(self) -> np.ndarray:

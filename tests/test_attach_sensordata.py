@@ -215,7 +215,7 @@ def test_a_python_callback_already_set_is_refused_and_a_c_one_is_kept():
 def test_unbind_stops_the_fingertips():
     _, data, sim = bound()
     sim.unbind()
-    assert sim not in mjhooks.hooks_of(data)
+    assert sim._hook not in mjhooks.hooks_of(data)
     with pytest.raises(RuntimeError, match="unbound"):
         sim.step()
 
@@ -246,3 +246,20 @@ def test_a_reset_within_the_first_period_linearizes_the_gel_law_again():
     law = -gel._area * np.interp(data.qpos[gel._qadr], gel._grid, gel._pressure)
     gel_force = data.qfrc_passive[gel._dof] - data.qfrc_damper[gel._dof] - data.qfrc_gravcomp[gel._dof]
     np.testing.assert_allclose(gel_force, law, atol=1e-9)
+
+
+def test_a_bound_mjdata_is_freed_with_its_hooks_and_the_fingertips_run_without_their_loop_object():
+    import gc
+    import weakref
+
+    model, data, sim = bound()
+    del sim  # a plain loop that keeps only its model and data: the fingertips run on
+    for _ in range(10):
+        mujoco.mj_step(model, data)
+    assert data.sensor(sensor_name("pressed", "status")).data[0] in STATUS_CODES.values()
+    assert data.sensor(sensor_name("pressed", "true_pressure_pa")).data[0] >= 0.0
+    address, gone = data._address, weakref.ref(data)
+    del data
+    gc.collect()
+    assert gone() is None  # nothing of piezotip's keeps it alive (the environments made and dropped by the thousand)
+    assert address not in mjhooks._BOUND
