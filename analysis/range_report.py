@@ -8,11 +8,76 @@ from pathlib import Path
 
 import numpy as np
 
+from piezotip.scenarios.config import MIN_COVERAGE_MM
 from piezotip.sensor import Fingertip
 
 from .plotting import new_figure, save_figure
 
 PRESSURE_GRID_PA = np.logspace(-1, 6.2, 300)
+#: How finely :func:`check_coverage` finds the shortest coverage with a range, mm (and rounds it up to).
+COVERAGE_STEP_MM = 1e-3
+
+
+def has_range(tip: Fingertip) -> bool:
+    """Whether some mode of ``tip`` both detects a pressure (P_min) and resolves one to 10 %
+    (P_max) below its rated pressure: the sensor's limits, which ``range`` reports, exist."""
+    p_min, p_max = tip.sensor_limits()
+    return math.isfinite(p_min) and math.isfinite(p_max) and p_min < p_max
+
+
+def _with_coverage(tip: Fingertip, x1_mm: float, x2_mm: float) -> Fingertip:
+    return Fingertip(tip.element, tip.gel, (x1_mm * 1e-3, x2_mm * 1e-3), tip.noise, tip.modes, tip.rated_pressure_pa, tip.mounting)
+
+
+def shortest_coverage_mm(tip: Fingertip, x1_mm: float) -> float | None:
+    """The nearest end x2 (mm, a multiple of COVERAGE_STEP_MM) of a coverage from ``x1_mm`` over
+    which ``tip`` (its element, gel, noise, modes and mounting) has a range, or None if even the
+    element's far end gives none.  Bisection: more gel only adds load (the modal integrals of
+    Z_n^2 grow with x2), so the range, once there, stays."""
+    length_mm = 1e3 * tip.element.params.length_m
+    lo, hi = x1_mm, length_mm
+    if not has_range(_with_coverage(tip, x1_mm, hi)):
+        return None
+    while hi - lo > 0.25 * COVERAGE_STEP_MM:
+        mid = 0.5 * (lo + hi)
+        lo, hi = (lo, mid) if has_range(_with_coverage(tip, x1_mm, mid)) else (mid, hi)
+    # Rounded up to a value a user types, and checked: the suggestion must work as printed.
+    need = min(math.ceil(hi / COVERAGE_STEP_MM - 1e-9) * COVERAGE_STEP_MM, length_mm)
+    while need < length_mm and not has_range(_with_coverage(tip, x1_mm, need)):
+        need = min(need + COVERAGE_STEP_MM, length_mm)
+    return round(need, 6)
+
+
+def check_coverage(tip: Fingertip, coverage_mm: tuple[float, float]) -> None:
+    """A ValueError naming ``--coverage X1_MM X2_MM`` and what it needs, if ``tip`` (whose
+    coverage it is) cannot be reported on; else nothing.
+
+    Two needs: the strip is at least :data:`~piezotip.scenarios.config.MIN_COVERAGE_MM` wide, as
+    every scenario's is (a moulded strip narrower than its two edges' tolerances can close; the
+    beam's stress model, on a 3.75 um grid, does not even see a strip of a few um), and under it
+    some mode has both limits (:func:`has_range`): near the clamp a short strip moves no mode
+    by 3 sigma, or none by enough to resolve 10 %, below the rated pressure, and every limit
+    would be null.
+    """
+    x1, x2 = coverage_mm
+    given = f"--coverage {x1:g} {x2:g}"
+    width = x2 - x1
+    if width < MIN_COVERAGE_MM:
+        raise ValueError(
+            f"{given} is {width:.3g} mm wide: the gel must cover at least {MIN_COVERAGE_MM:g} mm of the element "
+            "(its moulded contact edges hold +-0.1 mm each; scenarios' sensor.coverage_mm has the same floor)"
+        )
+    if has_range(tip):
+        return
+    p_min, p_max = (f"{p:.3g} Pa" if math.isfinite(p) else "none" for p in tip.sensor_limits())
+    why = (
+        f"{given}: with the gel over {x1:g}-{x2:g} mm no mode both detects a pressure and resolves one to 10 % "
+        f"below the rated {tip.rated_pressure_pa:.3g} Pa (sensor P_min {p_min}, P_max {p_max}), so there is no range"
+    )
+    need = shortest_coverage_mm(tip, x1)
+    if need is None:
+        raise ValueError(f"{why}; no coverage from {x1:g} mm has one: move X1_MM toward the tip (6.5 7.5 is the scenarios' default)")
+    raise ValueError(f"{why}; from {x1:g} mm the gel must reach to at least {need:g} mm (--coverage {x1:g} {need:g})")
 
 
 def format_table(report: dict) -> str:

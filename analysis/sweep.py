@@ -29,7 +29,7 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
-from .sweep_cluster import dask_client
+from .sweep_cluster import dask_client, raise_if_scheduler_lost
 from .sweep_grid import Point, check_points, grid_points
 from .sweep_journal import JOURNAL_NAME, append_row, load_done, normalized
 from .sweep_output import write_sweep
@@ -167,6 +167,8 @@ def run_points(
                     try:
                         row = future.result()
                     except Exception as err:  # a worker lost, not the run itself
+                        # ... or the scheduler: every point left is cancelled, none failed; the sweep stops
+                        raise_if_scheduler_lost(client, err, scheduler, len(results), len(todo), journal)
                         row = error_row(f"{type(err).__name__}: {err}")
                     finish(i, row)
     rows = []

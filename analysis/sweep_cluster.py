@@ -2,6 +2,11 @@
 and stopped here) or on a scheduler someone started (``--scheduler tcp://host:8786``), and the
 signals around it.
 
+A scheduler's address is checked before any connection (:func:`check_scheduler_address`: a
+transport this machine has, a host and a port, TLS certificates for ``tls://``), the connection
+waits at most :data:`CONNECT_TIMEOUT_S`, and a scheduler lost in the middle of a sweep stops it
+(:func:`raise_if_scheduler_lost`): each is one ``ValueError`` naming the address.
+
 The command line starts the local cluster's worker server first (:func:`start_worker_server`):
 its workers are forked from a process that has their imports done, which it did while the
 command imported and checked the points.  A Ctrl-C while the local cluster starts waits until
@@ -13,7 +18,9 @@ cluster is asked for.
 from __future__ import annotations
 
 import atexit
+import contextlib
 import json
+import logging
 import os
 import sys
 
@@ -213,6 +220,161 @@ def local_cluster_config() -> dict:
     return config
 
 
+#: How long a client waits for the scheduler at ``--scheduler ADDRESS`` to answer, s: Dask
+#: retries a refused connection until then (a scheduler may be starting), and a server that
+#: accepted the connection gets as long again to answer as a Dask scheduler (Dask itself would
+#: wait for that answer for ever: :func:`_handshake`).
+CONNECT_TIMEOUT_S = 10.0
+#: Dask's reason for the futures it cancels when its client loses the scheduler.
+_CONNECTION_LOST = "scheduler-connection-lost"
+
+
+class SchedulerLost(ValueError):
+    """The scheduler went away in the middle of a sweep (the command line's exit 2: the
+    environment, not a point, failed)."""
+
+
+def check_scheduler_address(address: str) -> None:
+    """A ValueError naming ``--scheduler ADDRESS`` and what is wrong with it, before any
+    connection is tried; nothing if a client here can try to reach it.
+
+    Refused: an address that is not text; ``inproc://`` (Dask's in-process transport: it never
+    leaves the process that made it, and a sweep's scheduler is in another); a scheme Dask does
+    not know, or whose transport is not installed (``ucx://`` needs ``distributed-ucxx``); a
+    missing host, a missing port or one outside 1..65535; ``tls://`` and ``wss://`` without
+    this client's TLS certificates in Dask's configuration (``distributed.comm.tls.*``).
+    """
+    from distributed.comm import registry
+    from distributed.comm.addressing import parse_address, parse_host_port
+
+    if not isinstance(address, str) or not address.strip():
+        raise ValueError(f"--scheduler needs a Dask scheduler's address, e.g. tcp://HOST:8786; got {address!r}")
+    given = f"--scheduler {address}"
+    scheme, location = parse_address(address)  # no scheme: tcp, as Dask takes it
+    if scheme == "inproc":
+        raise ValueError(
+            f"{given}: an inproc:// address is Dask's in-process transport, which never leaves the process that made it; "
+            "a sweep's scheduler runs in another: give its tcp://HOST:PORT"
+        )
+    try:
+        backend = registry.get_backend(scheme)
+    except ValueError:
+        known = ", ".join(f"{name}://" for name in sorted(registry.backends) if name != "inproc")
+        raise ValueError(f"{given}: unknown address scheme {scheme!r} (Dask's are {known}; e.g. tcp://HOST:8786)") from None
+    try:
+        backend.get_connector()
+    except Exception as err:  # Dask's UCX stub: an abstract connector (TypeError); a plugin whose import fails
+        if scheme == "ucx":
+            why = "Distributed's UCX transport is a separate package, distributed-ucxx, which is not installed here"
+        else:
+            text = str(err).strip()
+            why = f"Dask cannot open a {scheme}:// connection here ({type(err).__name__}: {text.splitlines()[0][:200] if text else ''})"
+        raise ValueError(f"{given}: {why}; install it, or give the scheduler's tcp:// address") from None
+    try:
+        host, port = parse_host_port(location)
+    except ValueError:
+        raise ValueError(f"{given}: needs a host and a port, {scheme}://HOST:PORT (a Dask scheduler listens on 8786 by default)") from None
+    if not host:
+        raise ValueError(f"{given}: needs a host before the port, {scheme}://HOST:{port}")
+    if not 1 <= port <= 65535:
+        raise ValueError(f"{given}: port {port} is not a TCP port (1..65535)")
+    if scheme in ("tls", "wss"):
+        from distributed.security import Security
+
+        try:
+            context = Security().get_connection_args("client").get("ssl_context")
+        except (OSError, ValueError) as err:  # a configured certificate that cannot be read
+            raise ValueError(f"{given}: Dask's TLS settings (distributed.comm.tls.*) cannot be used: {err}") from None
+        if context is None:  # Dask's connector would fail with a TypeError
+            raise ValueError(
+                f"{given}: a {scheme}:// scheduler needs this client's TLS certificates, and Dask's configuration names none "
+                "(distributed.comm.tls.ca-file, .client.cert and .client.key; e.g. DASK_DISTRIBUTED__COMM__TLS__CA_FILE=...)"
+            )
+
+
+def _handshake(address: str, timeout_s: float) -> None:
+    """Connect to ``address`` as a Dask client does and close again, or a ValueError naming it.
+
+    Dask's ``connect`` retries for ``timeout_s`` and then waits for the other end's handshake
+    without a limit: a server that is not a Dask scheduler (the dashboard's port, a web server)
+    kept ``Client(address, timeout=...)`` waiting for ever.  Here the whole exchange is bounded
+    (``2 timeout_s``), in a thread of its own with its own event loop (a caller's loop, as in a
+    notebook, is left alone).
+    """
+    import asyncio
+    import threading
+
+    from distributed.comm import connect
+    from distributed.security import Security
+
+    connection_args = Security().get_connection_args("client")
+    outcome: dict = {}
+
+    async def exchange() -> None:
+        comm = await connect(address, timeout=timeout_s, **connection_args)
+        try:  # the scheduler answered: leave as a client does (it would log a connection dropped unannounced)
+            await comm.write({"op": "close", "reply": False})
+        except OSError:
+            pass
+        finally:
+            comm.abort()
+
+    def run() -> None:
+        try:
+            asyncio.run(asyncio.wait_for(exchange(), 2.0 * timeout_s))
+        except BaseException as err:  # handed to the calling thread
+            outcome["error"] = err
+
+    thread = threading.Thread(target=run, name="piezotip-scheduler-handshake", daemon=True)
+    thread.start()
+    thread.join()
+    err = outcome.get("error")
+    if err is None:
+        return
+    given = f"--scheduler {address}"
+    if isinstance(err, TimeoutError):  # wait_for's: connected, no handshake (Dask's own gives up with a plain OSError)
+        raise ValueError(
+            f"{given}: something accepts connections there but did not answer as a Dask scheduler within {2.0 * timeout_s:g} s "
+            "(a scheduler listens on 8786 by default; 8787 is its dashboard)"
+        ) from None
+    if isinstance(err, OSError):
+        raise ValueError(f"{given}: cannot reach a Dask scheduler there ({' '.join(str(err).split()) or type(err).__name__})") from None
+    raise err
+
+
+def raise_if_scheduler_lost(client, err: BaseException, address: str | None, finished: int, total: int, journal) -> None:
+    """SchedulerLost if ``err`` (a future's) or ``client`` says the scheduler is gone, else nothing.
+
+    When a client loses its scheduler, Dask cancels every future it holds: none of the points
+    left failed, and none is a row (journaled as an error, each would read as the point's own
+    failure).  ``finished`` of ``total`` points had finished in this sweep, journaled in
+    ``journal`` (None: nowhere), from which the same command resumes.
+    """
+    if getattr(err, "reason", None) != _CONNECTION_LOST and getattr(client, "status", "running") == "running":
+        return
+    where = f"--scheduler {address}" if address is not None else "the local Dask cluster"
+    done = f"{finished} of {total} points finished" + (f" (journaled in {journal})" if finished and journal is not None else "")
+    then = f"the same command resumes with the other {total - finished}" if journal is not None else "nothing was kept (no --out)"
+    raise SchedulerLost(f"{where}: lost the connection to the Dask scheduler with {done}; {then}")
+
+
+@contextlib.contextmanager
+def _dask_logs_silenced():
+    """Dask's own log lines held back: a client closed after it lost its scheduler logs its
+    cancelled reconnection as an ERROR with a 33-line asyncio traceback, which
+    :class:`SchedulerLost`'s one line says already."""
+    names = ["distributed", *(n for n in logging.root.manager.loggerDict if n.startswith("distributed."))]
+    handlers = {h for n in names for h in logging.getLogger(n).handlers}
+    levels = {h: h.level for h in handlers}
+    for handler in handlers:
+        handler.setLevel(logging.CRITICAL + 1)
+    try:
+        yield
+    finally:
+        for handler, level in levels.items():
+            handler.setLevel(level)
+
+
 class dask_client:
     """A Dask client on a local cluster of ``workers`` processes (closed on exit), or on the
     scheduler at ``address``.  The local cluster's workers are forked from the worker server
@@ -229,8 +391,10 @@ class dask_client:
         from dask.distributed import Client, LocalCluster
 
         if self.address is not None:
+            check_scheduler_address(self.address)
+            _handshake(self.address, CONNECT_TIMEOUT_S)
             try:
-                self.client = Client(self.address, timeout="10s")
+                self.client = Client(self.address, timeout=f"{CONNECT_TIMEOUT_S}s")
             except OSError as err:
                 raise ValueError(f"--scheduler {self.address}: cannot reach a Dask scheduler there ({err})") from None
             return self.client
@@ -254,7 +418,9 @@ class dask_client:
     def __exit__(self, *exc) -> None:
         try:
             if self.client is not None:
-                self.client.close()
+                lost = getattr(self.client, "status", "running") != "running"  # its scheduler gone: raise_if_scheduler_lost said so
+                with _dask_logs_silenced() if lost else contextlib.nullcontext():
+                    self.client.close()
             if self.cluster is not None:
                 self.cluster.close()
         finally:

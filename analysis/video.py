@@ -15,14 +15,19 @@ rows recorded since the last frame, and draws of each line what its pixel column
 (:func:`m4_decimate`), so a frame's cost does not grow with the run; and the
 renderer skips shadows and reflections (a third of the cost in software OpenGL, invisible in a
 side view).  Headless machines render through EGL (``MUJOCO_GL=egl``, which the command line
-sets for a command that renders unless told otherwise); without a usable OpenGL the writer
-stops before the run with one line naming ``MUJOCO_GL``.
+sets for a command that renders unless told otherwise, and the Gymnasium environments where no
+display and no ``MUJOCO_GL`` is set: :func:`choose_headless_backend`); without a usable OpenGL
+the writer stops before the run with one line naming ``MUJOCO_GL``, and a renderer that failed
+once in a process is never tried again (:func:`open_renderer`).
 """
 
 from __future__ import annotations
 
+import ctypes.util
 import math
+import numbers
 import os
+import sys
 from fractions import Fraction
 from pathlib import Path
 
@@ -41,6 +46,74 @@ MIN_SIDE_PX, MAX_SIDE_PX = 160, 4096
 
 class RendererUnavailable(OSError):
     """MuJoCo's offscreen renderer cannot be created (no EGL, no display): one line naming MUJOCO_GL."""
+
+
+#: The first failure to create MuJoCo's renderer in this process, raised again instead of a second
+#: try: MuJoCo's OpenGL set-up (``mjr_makeContext``) fails by unwinding out of a C++ function-local
+#: static's initialisation, and the next call re-enters it and aborts the interpreter
+#: ("__cxa_guard_acquire detected recursive initialization").
+_renderer_failure: RendererUnavailable | None = None
+
+
+def check_render_side(name: str, side) -> int:
+    """``side`` (``width`` or ``height`` as ``name``) as an int if it is a whole number of pixels in
+    1..MAX_SIDE_PX, else a ValueError naming it: MuJoCo's renderer hands it to OpenGL unchecked (a
+    negative one fails GLFW's assertion, which aborts the interpreter) and enlarges the model's
+    offscreen buffer to it (MAX_SIDE_PX: within every OpenGL's renderbuffer limit)."""
+    whole = isinstance(side, numbers.Integral) and not isinstance(side, bool)
+    if not whole or not 1 <= int(side) <= MAX_SIDE_PX:
+        raise ValueError(f"{name} must be a whole number of pixels in 1..{MAX_SIDE_PX}, got {side!r}")
+    return int(side)
+
+
+def _has_display(environ) -> bool:
+    return bool(environ.get("DISPLAY") or environ.get("WAYLAND_DISPLAY"))
+
+
+def headless_backend(environ=os.environ, imported: bool | None = None, find=ctypes.util.find_library) -> str | None:
+    """The ``MUJOCO_GL`` to set before MuJoCo's first import so that rendering works without a
+    display, or None to leave it as it is.
+
+    None unless all of: Linux (elsewhere MuJoCo's default needs no display), no ``MUJOCO_GL``
+    named (a user's choice stays theirs), no display (``DISPLAY``, ``WAYLAND_DISPLAY``: GLFW,
+    MuJoCo's default, works there) and MuJoCo not imported yet (it reads ``MUJOCO_GL`` once, on
+    its first import).  Then ``egl`` where libEGL and an OpenGL library for PyOpenGL's EGL platform
+    are installed, else ``osmesa`` where libOSMesa is, else None (rendering then fails with one
+    line naming ``MUJOCO_GL``).  A ``PYOPENGL_PLATFORM`` of ``egl`` or ``osmesa`` picks that one
+    (MuJoCo refuses the other with it); any other leaves the choice to the user.
+
+    Parameters
+    ----------
+    environ : the environment to read.
+    imported : whether MuJoCo is imported (None: look in ``sys.modules``).
+    find : ``ctypes.util.find_library`` (a library's name without ``lib``) -> path or None.
+    """
+    if imported is None:
+        imported = "mujoco" in sys.modules
+    if not sys.platform.startswith("linux") or environ.get("MUJOCO_GL") or _has_display(environ) or imported:
+        return None
+    platform = (environ.get("PYOPENGL_PLATFORM") or "").strip().lower()
+    if platform and platform not in ("egl", "osmesa"):
+        return None
+    installed = {
+        # PyOpenGL's EGL platform loads libEGL and then libOpenGL, libGL or libGLESv2.
+        "egl": lambda: find("EGL") and any(find(name) for name in ("OpenGL", "GL", "GLESv2")),
+        "osmesa": lambda: find("OSMesa"),
+    }
+    for backend in (platform,) if platform else ("egl", "osmesa"):
+        if installed[backend]():
+            return backend
+    return None
+
+
+def choose_headless_backend() -> str | None:
+    """Set ``MUJOCO_GL`` to :func:`headless_backend`'s choice, if any, and return it.  Call it
+    before MuJoCo's first import (the Gymnasium environments do): without it a machine with no
+    display gets GLFW, whose renderer cannot be made there."""
+    backend = headless_backend()
+    if backend is not None:
+        os.environ["MUJOCO_GL"] = backend
+    return backend
 
 
 def parse_size(text: str) -> tuple[int, int]:
@@ -101,11 +174,26 @@ def import_mujoco():
 def open_renderer(model, width: int, height: int):
     """A ``mujoco.Renderer`` of ``width`` x ``height`` pixels for ``model``, or RendererUnavailable.
 
-    The model's offscreen buffer is enlarged to the frame if needed (a visual setting only).
+    The model's offscreen buffer is enlarged to the frame if needed (a visual setting only).  A
+    size that is not a whole number of pixels in 1..MAX_SIDE_PX is a ValueError; GLFW (MuJoCo's
+    default backend) without a display, and any renderer after one failed in this process, are
+    RendererUnavailable without calling MuJoCo (each would abort the interpreter).
     """
     import warnings
 
+    global _renderer_failure
+    width, height = check_render_side("width", width), check_render_side("height", height)
+    if _renderer_failure is not None:
+        raise _renderer_failure
     mujoco = import_mujoco()
+    # The context class MuJoCo's Renderer makes, which MUJOCO_GL chose on MuJoCo's import (``import *``'d to the top).
+    context = getattr(mujoco, "GLContext", None) or getattr(getattr(mujoco, "gl_context", None), "GLContext", None)
+    glfw = getattr(context, "__module__", "").startswith("mujoco.glfw")
+    if glfw and sys.platform.startswith("linux") and not _has_display(os.environ):
+        # MuJoCo reads MUJOCO_GL on its first import: set after it, it changes nothing.
+        why = OSError("DISPLAY and WAYLAND_DISPLAY are unset; MUJOCO_GL counts only before MuJoCo's first import")
+        _renderer_failure = _unavailable("cannot render: MuJoCo's OpenGL backend is GLFW, which needs a display,", why)
+        raise _renderer_failure
     vis = model.vis.global_
     vis.offwidth, vis.offheight = max(vis.offwidth, width), max(vis.offheight, height)
     try:
@@ -113,7 +201,8 @@ def open_renderer(model, width: int, height: int):
             warnings.simplefilter("ignore")  # GLFW's own warnings ("failed to open display"): the error says it once
             return mujoco.Renderer(model, height, width)
     except Exception as err:  # FatalError (no display), ImportError (no EGL/OSMesa), AttributeError (a half-loaded GL)
-        raise _unavailable("cannot render: MuJoCo's offscreen renderer failed", err) from None
+        _renderer_failure = _unavailable("cannot render: MuJoCo's offscreen renderer failed", err)
+        raise _renderer_failure from None
 
 
 class LiveStrip:

@@ -101,7 +101,7 @@ def _json_safe(value):
 
 
 def _cmd_range(args: argparse.Namespace) -> int:
-    from piezotip.analysis.range_report import format_table, write_range_files
+    from piezotip.analysis.range_report import check_coverage, format_table, write_range_files
     from piezotip.sensor import Fingertip
 
     coverage = None
@@ -114,6 +114,8 @@ def _cmd_range(args: argparse.Namespace) -> int:
     from piezotip.sensor import GelModel
 
     tip = Fingertip(coverage=coverage, gel=GelModel(layer=args.gel_layer))
+    if args.coverage is not None:  # one too short for the limits is an error, not a report of nulls
+        check_coverage(tip, args.coverage)
     if args.units is not None or any(v is not None for v in (args.variation, args.unit_seed, args.calibration, args.temperature_c)):
         return _range_unit(args, tip)
     report = tip.dynamic_range()

@@ -14,6 +14,8 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import numbers
+import reprlib
 from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import ClassVar
@@ -22,11 +24,13 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
-from piezotip.analysis.video import import_mujoco
+from piezotip.analysis.video import check_render_side, choose_headless_backend, import_mujoco
 
 # MuJoCo loads the OpenGL backend MUJOCO_GL names on its first import (which the imports below
-# make); one that cannot load is one line naming MUJOCO_GL, not a traceback from PyOpenGL.  For
-# render_mode="rgb_array" on a headless machine, set MUJOCO_GL=egl.
+# make); one that cannot load is one line naming MUJOCO_GL, not a traceback from PyOpenGL.  With
+# no MUJOCO_GL and no display, GLFW (MuJoCo's default) could not render here: a headless backend
+# (EGL, else OSMesa) is chosen first, so render_mode="rgb_array" works on a headless machine.
+choose_headless_backend()
 import_mujoco()
 
 from piezotip import controllers, scenarios  # noqa: E402
@@ -172,8 +176,9 @@ class GraspEnv(gym.Env):
     (``models/gripper.xml``); a rate's bound moves its
     set-point across its whole range in one step, so any set-point a controller may want is
     reachable (the servo, not the bound, limits the motion).  Out-of-bounds values of the
-    continuous parts are clipped to the bounds; a non-finite value, a mode index outside
-    ``0..n_modes-1``, a missing or extra key raise ``ValueError``.
+    continuous parts are clipped to the bounds; a value that is not a real number (a string, a
+    complex number, a bool, a dict), a non-finite value, a mode index outside ``0..n_modes-1``,
+    a missing or extra key raise ``ValueError``.
 
     ## Observation Space
 
@@ -241,7 +246,8 @@ class GraspEnv(gym.Env):
     referee's ``outcome``, ``reason`` and ``verdict`` (a dict) for the whole episode, which
     counts as finished (an object still held is ``timeout``: not released); ``info["ended"]``
     says which condition ended it.  ``env.unwrapped.recording()`` is the episode's record, the
-    columns of ``run.npz``.
+    columns of ``run.npz``.  An ended episode takes no more steps: ``step()`` raises
+    ``RuntimeError`` until ``reset()`` (its end and its bonus are paid once).
 
     ## Arguments
 
@@ -253,9 +259,13 @@ class GraspEnv(gym.Env):
     | ``render_mode`` | None | None or ``"rgb_array"`` (the scene's ``grasp_camera``) |
     | ``randomize_object`` | False | True (:class:`ObjectRanges`' defaults) or an ``ObjectRanges`` |
     | ``reward`` | None | a :class:`RewardWeights` (None: the defaults) |
-    | ``width``, ``height`` | 640, 480 | ``render()``'s image size, pixels |
+    | ``width``, ``height`` | 640, 480 | ``render()``'s image size, pixels (whole, 1 to 4096) |
 
-    An unknown scenario or override raises the command line's ``ValueError``.
+    An unknown scenario or override, and a render size that is not a whole number of pixels in
+    1..4096, raise the command line's ``ValueError``.  With ``render_mode="rgb_array"``, no
+    display and no ``MUJOCO_GL``, the environment renders through EGL (else OSMesa), chosen before
+    MuJoCo's first import; a renderer that cannot be made raises ``RendererUnavailable`` naming
+    ``MUJOCO_GL``, on every ``render()``.
 
     ## Version History
 
@@ -277,6 +287,8 @@ class GraspEnv(gym.Env):
     ) -> None:
         if render_mode not in (None, "rgb_array"):
             raise ValueError(f"render_mode must be None or 'rgb_array', got {render_mode!r}")
+        # Checked here, before anything reaches MuJoCo's renderer (a negative size aborts the interpreter).
+        self.width, self.height = check_render_side("width", width), check_render_side("height", height)
         self.render_mode = render_mode
         self.base_config: ScenarioConfig = scenarios.get(scenario, overrides, preset)
         if isinstance(randomize_object, ObjectRanges):
@@ -290,7 +302,6 @@ class GraspEnv(gym.Env):
         self.weights = reward if reward is not None else RewardWeights()
         if not isinstance(self.weights, RewardWeights):
             raise ValueError(f"reward must be a RewardWeights, got {reward!r}")
-        self.width, self.height = int(width), int(height)
         cfg = self.base_config
         self.pads = tuple(f"{p}_pad" for p in cfg.sensor.pads)
         self.modes = tuple(cfg.sensor.modes)
@@ -340,6 +351,7 @@ class GraspEnv(gym.Env):
         self._mode_index = {mode: i for i, mode in enumerate(self.modes)}
         self.sim: CoSimulation | None = None
         self.config: ScenarioConfig | None = None
+        self._ended: str | None = None  # what ended the episode ("terminated: crushed", ...), None while it runs
         self._renderer = None
         self._rendered_model = None
 
@@ -359,12 +371,17 @@ class GraspEnv(gym.Env):
         self._rows: list[list[float]] = []
         self._episode_start()
         self._error: str | None = None
+        self._ended = None
         self._sense_next()
         return self._observation(), {"time_s": sim.time_s}
 
     def step(self, action):
         if self.sim is None:
             raise RuntimeError("call reset() before step()")
+        if self._ended is not None:
+            # Stepped on, the episode would be judged and paid again (Gymnasium leaves the
+            # behaviour past an end undefined; an error cannot be mistaken for a result).
+            raise RuntimeError(f"the episode has ended ({self._ended}); call reset() before step()")
         sim = self.sim
         command = self._command(action)
         # CoSimulation.advance in its two halves (sense, act), the agent's command in place of
@@ -394,6 +411,7 @@ class GraspEnv(gym.Env):
             )
             if self._error is not None:
                 info["error"] = self._error
+            self._ended = f"{'terminated' if terminated else 'truncated'}: {info['ended']}"
         reward = float(sum(parts.values()))
         return self._observation(), reward, terminated, truncated, info
 
@@ -490,23 +508,25 @@ class GraspEnv(gym.Env):
     def _command(self, action) -> Command:
         """The loop's Command from ``action``: continuous parts clipped, anything malformed refused."""
         if not isinstance(action, Mapping) or set(action) != set(ACTION_KEYS):
-            got = sorted(action) if isinstance(action, Mapping) else type(action).__name__
+            got = shown(sorted(map(str, action))) if isinstance(action, Mapping) else type(action).__name__
             raise ValueError(f"action must be a dict with keys {', '.join(ACTION_KEYS)}; got {got}")
         space = self.action_space
         values = {}
         for key in ACTION_KEYS[:3]:
-            a = np.asarray(action[key], dtype=float).reshape(-1)
-            if a.size != 1 or not math.isfinite(a[0]):
-                raise ValueError(f"action[{key!r}] must be one finite number, got {action[key]!r}")
+            a = real_numbers(action[key])
+            if a is None or a.size != 1 or not math.isfinite(a.reshape(-1)[0]):
+                raise ValueError(f"action[{key!r}] must be one finite real number, got {shown(action[key])}")
             box = space[key]
-            values[key] = min(max(float(a[0]), float(box.low[0])), float(box.high[0]))
-        modes = np.asarray(action["mode"]).reshape(-1)
+            values[key] = min(max(float(a.reshape(-1)[0]), float(box.low[0])), float(box.high[0]))
+        modes = real_numbers(action["mode"])
         n_modes = len(self.modes)
-        if modes.size != len(self.pads) or not all(float(k).is_integer() and 0 <= k < n_modes for k in modes.tolist()):
+        whole = modes is not None and all(k.is_integer() and 0 <= k < n_modes for k in modes.reshape(-1).tolist())
+        if not whole or modes.size != len(self.pads):
             raise ValueError(
-                f"action['mode'] must hold {len(self.pads)} mode indices in 0..{n_modes - 1} (modes {list(self.modes)}), "
-                f"got {action['mode']!r}"
+                f"action['mode'] must be {len(self.pads)} mode indices in 0..{n_modes - 1} (modes {list(self.modes)}), "
+                f"got {shown(action['mode'])}"
             )
+        modes = modes.reshape(-1)
         lo, hi = self.lift_range_m
         self._lift_sp = min(max(self._lift_sp + values["lift_velocity_m_s"] * self.dt, lo), hi)
         lo, hi = self.opening_range_m
@@ -685,6 +705,38 @@ class MultimodePolicy:
             grip_force_n=float(obs["grip_force_n"][0]),
             lift_vel_m_s=float(obs["lift_velocity_m_s"][0]),
         )
+
+
+def real_numbers(value) -> np.ndarray | None:
+    """``value`` as a float64 array if it is real numbers (Python's or NumPy's ints and floats, any
+    shape), else None: a string, a bool, a complex number, a dict, None or a ragged nesting is not
+    an action, though NumPy would convert some of them (``"0.5"`` to 0.5, ``1+2j`` to 1 with a
+    warning, ``True`` to 1)."""
+    if isinstance(value, (str, bytes, Mapping)):
+        return None
+    try:
+        a = np.asarray(value)
+    except (ValueError, TypeError):  # ragged, or refused by NumPy
+        return None
+    if a.dtype.kind == "O":  # Python objects (a Fraction, None, a list in a list): real numbers only
+        items = a.reshape(-1).tolist()
+        if not all(isinstance(x, numbers.Real) and not isinstance(x, (bool, np.bool_)) for x in items):
+            return None
+        a = np.array([float(x) for x in items]).reshape(a.shape)
+    if a.dtype.kind not in "iuf":  # b (bool), c (complex), U and S (text), V, M, m
+        return None
+    return a.astype(float, copy=False)
+
+
+_repr = reprlib.Repr()
+_repr.maxstring, _repr.maxother, _repr.maxlist, _repr.maxdict = 80, 120, 8, 6
+
+
+def shown(value) -> str:
+    """``value``'s repr for an error message, cut to a few hundred characters."""
+    if isinstance(value, np.ndarray):
+        return _repr.repr(value.tolist()) if value.size <= 64 else f"an array of shape {value.shape} and dtype {value.dtype}"
+    return _repr.repr(value)
 
 
 def _with_blind_controller(config: ScenarioConfig) -> ScenarioConfig:

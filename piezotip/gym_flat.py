@@ -24,7 +24,7 @@ from gymnasium import spaces
 from piezotip.analysis.referee import Criteria
 from piezotip.cosim.rows import STATUS_CODES
 from piezotip.cosim.scene import gripper_ranges
-from piezotip.gym_env import GraspEnv, MultimodePolicy, ObjectRanges, RewardWeights
+from piezotip.gym_env import GraspEnv, MultimodePolicy, ObjectRanges, RewardWeights, real_numbers, shown
 
 
 def drive_top_speed_m_s(force_limit_n: float, damping_n_s_m: float) -> float:
@@ -57,14 +57,14 @@ class ActionScale:
     n_modes: int
 
     def to_grasp(self, action, n_pads: int) -> dict[str, np.ndarray]:
-        """GraspEnv's action for the flat ``action`` (clipped to [-1, 1]; a wrong shape or a
-        non-finite entry raises ValueError)."""
-        a = np.asarray(action, dtype=float)
-        if a.shape != (3 + n_pads,):
-            what = f"{3 + n_pads} numbers in [-1, 1] (grip, opening rate, lift rate, a mode per pad)"
-            raise ValueError(f"action must be {what}, got {action!r}")
+        """GraspEnv's action for the flat ``action`` (clipped to [-1, 1]; anything but real
+        numbers of shape (3 + n_pads,), or a non-finite entry, raises ValueError)."""
+        a = real_numbers(action)  # strings, complex numbers, bools and dicts are not actions
+        if a is None or a.shape != (3 + n_pads,):
+            what = f"{3 + n_pads} numbers in [-1, 1] (grip, opening rate, lift rate, a mode per pad), real ints or floats"
+            raise ValueError(f"action must be {what}, got {shown(action)}")
         if not np.all(np.isfinite(a)):
-            raise ValueError(f"action must be finite, got {action!r}")
+            raise ValueError(f"action must be finite, got {shown(action)}")
         a = np.clip(a, -1.0, 1.0)
         modes = np.minimum(np.floor((a[3:] + 1.0) * 0.5 * self.n_modes), self.n_modes - 1).astype(np.int64)
         return {
@@ -122,8 +122,9 @@ class GraspFlatEnv(gym.Env):
 
     ## Action Space
 
-    ``Box(-1, 1, (3 + n_pads,), float32)``; out-of-range values are clipped, a non-finite value
-    or a wrong shape raises ``ValueError``.  The scales are the robot's (:class:`ActionScale`,
+    ``Box(-1, 1, (3 + n_pads,), float32)``; out-of-range values are clipped; anything but real
+    numbers (strings, complex numbers, bools, a dict), a non-finite value or a wrong shape raises
+    ``ValueError``.  The scales are the robot's (:class:`ActionScale`,
     ``env.unwrapped.action_scale``), read from the RobotLimits the house controller uses:
 
     | Index | Action | -1 | +1 | Unit |
@@ -184,7 +185,8 @@ class GraspFlatEnv(gym.Env):
     referee (``analysis/referee.py``) judges the episode so far a success: lifted, held, put
     back at rest within its tolerance of the starting height, released.  ``info`` then carries
     ``outcome`` ("success"), ``reason``, ``verdict`` and ``ended`` ("success"), and the reward
-    GraspEnv's ``reward_success``.
+    GraspEnv's ``reward_success``.  An ended episode takes no more steps: ``step()`` raises
+    ``RuntimeError`` until ``reset()`` (the success bonus is paid once).
 
     ## Arguments
 
@@ -247,6 +249,7 @@ class GraspFlatEnv(gym.Env):
         high = np.array([e.high for e in self.observation_entries], np.float32)
         self.observation_space = spaces.Box(low, high, dtype=np.float32)
         self.grasp_observation: dict[str, np.ndarray] | None = None
+        self._ended: str | None = None  # what ended the episode ("terminated: success", ...), None while it runs
         self._status_ok = [STATUS_CODES.index(s) for s in ("ok", "below_detection")]
         self._criteria = Criteria()
 
@@ -257,11 +260,16 @@ class GraspFlatEnv(gym.Env):
         obs, info = self.grasp_env.reset(seed=seed, options=options)
         self.grasp_observation = obs
         self._gate_start()
+        self._ended = None
         return self._flat(obs), info
 
     def step(self, action):
         if self.grasp_observation is None:
             raise RuntimeError("call reset() before step()")
+        if self._ended is not None:
+            # A success ends the episode here while GraspEnv's goes on: stepped on, the gate
+            # opened again and paid the bonus again.
+            raise RuntimeError(f"the episode has ended ({self._ended}); call reset() before step()")
         obs, reward, terminated, truncated, info = self.grasp_env.step(self.action_to_grasp(action))
         self.grasp_observation = obs
         if self.terminate_on_success and not terminated:
@@ -280,6 +288,8 @@ class GraspFlatEnv(gym.Env):
             if succeeded:
                 terminated, truncated = True, False
                 info["ended"] = "success"
+        if terminated or truncated:
+            self._ended = f"{'terminated' if terminated else 'truncated'}: {info.get('ended', 'duration')}"
         return self._flat(obs), float(reward), terminated, truncated, info
 
     def render(self):
