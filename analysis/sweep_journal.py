@@ -31,17 +31,7 @@ _NUMBER_COLUMNS = (
     "touch_latency_s",
     "mode_switches",
     "peak_grip_force_n",
-    "hold_grip_n",
-    "needed_grip_n",
-    "grip_margin",
-    "peak_contact_n",
-    "touch_peak_n",
-    "time_to_touch_s",
-    "disturb_slip_mm",
-    "disturb_reaction_ms",
-    "disturb_hold_grip_n",
-    "disturb_needed_grip_n",
-    "disturb_grip_margin",
+    *REFEREE_COLUMNS,  # every referee column is a number (analysis.sweep_rows)
     "sim_time_s",
 )
 
