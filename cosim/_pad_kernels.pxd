@@ -29,6 +29,32 @@ cdef class GelForces:
 
 
 @cython.final
+cdef class PassiveGelForces:
+    cdef object _args  # the constructor's arguments, for copies
+    cdef UniformPairTable _table
+    cdef Py_ssize_t _n
+    cdef long long[::1] _qadr, _dof, _jnt
+    cdef double[::1] _area, _gel_mass, _gel_damping, _q0, _p0, _k0, _last_q
+    cdef double _h, _h2
+    cdef double[::1] _qpos, _passive, _spring, _stiffness, _armature, _damping
+    cdef bint _bound
+
+    cdef void _check_bound(self) except *
+    @cython.locals(i=Py_ssize_t)
+    cpdef scale_masses(self, stiffness_n_m)
+    @cython.locals(dof=Py_ssize_t)
+    cdef void _scale(self, Py_ssize_t i, double k) noexcept
+    @cython.locals(i=Py_ssize_t, q=double, moved=bint)
+    cpdef bint changed(self) except -1
+    @cython.locals(i=Py_ssize_t, q=double, pressure=double, tangent=double)
+    cpdef linearize(self)
+    @cython.locals(i=Py_ssize_t)
+    cpdef stiffness(self, bint held)
+    @cython.locals(i=Py_ssize_t, q=double, pressure=double, tangent=double, k=double, force=double, dof=Py_ssize_t)
+    cpdef apply(self, bint implicit, bint held)
+
+
+@cython.final
 cdef class PadPressures:
     cdef object _args
     cdef UniformPairTable _table

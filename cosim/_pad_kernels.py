@@ -129,6 +129,151 @@ class GelForces:
         return type(self), self._args
 
 
+class PassiveGelForces:
+    """The gel law on every pad strip joint as MuJoCo passive forces, every physics step
+    (:class:`cosim.mjhooks.GelPassive` says how; this is its arithmetic, one call for all the
+    strips of a model).
+
+    Parameters
+    ----------
+    table : (grid_m, pressure_pa, tangent_pa_m), as :class:`GelForces`'s.
+    qadr, dof, jnt : per strip, its joint's qpos address, dof address and joint id.
+    area_m2 : per strip, its area, m^2.
+    gel_mass_kg : per strip, its gel's mass, kg (the mass scaling's floor).
+    gel_damping_n_s_m : per strip, the gel's own damping, N s/m.
+    timestep_s : the model's step h, s.
+    omega_h : the strips' ring frequency times the step under an explicit integrator
+        (:data:`cosim.mjhooks.EXPLICIT_OMEGA_H`).
+    """
+
+    __slots__ = (
+        "_area",
+        "_args",
+        "_armature",
+        "_bound",
+        "_damping",
+        "_dof",
+        "_gel_damping",
+        "_gel_mass",
+        "_h",
+        "_h2",
+        "_jnt",
+        "_k0",
+        "_last_q",
+        "_n",
+        "_p0",
+        "_passive",
+        "_q0",
+        "_qadr",
+        "_qpos",
+        "_spring",
+        "_stiffness",
+        "_table",
+    )
+
+    def __init__(self, table, qadr, dof, jnt, area_m2, gel_mass_kg, gel_damping_n_s_m, timestep_s: float, omega_h: float) -> None:
+        self._args = (table, qadr, dof, jnt, area_m2, gel_mass_kg, gel_damping_n_s_m, timestep_s, omega_h)
+        self._table = UniformPairTable(*table)
+        qadr, dof, jnt = ([int(i) for i in v] for v in (qadr, dof, jnt))
+        area, mass, damping = ([float(a) for a in v] for v in (area_m2, gel_mass_kg, gel_damping_n_s_m))
+        if not len(qadr) == len(dof) == len(jnt) == len(area) == len(mass) == len(damping):
+            raise ValueError("every strip needs a qpos address, a dof, a joint, an area, a gel mass and a damping")
+        if not (math.isfinite(timestep_s) and timestep_s > 0 and math.isfinite(omega_h) and omega_h > 0):
+            raise ValueError(f"the step ({timestep_s!r} s) and omega h ({omega_h!r}) must be positive and finite")
+        self._n = len(qadr)
+        self._qadr, self._dof, self._jnt = array("q", qadr), array("q", dof), array("q", jnt)
+        self._area, self._gel_mass, self._gel_damping = array("d", area), array("d", mass), array("d", damping)
+        self._h = float(timestep_s)
+        self._h2 = (self._h / float(omega_h)) ** 2
+        zeros = [0.0] * self._n
+        self._q0, self._p0, self._k0, self._last_q = array("d", zeros), array("d", zeros), array("d", zeros), array("d", zeros)
+        self._bound = False
+
+    def bind(self, qpos, qfrc_passive, qfrc_spring, jnt_stiffness, dof_armature, dof_damping) -> None:
+        """Work on these arrays from now on (float64, 1-D, contiguous: MuJoCo's ``data.qpos``,
+        ``data.qfrc_passive``, ``data.qfrc_spring`` and ``model.jnt_stiffness``,
+        ``model.dof_armature``, ``model.dof_damping``, or memoryviews of them)."""
+        _checked_indices("qpos", self._qadr, len(qpos))
+        _checked_indices("dof", self._dof, min(len(qfrc_passive), len(qfrc_spring), len(dof_armature), len(dof_damping)))
+        _checked_indices("joint", self._jnt, len(jnt_stiffness))
+        self._qpos, self._passive, self._spring = memoryview(qpos), memoryview(qfrc_passive), memoryview(qfrc_spring)
+        self._stiffness, self._armature, self._damping = memoryview(jnt_stiffness), memoryview(dof_armature), memoryview(dof_damping)
+        self._bound = True
+
+    def _check_bound(self) -> None:
+        if not self._bound:
+            raise RuntimeError("bind() the arrays first")
+
+    def scale_masses(self, stiffness_n_m) -> None:
+        """Each strip's armature max(0, k (h / omega_h)^2 - m_gel) (kg) and damping c_gel + h k
+        (N s/m) for the stiffnesses ``stiffness_n_m`` (N/m, one a strip)."""
+        self._check_bound()
+        for i in range(self._n):
+            self._scale(i, float(stiffness_n_m[i]))
+
+    def _scale(self, i: int, k: float) -> None:
+        dof = self._dof[i]
+        self._armature[dof] = max(k * self._h2 - self._gel_mass[i], 0.0)
+        self._damping[dof] = self._gel_damping[i] + self._h * k
+
+    def changed(self) -> bool:
+        """Whether any strip's indentation differs from the last call's (NaN differs), the
+        indentations now kept for the next."""
+        self._check_bound()
+        moved = False
+        for i in range(self._n):
+            q = self._qpos[self._qadr[i]]
+            if not q == self._last_q[i]:
+                moved = True
+            self._last_q[i] = q
+        return moved
+
+    def linearize(self) -> None:
+        """Hold the law linearized at the indentations now: P(q0), dP/dq (q0) per strip."""
+        self._check_bound()
+        for i in range(self._n):
+            q = self._qpos[self._qadr[i]]
+            pressure, tangent = self._table.at(q)
+            self._q0[i] = q
+            self._p0[i] = self._area[i] * pressure
+            self._k0[i] = self._area[i] * tangent
+
+    def stiffness(self, held: bool) -> None:
+        """Only each strip joint's stiffness A dP/dq (N/m), at the state now or as held."""
+        self._check_bound()
+        for i in range(self._n):
+            if held:
+                self._stiffness[self._jnt[i]] = self._k0[i]
+            else:
+                self._stiffness[self._jnt[i]] = self._area[i] * self._table.at(self._qpos[self._qadr[i]])[1]
+
+    def apply(self, implicit: bool, held: bool) -> None:
+        """Add each strip's gel force to ``qfrc_passive``: -A P(q) (N), or the held
+        linearization -A P(q0) - A dP/dq (q0) (q - q0); with ``implicit`` (the discrete
+        integrator) the joint's spring force taken out and its stiffness set to the tangent,
+        otherwise the strip's mass scaled to it (:meth:`scale_masses`)."""
+        self._check_bound()
+        for i in range(self._n):
+            q = self._qpos[self._qadr[i]]
+            if held:
+                k = self._k0[i]
+                force = -self._p0[i] - k * (q - self._q0[i])
+            else:
+                pressure, tangent = self._table.at(q)
+                k = self._area[i] * tangent
+                force = -(self._area[i] * pressure)
+            dof = self._dof[i]
+            if implicit:
+                self._passive[dof] += force - self._spring[dof]
+                self._stiffness[self._jnt[i]] = k
+            else:
+                self._passive[dof] += force
+                self._scale(i, k)
+
+    def __reduce__(self):  # a copy is unbound: its owner binds it to its own arrays
+        return type(self), self._args
+
+
 class PadPressures:
     """The pads' pressure read (:mod:`cosim.pad_kernels`).
 

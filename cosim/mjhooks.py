@@ -209,58 +209,61 @@ class GelPassive:
         tangent_pa_m: np.ndarray,
         hold_s: float = 0.0,
     ) -> None:
+        from .pad_kernels import PassiveGelForces
+
         self.model = model
         self._qadr, self._dof, self._jnt = np.asarray(qadr), np.asarray(dof), np.asarray(joint)
         self._area = np.asarray(area_m2, float)
         self._grid, self._pressure, self._tangent = grid_m, pressure_pa, tangent_pa_m
         self.implicit = model.opt.integrator == mujoco.mjtIntegrator.mjINT_DISCRETE
-        self._gel_mass_kg = model.body_mass[model.jnt_bodyid[self._jnt]].copy()
         self._h = float(model.opt.timestep)
-        self._gel_damping = model.dof_damping[self._dof].copy()  # the gel's own loss, N s/m
-        self._h2 = (self._h / EXPLICIT_OMEGA_H) ** 2
-        self._hold_s, self._held_period, self._last_s, self._last_q = float(hold_s), None, -np.inf, None
-        self._q0 = self._p0 = self._k0 = np.zeros(len(self._qadr))
+        self._hold_s, self._held_period, self._last_s = float(hold_s), None, -np.inf
+        # The arithmetic, all strips in one call (cosim/_pad_kernels.py, compiled where built).
+        self._kernel = PassiveGelForces(
+            (grid_m, pressure_pa, tangent_pa_m),
+            self._qadr.tolist(),
+            self._dof.tolist(),
+            self._jnt.tolist(),
+            self._area.tolist(),
+            model.body_mass[model.jnt_bodyid[self._jnt]].tolist(),  # the strips' gel, kg
+            model.dof_damping[self._dof].tolist(),  # the gel's own loss, N s/m
+            self._h,
+            EXPLICIT_OMEGA_H,
+        )
         model.jnt_stiffnesspoly[self._jnt] = 0.0
-        # The model's arrays this hook writes every step, as views (an MjModel attribute makes a
-        # new view at each access: a microsecond a step each); the MjData's, likewise, per MjData.
-        self._armature, self._damping, self._stiffness = model.dof_armature, model.dof_damping, model.jnt_stiffness
-        self._views_of = None  # a weak reference to the MjData the views are of (the hooks must not keep it alive)
+        self._views_of = None  # a weak reference to the MjData the kernel is bound to (the hooks must not keep it alive)
         if not self.implicit:
             model.jnt_stiffness[self._jnt] = 0.0  # the law is all in the passive force
-            self._scale_masses(self._area * np.interp(model.qpos0[self._qadr], grid_m, tangent_pa_m))
+            self._bind(mujoco.MjData(model))
+            self._kernel.scale_masses(self._area * np.interp(model.qpos0[self._qadr], grid_m, tangent_pa_m))
 
-    def _scale_masses(self, stiffness_n_m: np.ndarray) -> None:
-        self._armature[self._dof] = np.maximum(stiffness_n_m * self._h2 - self._gel_mass_kg, 0.0)
-        self._damping[self._dof] = self._gel_damping + self._h * stiffness_n_m
-
-    def _views(self, data: mujoco.MjData) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """``data``'s qpos, qfrc_passive and qfrc_spring (kept while the same MjData comes back)."""
+    def _bind(self, data: mujoco.MjData) -> None:
+        """The kernel on ``data``'s arrays (kept while the same MjData comes back)."""
         if self._views_of is None or data is not self._views_of():
-            self._data_views = data.qpos, data.qfrc_passive, data.qfrc_spring
+            m = self.model
+            self._kernel.bind(data.qpos, data.qfrc_passive, data.qfrc_spring, m.jnt_stiffness, m.dof_armature, m.dof_damping)
             self._views_of = weakref.ref(data)
-        return self._data_views
 
     def armature_kg(self) -> np.ndarray:
         """The strips' armature now, kg (zero under ``discrete``)."""
         return self.model.dof_armature[self._dof].copy()
 
-    def _law(self, data: mujoco.MjData) -> tuple[np.ndarray, np.ndarray]:
-        """The strips' gel force (N) and stiffness (N/m) at ``data``'s state: the law, or its
-        linearization held over the period (``hold_s``), the same for every call at one time."""
-        q = self._views(data)[0][self._qadr]
+    def _held(self, data: mujoco.MjData) -> bool:
+        """Whether the law is held linearized at this step (``hold_s``), linearizing it afresh at
+        a period's first step; the same for every call at one time."""
         if self._hold_s <= 0.0:
-            return -self._area * np.interp(q, self._grid, self._pressure), self._area * np.interp(q, self._grid, self._tangent)
+            return False
         period = int((data.time + 0.5 * self._h) // self._hold_s)
+        changed = self._kernel.changed()
         # Time going back, or the state changed at the same time (a reset or an edited state
         # forwarded again): linearize afresh.
-        if data.time < self._last_s - 0.5 * self._h or (data.time == self._last_s and not np.array_equal(q, self._last_q)):
+        if data.time < self._last_s - 0.5 * self._h or (data.time == self._last_s and changed):
             self._held_period = None
-        self._last_s, self._last_q = data.time, q
+        self._last_s = data.time
         if period != self._held_period:  # a new period: linearize the law at q
-            self._held_period, self._q0 = period, q
-            self._p0 = self._area * np.interp(q, self._grid, self._pressure)
-            self._k0 = self._area * np.interp(q, self._grid, self._tangent)
-        return -self._p0 - self._k0 * (q - self._q0), self._k0
+            self._held_period = period
+            self._kernel.linearize()
+        return True
 
     def prepare(self, data: mujoco.MjData) -> None:
         """Before an ``mj_step`` of ``data``: the ``discrete`` integrator's stiffness at the
@@ -269,17 +272,12 @@ class GelPassive:
         the law's own, is not); a loop that can call this first (:meth:`FingertipLoop.step`)
         linearizes at the step's state, as the house loop does."""
         if self.implicit:
-            self._stiffness[self._jnt] = self._law(data)[1]
+            self._bind(data)
+            self._kernel.stiffness(self._held(data))
 
     def passive(self, model: mujoco.MjModel, data: mujoco.MjData) -> None:
-        force, stiffness = self._law(data)
-        _, passive, spring = self._views(data)
-        if self.implicit:
-            passive[self._dof] += force - spring[self._dof]
-            self._stiffness[self._jnt] = stiffness
-        else:  # the strips' jnt_stiffness is 0 (__init__): no spring force to take out
-            passive[self._dof] += force
-            self._scale_masses(stiffness)
+        self._bind(data)
+        self._kernel.apply(self.implicit, self._held(data))
 
     def sensor(self, model: mujoco.MjModel, data: mujoco.MjData, stage: int) -> None:
         return None

@@ -17,8 +17,12 @@ per strip (the gel law P(q) and its tangent dP/dq on a uniform grid of indentati
 Both work on live arrays bound once (``bind``: ``data.qpos``, ``data.qfrc_applied``,
 ``model.jnt_stiffness``), not on MuJoCo objects.  They are a kernel: one source,
 ``cosim/_pad_kernels.py``, compiled where built (:mod:`piezotip.sensor.compiled`;
-:data:`PAD_KERNELS_COMPILED` says); :class:`PyGelForces`, :class:`PyPadPressures` and
-:class:`PyUniformPairTable` are the same source run as Python.
+:data:`PAD_KERNELS_COMPILED` says); :class:`PyGelForces`, :class:`PyPadPressures`,
+:class:`PyPassiveGelForces` and :class:`PyUniformPairTable` are the same source run as Python.
+
+:class:`PassiveGelForces` is the gel law of :func:`piezotip.attach`'s fingertips inside a plain
+``mj_step`` (:class:`cosim.mjhooks.GelPassive`): the force added to ``qfrc_passive`` and, per
+integrator, the joint stiffness or the strip's scaled mass and damping, every strip in one call.
 """
 
 from __future__ import annotations
@@ -26,9 +30,9 @@ from __future__ import annotations
 from piezotip.sensor.compiled import is_compiled, source_module
 
 from . import _pad_kernels
-from ._pad_kernels import GelForces, PadPressures, UniformPairTable
+from ._pad_kernels import GelForces, PadPressures, PassiveGelForces, UniformPairTable
 
-__all__ = ["PAD_KERNELS_COMPILED", "GelForces", "PadPressures", "UniformPairTable"]
+__all__ = ["PAD_KERNELS_COMPILED", "GelForces", "PadPressures", "PassiveGelForces", "UniformPairTable"]
 
 #: Whether :class:`GelForces`, :class:`PadPressures` and :class:`UniformPairTable` run compiled
 #: (cosim/_pad_kernels.py built).
@@ -36,6 +40,11 @@ PAD_KERNELS_COMPILED = is_compiled(_pad_kernels)
 
 
 def __getattr__(name: str):
-    if name in ("PyGelForces", "PyPadPressures", "PyUniformPairTable"):  # the kernel's source run as Python, loaded when asked for
+    if name in (
+        "PyGelForces",
+        "PyPadPressures",
+        "PyPassiveGelForces",
+        "PyUniformPairTable",
+    ):  # the kernel's source run as Python, loaded when asked for
         return getattr(source_module(_pad_kernels.__name__), name[2:])
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

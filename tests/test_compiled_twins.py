@@ -225,6 +225,33 @@ def drive_pad_kernels(kernel, perturb: bool = False) -> list:
         out += [qfrc, stiffness, pressures.read()]
         if k == 150:  # copies come unbound: their owner binds them
             forces, pressures = copy.deepcopy(forces), copy.deepcopy(pressures)
+    passive = kernel.PassiveGelForces(
+        columns,
+        qadr,
+        dof,
+        jnt,
+        rng.uniform(1e-6, 1e-4, n).tolist(),
+        rng.uniform(0, 1e-3, n).tolist(),
+        rng.uniform(0, 1, n).tolist(),
+        2e-3,
+        0.5,
+    )
+    for k in range(200):
+        qpos, arrays = (
+            _indentations(rng, grid, 40),
+            [np.full(30, 7.0), rng.normal(size=30), np.full(20, 7.0), np.full(30, 7.0), np.full(30, 7.0)],
+        )
+        passive.bind(qpos, arrays[0], arrays[1], arrays[2], arrays[3], arrays[4])
+        if k % 3 == 0:
+            passive.linearize()
+        out.append(passive.changed())
+        passive.apply(k % 2 == 0, k % 3 != 1)
+        passive.stiffness(k % 5 == 0)
+        out += [a.copy() for a in arrays]
+        passive.scale_masses(rng.uniform(0, 1e4, n))
+        out += [arrays[3].copy(), arrays[4].copy()]
+        if k == 100:
+            passive = copy.deepcopy(passive)
     return out
 
 

@@ -8,21 +8,25 @@ import mujoco
 import numpy as np
 import pytest
 
-from piezotip.analysis.skin_bench import BOX_KG, PAD_HALF_M, format_skin_report, skin_report, skin_xml
+from piezotip.analysis.skin_bench import BOX_KG, PAD_HALF_M, _variants, format_skin_report, skin_report, skin_xml
+from piezotip.cosim import mjhooks
 from piezotip.cosim.attach import STATUS_CODES, attach, sensor_name
 
 ROWS = COLS = 4
 PAD_AREA_M2 = (2 * PAD_HALF_M) ** 2
 
 
-@pytest.fixture(scope="module")
-def skin():
-    spec = mujoco.MjSpec.from_string(skin_xml(ROWS, COLS))
+@pytest.fixture(scope="module", params=[False, True], ids=["house-pads", "element-sized-pads"])
+def skin(request):
+    spec = mujoco.MjSpec.from_string(skin_xml(ROWS, COLS, lean=request.param))
     names = [f"tip{i}_{j}" for i in range(ROWS) for j in range(COLS)]
     tips = attach(spec, sites=names)
     model = spec.compile()
     data = mujoco.MjData(model)
     sim = tips.bind(model, data)
+    if request.param:  # the box's 13 kPa on an element-sized pad saturates the lowest mode: the highest reads it
+        for n in names:
+            sim.set_mode(n, max(tips.config.sensor.modes))
     readings = []
     while data.time < 2.0:
         mujoco.mj_step(model, data)
@@ -55,7 +59,26 @@ def test_loaded_pads_read_within_three_sigma_and_the_others_below_detection(skin
 
 def test_the_skin_bench_reports_ratios_over_the_bare_model():
     report = skin_report(rows=2, cols=2, steps=50, repeats=1)
-    assert report["pads"] == 4 and set(report["step_us"]) == {"bare", "touch", "piezotip", "piezotip_mechanics"}
-    assert report["ratio_over_bare"]["bare"] == 1.0
+    variants = {"bare", "rigid", "touch", "piezotip", "piezotip_mechanics", "piezotip_lean"}
+    assert report["pads"] == 4 and set(report["step_us"]) == variants
+    assert report["ratio_over_bare"]["bare"] == 1.0 and report["ratio_over_rigid"]["rigid"] == 1.0
     assert report["contacts"]["piezotip"] > report["contacts"]["bare"]  # the box rests on the pads' strips
+    # A lean pad is one strip: a third of the 20 x 20 mm pad's contacts under the same box.
+    assert 3 * report["contacts"]["piezotip_lean"] == report["contacts"]["piezotip"]
+    assert report["contacts"]["rigid"] == report["contacts"]["piezotip_lean"]
     assert "per pad over bare" in format_skin_report(report)
+
+
+def test_the_bench_variants_run_what_they_say():
+    """``piezotip_mechanics`` runs the gel law without the readout (its sensors stay as at bind),
+    ``piezotip`` both, so their difference is the readout's cost."""
+    variants = _variants(2, 2)
+    for model, data in variants.values():
+        for _ in range(10):
+            mujoco.mj_step(model, data)
+    hooks = {name: [type(h).__name__ for h in mjhooks.hooks_of(data)] for name, (_, data) in variants.items()}
+    assert hooks["piezotip"] == ["GelPassive", "_FingertipHook"]
+    assert hooks["piezotip_mechanics"] == ["GelPassive"]
+    assert hooks["bare"] == hooks["rigid"] == hooks["touch"] == []
+    lean, full = variants["piezotip_lean"][0], variants["piezotip"][0]
+    assert full.njnt - 1 == 3 * (lean.njnt - 1)  # the box's freejoint, and one strip a pad against three
