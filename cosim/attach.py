@@ -900,6 +900,7 @@ class _FingertipHook:
             )
         except KeyError as err:
             raise ValueError(f"bind: the model lacks the fingertips' sensor {err} (compile the spec given to attach)") from None
+        self._sensordata, self._sensordata_of = data.sensordata, weakref.ref(data)
         self._readers = {
             pad.name: strip_reader(self.bridges[pad.name], pad.geometry, self._layouts[pad.name][1], data) for pad in tips.pads
         }
@@ -962,7 +963,8 @@ class _FingertipHook:
     def _sample(self) -> None:
         """Every fingertip's pressures, sensor and readout, once (one period since the last):
         the sensors' values now, the :class:`TipReading` objects when :meth:`readings` asks."""
-        values, samples, period_s, codes = self._values, self._samples, self.period_s, STATUS_CODES
+        samples, period_s, codes = self._samples, self.period_s, STATUS_CODES
+        values = []  # every fingertip's sensors, in order: one write into the array at the end
         for k, (channel, reader, fractions) in enumerate(self._pipeline):
             _, (cells,) = reader.read()
             reading = channel.update_trusted(cells, period_s)
@@ -970,13 +972,16 @@ class _FingertipHook:
             # The coverage's mean pressure (one cell: fsum of one value is that value).
             truth = cells[0] * fractions[0] if len(cells) == 1 else math.fsum(p * f for p, f in zip(cells, fractions, strict=True))
             samples[k] = (reading, estimate, truth)
-            j = len(SENSOR_FIELDS) * k
-            status = codes.get(estimate.status, -1)
-            values[j : j + len(SENSOR_FIELDS)] = (estimate.pressure_pa, estimate.uncertainty_pa, status, reading.mode, truth)
+            values += (estimate.pressure_pa, estimate.uncertainty_pa, codes.get(estimate.status, -1), reading.mode, truth)
+        self._values[:] = values
         self._readings = None  # made from the samples when asked
 
     def _write(self, data: mujoco.MjData) -> None:
-        data.sensordata[self._sensor_adr] = self._values
+        # MuJoCo zeroes user sensors at every step: written every step, through a view kept
+        # while the same MjData comes back (an MjData attribute builds a new view at each access).
+        if data is not self._sensordata_of():
+            self._sensordata, self._sensordata_of = data.sensordata, weakref.ref(data)
+        self._sensordata[self._sensor_adr] = self._values
 
     # -- piezotip's own loop ---------------------------------------------------------------
 
@@ -1049,7 +1054,6 @@ class _FingertipHook:
         if name not in self.channels:
             raise ValueError(f"fingertip {name!r} is not attached; the fingertips: {', '.join(self.channels)}")
         return self.channels[name]
-
 
 
 class FingertipLoop:
