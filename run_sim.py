@@ -4,9 +4,22 @@
 The commands live in :mod:`piezotip.cli` (installed as the ``piezotip`` console script too).
 """
 
+import signal
 import sys
 
-from piezotip.cli import main
-
 if __name__ == "__main__":
-    sys.exit(main())
+    # A signal before the command line's own handling begins (while Python imports it) is an
+    # interruption as any later one: one line and 130 (Ctrl-C) or 143 (SIGTERM), no traceback.
+    try:
+        from piezotip.interrupts import raise_interruption
+
+        signal.signal(signal.SIGTERM, raise_interruption)  # as main() has it
+        from piezotip.cli import main
+
+        status = main()
+    except KeyboardInterrupt as err:
+        print("interrupted", file=sys.stderr)
+        status = getattr(err, "exit_status", 130)
+    sys.exit(status)
+else:  # imported: run_sim.main(argv), as piezotip.cli.main
+    from piezotip.cli import main

@@ -10,6 +10,7 @@ import numpy as np
 
 from piezotip.scenarios.config import MIN_COVERAGE_MM
 from piezotip.sensor import Fingertip
+from piezotip.sensor.fingertip import range_within_model
 
 from .plotting import new_figure, save_figure
 
@@ -89,16 +90,40 @@ def format_table(report: dict) -> str:
     ]
     for m in report["modes"]:
         lines.append(f"{m['mode']:>4}  {m['freq_hz'] / 1e3:>10.2f}  {m['p_min_pa']:>11.3g}  {m['p_max_pa']:>11.3g}  {m['sigma_v1']:>9.2e}")
-    lines.append(
-        f"sensor: P_min {report['p_min_pa']:.3g} Pa, P_max {report['p_max_pa']:.3g} Pa, dynamic range {report['dynamic_range']:.3g}"
-        f" ({20 * math.log10(report['dynamic_range']):.0f} dB)"
-    )
+    lines.append(f"sensor: P_min {report['p_min_pa']:.3g} Pa, P_max {report['p_max_pa']:.3g} Pa (the largest it resolves to 10 %)")
+    lines.append(_within_model_line(report))
     bands = ", ".join(f"mode {b['mode']} {b['from_pa']:.3g}-{b['to_pa']:.3g} Pa" for b in report["mode_bands"])
     lines.append(f"most useful mode: {bands}")
     lines.append("switch pressures [Pa]: " + ", ".join(f"{p:.4g}" for p in report["switch_pressures_pa"]))
-    if "backstop_pressure_pa" in report:
+    if report.get("backstop_pressure_pa") is not None:
         lines.append(f"element rests on its backstop above {report['backstop_pressure_pa']:.3g} Pa (readings there are outside the model)")
+    if "gel_valid_pressure_pa" in report:
+        lines.append(f"gel compressed past its law's valid strain above {report['gel_valid_pressure_pa']:.3g} Pa (outside the model)")
     return "\n".join(lines)
+
+
+#: How the range report names what ends the model (:meth:`sensor.Fingertip.model_limit`).
+_MODEL_LIMIT_WORDS = {"backstop": "the element's backstop", "gel_strain": "the gel's valid strain"}
+
+
+def _decibels(ratio: float) -> str:
+    return f"{20 * math.log10(ratio):.0f} dB" if math.isfinite(ratio) and ratio > 0 else "none"
+
+
+def _within_model_line(report: dict) -> str:
+    """The dynamic range within the model, and P_max's figure past it when that is larger: a
+    range whose top the model does not vouch for is named as such, never given alone."""
+    within, beyond = report["dynamic_range"], report.get("dynamic_range_beyond_model", report["dynamic_range"])
+    top, limit = report.get("p_max_within_model_pa", report["p_max_pa"]), report.get("model_limit")
+    if not math.isfinite(within) and math.isfinite(top) and report["p_min_pa"] >= top:
+        where = _MODEL_LIMIT_WORDS.get(limit, limit)
+        why = f"P_min lies past {top:.3g} Pa, where {where} ends the model"
+        return f"dynamic range within the model: none ({why}); P_max / P_min past it {beyond:.3g}"
+    line = f"dynamic range within the model {within:.3g} ({_decibels(within)})"
+    if limit is not None and top < report["p_max_pa"]:
+        line += f": P_min to {top:.3g} Pa, where {_MODEL_LIMIT_WORDS.get(limit, limit)} ends the model"
+        line += f"; to P_max, past the model's end, {beyond:.3g} ({_decibels(beyond)})"
+    return line
 
 
 def write_range_files(tip: Fingertip, out_dir: Path) -> list[Path]:
@@ -124,6 +149,10 @@ def write_range_files(tip: Fingertip, out_dir: Path) -> list[Path]:
     for sw in tip.switch_pressures():
         for ax in (ax_v[0][0], ax_r[0][0]):
             ax.axvline(sw, color="grey", lw=0.8, ls=":")
+    limit_pa, limit = tip.model_limit()
+    for ax in (ax_v[0][0], ax_r[0][0]):  # past it the curves are computed, not vouched for
+        ax.axvspan(limit_pa, p[-1], color="red", alpha=0.06, lw=0)
+        ax.axvline(limit_pa, color="black", ls="-.", lw=1.0, label=f"the model ends: {_MODEL_LIMIT_WORDS[limit]}, {limit_pa:.3g} Pa")
     ax_v[0][0].set(
         xlabel="pressure P [Pa]", ylabel="normalized output $V_1$ [-]", title="Output against pressure (dotted: switch pressures)"
     )
@@ -269,16 +298,21 @@ def unit_range_report(unit) -> dict:
             )
         p_min = min(r["p_min_pa"] for r in per_mode)
         p_max = max((r["p_max_pa"] for r in per_mode if not math.isnan(r["p_max_pa"])), default=math.nan)
+        # The model ends where the readout's model of the unit says (its calibrated element, gel, mounting).
+        limit_pa, limit = model.model_limit()
         report = {
             "p_min_pa": p_min,
             "p_max_pa": p_max,
-            "dynamic_range": p_max / p_min if math.isfinite(p_min) else math.nan,
+            **range_within_model(p_min, p_max, limit_pa),
             "modes": per_mode,
             "switch_pressures_pa": model.switch_pressures(),
             "mode_bands": [{"mode": m, "from_pa": lo, "to_pa": hi} for m, lo, hi in model.mode_bands()],
             "coverage_m": list(unit.coverage),
             "rated_pressure_pa": model.rated_pressure_pa,
             "backstop_pressure_pa": model.backstop_pressure_pa(),
+            "gel_valid_pressure_pa": model.gel.params.max_valid_pressure_pa,
+            "model_limit_pa": limit_pa,
+            "model_limit": limit,
         }
     for entry in report["modes"]:
         entry["drive_freq_hz"] = unit.drive_hz[entry["mode"]]
@@ -299,8 +333,9 @@ def unit_range_report(unit) -> dict:
     return report
 
 
-#: A unit "yields" (is fit for the fingertip's job) with at least this dynamic range (the
-#: paper's, physics.md section 4) and an estimate error at most YIELD_MAX_ERROR.
+#: A unit "yields" (is fit for the fingertip's job) with at least this dynamic range within the
+#: model (the paper's, physics.md section 4: pressures past the backstop or the gel's valid strain
+#: count for nothing) and an estimate error at most YIELD_MAX_ERROR.
 YIELD_MIN_DYNAMIC_RANGE = 1e4
 YIELD_MAX_ERROR = 0.05
 
@@ -317,6 +352,7 @@ def _one_unit(args: tuple) -> dict:
         "p_min_pa": r["p_min_pa"],
         "p_max_pa": r["p_max_pa"],
         "dynamic_range": r["dynamic_range"],
+        "dynamic_range_beyond_model": r["dynamic_range_beyond_model"],
         "max_estimate_error": r["max_estimate_error"],
     }
 
@@ -333,9 +369,10 @@ def monte_carlo(
 ) -> dict:
     """The range of ``n_units`` units drawn from ``variation`` (seeds first_seed, first_seed + 1, ...).
 
-    Returns ``units`` (per unit: seed, P_min, P_max, dynamic range, max estimate error),
+    Returns ``units`` (per unit: seed, P_min, P_max, dynamic range within the model and beyond
+    it, max estimate error),
     ``summary`` (per quantity: median, 5th and 95th percentiles, min, max) and ``yield``: the
-    fraction of units with dynamic range >= 1e4 and estimate error <= 5 %.  ``workers`` > 1
+    fraction of units with dynamic range (within the model) >= 1e4 and estimate error <= 5 %.  ``workers`` > 1
     spreads the units over a process pool.
     """
     from tqdm import tqdm
@@ -359,7 +396,7 @@ def monte_carlo(
             bar.update()
     bar.close()
     summary = {}
-    for key in ("p_min_pa", "p_max_pa", "dynamic_range", "max_estimate_error"):
+    for key in ("p_min_pa", "p_max_pa", "dynamic_range", "dynamic_range_beyond_model", "max_estimate_error"):
         # a unit without a range (NaN) ranks lowest, one without an estimate (inf) highest;
         # percentiles are order statistics ("nearest"), so inf stays inf, never NaN
         values = np.array([r[key] for r in rows], float)
@@ -394,7 +431,7 @@ def write_monte_carlo_plot(report: dict, out_dir: Path) -> Path:
     for a, key, label, log in (
         (ax[0][0], "p_min_pa", "$P_{min}$ [Pa]", True),
         (ax[0][1], "p_max_pa", "$P_{max}$ [Pa]", True),
-        (ax[0][2], "dynamic_range", "dynamic range [-]", True),
+        (ax[0][2], "dynamic_range", "dynamic range within the model [-]", True),
         (ax[0][3], "max_estimate_error", "max estimate error [-]", True),
     ):
         values = np.array([r[key] for r in rows], float)

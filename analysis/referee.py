@@ -17,8 +17,11 @@ Outcomes, in the order they are decided (the first that applies wins):
 ``blind``         the controller gave up because the grip the load needed was more than the
                   fingertip can measure;
 ``never_lifted``  the object never rose to the target height (it never left the table, or
-                  the controller gave up before);
-``timeout``       the controller had not finished when the scenario's time ran out;
+                  the controller gave up before), a finger having touched it or the
+                  controller having finished;
+``timeout``       the scenario's time ran out before the controller finished: the object
+                  lifted, or no finger ever touched it (nothing was tried on the object, so
+                  it is not ``never_lifted``);
 ``success``       lifted to the target height, held there for the hold time with slip under
                   tolerance, put back (resting within ``placed_tolerance_m`` of its starting
                   height, landing under ``landing_speed_m_s``), released, never crushed.
@@ -230,9 +233,7 @@ def disturb_onset_s(time_s: np.ndarray, phase: np.ndarray | None, hold_s: float)
     return float(time_s[held[0]]) + 0.5 * hold_s if held.size else math.nan
 
 
-def disturbance_metrics(
-    data: dict[str, np.ndarray], hold_s: float, disturbance: Disturbance, clear: np.ndarray
-) -> dict[str, float]:
+def disturbance_metrics(data: dict[str, np.ndarray], hold_s: float, disturbance: Disturbance, clear: np.ndarray) -> dict[str, float]:
     """The answer to a load change while held (:class:`Verdict`'s ``disturb_*``), from the record.
 
     The load came on at :func:`disturb_onset_s`; the disturbance lasts from there to the end of
@@ -408,6 +409,11 @@ def judge(
         outcome, reason = "fault", told("self_test", "out_of_range")
     elif "blind" in kinds:
         outcome, reason = "blind", told("blind")
+    elif not finished and not touching.any():
+        # The clock ran out before anything touched: nothing was tried on the object, so no
+        # failure to lift it can be judged (a run cut short is not one that gave up).
+        outcome = "timeout"
+        reason = f"the time ran out after {t[-1]:.2f} s before the fingers touched the object (the controller had not finished)"
     elif not lifted:
         why = told("never_lifted", "no_object", "unfelt_contact", "over_limit", "lost")
         outcome = "never_lifted"

@@ -12,7 +12,8 @@ first stops the loop, the recording so far is kept, the plot and a summary marke
 ``"interrupted": true`` are written, its ``"signal"`` naming which (:class:`_Signals`).  Signals
 that come after the first (a second Ctrl-C) are held until the summary is written: they do not
 cut the close of the recording or the summary short.  The exit status (130 for SIGINT, 143 for
-SIGTERM, :func:`exit_status`) is the command line's to return.
+SIGTERM, :func:`exit_status`) is the command line's to return; :func:`piezotip.run` raises the
+signal's exception after the summary is written (:mod:`piezotip.interrupts`).
 """
 
 from __future__ import annotations
@@ -22,45 +23,21 @@ import json
 import math
 import os
 import signal
-import threading
 from collections.abc import Mapping
 from dataclasses import asdict
 from pathlib import Path
 
 import numpy as np
 
+from piezotip.interrupts import RunInterrupted, in_main_thread, interruption, note, raise_interruption, replaceable
+
 #: The files a run writes in its folder besides the recording (``run.npz``, ``run.csv``,
 #: ``run.chunks/``): a rerun removes them, ``summary.json`` first (and its temporary).
 RUN_FILES = ("summary.json", "summary.json.tmp", "run.png", "frames.png", "run.mp4")
 
-class RunInterrupted(KeyboardInterrupt):
-    """A signal stopped the run: ``signum`` (SIGINT or SIGTERM).  A KeyboardInterrupt, so whatever
-    catches Ctrl-C (the loop, the command line) catches it; raised out of :func:`run_scenario`
-    only when the signal comes before the loop starts (no summary then, as for Ctrl-C)."""
-
-    def __init__(self, signum: int) -> None:
-        super().__init__(signal.Signals(signum).name)
-        self.signum = int(signum)
-
-    def __reduce__(self):
-        return type(self), (self.signum,)
-
-    @property
-    def exit_status(self) -> int:
-        """The process's exit status by the shell's convention: 128 + the signal's number."""
-        return 128 + self.signum
-
-
-def sigterm_as_interrupt(signum: int, frame) -> None:
-    """SIGTERM's handler while a command runs (the command line installs it): SIGTERM ends a
-    command as Ctrl-C does (set-up, sweeps, plots), raised as :class:`RunInterrupted` (exit 143).
-    Inside a run the run's own handler takes over, as it does from Python's SIGINT handler."""
-    raise RunInterrupted(signum)
-
-
-#: The signals that end a run as Ctrl-C does, each with the handlers the run takes over: Python's
-#: own, or the command line's (a handler a program set itself is left alone).
-_RUN_SIGNALS = ((signal.SIGINT, (signal.default_int_handler,)), (signal.SIGTERM, (signal.SIG_DFL, sigterm_as_interrupt)))
+#: The handler that raises a signal as Ctrl-C (piezotip.interrupts.raise_interruption), by the name
+#: it had here; :class:`RunInterrupted` is imported from there too.
+sigterm_as_interrupt = raise_interruption
 
 
 def exit_status(report: dict) -> int | None:
@@ -86,18 +63,19 @@ class _Signals:
         self._previous: dict[int, object] = {}
 
     def __enter__(self) -> _Signals:
-        if threading.current_thread() is threading.main_thread():
-            for signum, defaults in _RUN_SIGNALS:
-                if signal.getsignal(signum) in defaults:
+        if in_main_thread():
+            for signum in (signal.SIGINT, signal.SIGTERM):
+                if replaceable(signum, signal.getsignal(signum)):
                     self._previous[signum] = signal.signal(signum, self._handle)
         return self
 
     def _handle(self, signum, frame) -> None:
+        note(signum)
         if self.signum is None:
             self.signum = signum
             if self.armed and not (self.recorder is not None and self.recorder.closing):
                 self.armed = False
-                raise RunInterrupted(signum)
+                raise interruption(signum)
 
     def __exit__(self, *exc) -> None:
         for signum, previous in self._previous.items():
@@ -164,7 +142,8 @@ def run_scenario(
     analysis.video's defaults when None), ``summary.json`` (last: see the module's notes).
     A divergence stops the run with the recording kept; the summary's ``error`` says why.
     SIGINT (Ctrl-C) or SIGTERM stops it too, the summary then ``"interrupted": true`` with the
-    signal's name in ``"signal"``; one before the loop starts raises :class:`RunInterrupted`.
+    signal's name in ``"signal"``; one before the loop starts raises :class:`RunInterrupted`
+    (:class:`~piezotip.interrupts.Terminated` for SIGTERM).
 
     The recorded data is ``run.npz``'s columns, each read from the file when asked for
     (:class:`piezotip.cosim.recorder.Columns`: a long run's recording is never in memory whole;
@@ -218,11 +197,15 @@ def _run(name, overrides, out, csv, render, plot, quiet, preset, video, video_fp
     from piezotip import scenarios
     from piezotip.cosim.loop import CoSimulation, RunResult
     from piezotip.cosim.recorder import Recorder
-    from piezotip.provenance import versions
+    from piezotip.provenance import config_provenance
 
     from .run_report import object_disturbance, object_needed_grip_n, plot_run, summary
 
     config = scenarios.get(name, overrides, preset)
+    # what made it: piezotip, mujoco, numpy, scipy, python, the commit; the seeds and the whole config
+    # as run (defaults and preset included).  Known now: after the run, it would widen the time in
+    # which a signal comes too late to be reported (its first call asks git)
+    provenance = config_provenance(config)
     out = check_out_dir(Path(out))
     _start_folder(out)
     sim = CoSimulation(config)
@@ -270,6 +253,8 @@ def _run(name, overrides, out, csv, render, plot, quiet, preset, video, video_fp
         if movie is not None:
             movie.close()
     data = recorder.data()
+    if data and not len(data["time_s"]):  # a signal between the first row's columns and its values: no row
+        data = {}
     files = [str(f) for f in result.files]
     events = [asdict(e) for e in sim.controller.events]
     needed = object_needed_grip_n(sim.model)
@@ -282,20 +267,35 @@ def _run(name, overrides, out, csv, render, plot, quiet, preset, video, video_fp
     if movie is not None and movie.frames:
         files.append(str(movie.path))
     report["events"] = events
-    interrupted = result.interrupted or signals.signum is not None
-    report["interrupted"] = interrupted
-    report["signal"] = signal.Signals(signals.signum or signal.SIGINT).name if interrupted else None
-    if interrupted:
-        how = "Ctrl-C" if report["signal"] == "SIGINT" else report["signal"]
-        report["reason"] = f"interrupted ({how}) at t = {result.sim_time_s:.2f} s; {report['reason']}"
+    report["interrupted"] = report["signal"] = None  # their place; decided as late as can be (below)
     report["mujoco_warnings"] = warned.listed()  # MuJoCo's own text warnings during the run, counted
     report["touch_time_s"] = getattr(sim.controller, "touch_time_s", math.nan)
     report["overrides"] = list(overrides)
     report["preset"] = preset
-    report["versions"] = versions()  # what made it: piezotip, mujoco, numpy, scipy, python, the commit
+    report.update(provenance)  # last: what repeats it
     summary_path = out / "summary.json"
     report["files"].append(str(summary_path))
-    tmp = summary_path.with_name(summary_path.name + ".tmp")
-    tmp.write_text(json.dumps(json_safe(report), indent=2) + "\n")
-    os.replace(tmp, summary_path)
+    _mark_interrupted(report, result.interrupted, signals.signum, result.sim_time_s)
+    _write_summary(summary_path, report)
+    if signals.signum is not None and not report["interrupted"]:  # the first signal came as it was written:
+        _mark_interrupted(report, True, signals.signum, result.sim_time_s)  # reported, as one a moment earlier is
+        _write_summary(summary_path, report)
     return report, data
+
+
+def _mark_interrupted(report: dict, stopped: bool, signum: int | None, sim_time_s: float) -> None:
+    """The summary's ``interrupted`` and ``signal``, and the reason's prefix, when the loop was
+    ``stopped`` or a signal (``signum``) came before the summary was written."""
+    interrupted = stopped or signum is not None
+    report["interrupted"] = interrupted
+    report["signal"] = signal.Signals(signum or signal.SIGINT).name if interrupted else None
+    if interrupted:
+        how = "Ctrl-C" if report["signal"] == "SIGINT" else report["signal"]
+        report["reason"] = f"interrupted ({how}) at t = {sim_time_s:.2f} s; {report['reason']}"
+
+
+def _write_summary(path: Path, report: dict) -> None:
+    """``summary.json``, whole or not at all: written beside, then renamed (the module's notes)."""
+    tmp = path.with_name(path.name + ".tmp")
+    tmp.write_text(json.dumps(json_safe(report), indent=2) + "\n")
+    os.replace(tmp, path)

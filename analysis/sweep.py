@@ -45,13 +45,16 @@ def run_point(
     the recording in memory only.  ``options``: more keywords of ``run_scenario`` (e.g. video).
     The row's ``wall_time_s`` is the whole point (set-up, loop, summary), as the user waits.
     A run a signal interrupted (Ctrl-C or SIGTERM in this process's main thread: the sweep run
-    one point after the other) raises :class:`~piezotip.analysis.runner.RunInterrupted`: the
-    point is not done, nothing is journaled for it, and the sweep stops.
+    one point after the other) raises the signal's exception (:func:`piezotip.interrupts.interruption`),
+    and so does an error the signal caused (an import it cut short): the point is not done,
+    nothing is journaled for it, and the sweep stops.
     """
     options = dict(options or {})
     import tempfile
 
-    from .runner import RunInterrupted, run_scenario
+    from piezotip.interrupts import interruption, signal_in
+
+    from .runner import run_scenario
 
     start = time.perf_counter()
     try:
@@ -61,9 +64,11 @@ def run_point(
         else:
             summary, data = run_scenario(scenario, list(overrides), Path(run_dir), plot=False, quiet=True, preset=preset, **options)
         if summary.get("interrupted"):  # Ctrl-C or SIGTERM cut the run short: not a row to journal, the sweep stops
-            raise RunInterrupted(signal.Signals[summary.get("signal") or "SIGINT"])
+            raise interruption(signal.Signals[summary.get("signal") or "SIGINT"])
         row = point_row(summary, data)
     except Exception as err:  # recorded, and the sweep goes on
+        if signal_in(err) is not None:  # not the point's failure: the signal's, and the sweep stops
+            raise interruption(signal_in(err)) from None
         last = traceback.extract_tb(err.__traceback__)[-1]
         row = error_row(f"{type(err).__name__}: {err} ({Path(last.filename).name}:{last.lineno})")
     row["wall_time_s"] = time.perf_counter() - start
@@ -192,13 +197,40 @@ def sweep(
     """Run ``scenario`` at every point of ``grid`` (``{"object.mass_kg": [0.1, 0.4], ...}``) on
     Dask and return a row per point (see :data:`analysis.sweep_rows.RESULT_COLUMNS`); with ``out``, write
     ``sweep.csv``, ``sweep.parquet`` (and ``sweep.png`` with ``plot``) there and resume from it.
-    ``overrides`` apply to every point, before the grid's values."""
-    from piezotip import scenarios
+    ``overrides`` apply to every point, before the grid's values.
+
+    Ctrl-C raises KeyboardInterrupt out of the call, SIGTERM :class:`piezotip.interrupts.Terminated`
+    (a KeyboardInterrupt, and uncaught an exit with status 143), once the cluster is closed; the
+    points finished are in ``out``'s journal, from which the same call resumes."""
+    from piezotip import interrupts, scenarios
 
     base = scenarios.override_strings(overrides)
     points = grid_points(grid, base)
     check_points(scenario, points, preset)
-    result = run_points(scenario, points, preset, Path(out) if out is not None else None, workers, scheduler, progress)
-    if out is not None:
-        write_sweep(result.rows, list(grid), Path(out), plot=plot)
+    with interrupts.raised():  # SIGTERM as Ctrl-C (its default would end the process, the cluster left behind)
+        try:
+            result = run_points(scenario, points, preset, Path(out) if out is not None else None, workers, scheduler, progress)
+            if out is not None:
+                write_sweep(result.rows, list(grid), Path(out), plot=plot, provenance=sweep_provenance(scenario, grid, base, preset))
+            signum = interrupts.noted()  # a signal a library swallowed: the caller stops all the same
+        except BaseException as err:
+            signum = interrupts.signal_in(err)
+            if signum is None:
+                raise
+        if signum is not None:
+            kept = f"the points finished are journaled in {Path(out) / JOURNAL_NAME}" if out is not None else "nothing was kept (no out)"
+            message = f"piezotip.sweep({scenario!r}) interrupted ({signal.Signals(signum).name}); {kept}"
+            raise interrupts.caller_error(signum, message) from None
     return result.rows
+
+
+def sweep_provenance(scenario: str, grid: Mapping[str, Sequence[object]], overrides: Sequence[str], preset: str | None) -> dict:
+    """What a sweep's files carry (:mod:`piezotip.provenance`): the scenario, preset, overrides and
+    grid; the versions; the seeds and the config every point starts from (the preset and
+    ``overrides`` applied), each point then setting the grid's keys to its row's values."""
+    from piezotip import scenarios
+    from piezotip.provenance import config_provenance
+
+    base = scenarios.get(scenario, list(overrides), preset)
+    grid = {key: list(values) for key, values in grid.items()}
+    return {"scenario": scenario, "preset": preset, "overrides": list(overrides), "grid": grid, **config_provenance(base)}

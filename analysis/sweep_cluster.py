@@ -159,37 +159,43 @@ def start_worker_server() -> bool:
 
 
 class _interrupts_deferred:
-    """Inside, Ctrl-C (SIGINT) and SIGTERM are held: the first raises on leaving the block
-    (KeyboardInterrupt, or RunInterrupted for SIGTERM: exit 143), not in the middle of it.  Only
-    in the main thread, for a signal whose handler is Python's own or the command line's (with a
-    handler a program set, nothing changes)."""
+    """Inside, Ctrl-C (SIGINT) and SIGTERM are held: the first raises on leaving the block (its
+    exception, piezotip.interrupts.interruption: exit 130, or 143 for SIGTERM), not in the middle
+    of it, unless ``pending`` (an exception already on its way out of the code around: the signal
+    then adds nothing).  Only in the main thread, for a signal whose handler is Python's own or
+    piezotip's (with a handler a program set, nothing changes)."""
+
+    def __init__(self, pending: bool = False) -> None:
+        self.pending = pending
 
     def __enter__(self):
         import signal
-        import threading
 
-        from .runner import sigterm_as_interrupt
+        from piezotip.interrupts import in_main_thread, replaceable
 
         self.caught, self.previous = None, {}
-        if threading.current_thread() is threading.main_thread():
-            for signum, ours in ((signal.SIGINT, signal.default_int_handler), (signal.SIGTERM, sigterm_as_interrupt)):
-                if signal.getsignal(signum) is ours:
+        if in_main_thread():
+            for signum in (signal.SIGINT, signal.SIGTERM):
+                if replaceable(signum, signal.getsignal(signum)):
                     self.previous[signum] = signal.signal(signum, self._hold)
         return self
 
     def _hold(self, signum, frame) -> None:
+        from piezotip.interrupts import note
+
+        note(signum)
         if self.caught is None:
             self.caught = signum
 
     def __exit__(self, kind, value, tb) -> None:
         import signal
 
-        from .runner import RunInterrupted
+        from piezotip.interrupts import interruption
 
         for signum, previous in self.previous.items():
             signal.signal(signum, previous)
-        if self.caught is not None and kind is None:
-            raise KeyboardInterrupt if self.caught == signal.SIGINT else RunInterrupted(self.caught)
+        if self.caught is not None and kind is None and not self.pending:
+            raise interruption(self.caught)
 
 
 #: Dask settings of the local cluster, each as (Dask's default, this cluster's): the servers'
@@ -410,19 +416,24 @@ class dask_client:
                     n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None, silence_logs=50, memory_limit=0
                 )
                 self.client = Client(self.cluster)
-        except BaseException:
-            self.__exit__(None, None, None)
+        except BaseException as err:
+            self.__exit__(type(err), err, None)
             raise
         return self.client
 
-    def __exit__(self, *exc) -> None:
+    def __exit__(self, kind, value, tb) -> None:
+        # A signal while the cluster closes waits until it is closed: a close cut short leaves
+        # Dask's own close at exit a half-closed cluster (a traceback, and the process killed by
+        # a signal that comes then).  It is raised after, unless an exception (the first signal's)
+        # is already leaving.
         try:
-            if self.client is not None:
-                lost = getattr(self.client, "status", "running") != "running"  # its scheduler gone: raise_if_scheduler_lost said so
-                with _dask_logs_silenced() if lost else contextlib.nullcontext():
-                    self.client.close()
-            if self.cluster is not None:
-                self.cluster.close()
+            with _interrupts_deferred(pending=kind is not None):
+                if self.client is not None:
+                    lost = getattr(self.client, "status", "running") != "running"  # its scheduler gone: raise_if_scheduler_lost said so
+                    with _dask_logs_silenced() if lost else contextlib.nullcontext():
+                        self.client.close()
+                if self.cluster is not None:
+                    self.cluster.close()
         finally:
             if self.config is not None:
                 self.config.__exit__(None, None, None)

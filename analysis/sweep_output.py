@@ -1,16 +1,19 @@
 """A sweep's tables and figure: ``sweep.csv``, ``sweep.parquet`` (units in the column names),
 ``sweep.png`` (:func:`write_sweep`), and the rows as a text table (:func:`format_rows`).
-pyarrow and matplotlib are imported only when a file needs them."""
+Both tables carry the sweep's provenance (:mod:`piezotip.provenance`).  pyarrow and matplotlib
+are imported only when a file needs them."""
 
 from __future__ import annotations
 
 import csv
+import io
+import itertools
 import json
 import math
 from collections.abc import Sequence
 from pathlib import Path
 
-from .sweep_rows import ERROR_OUTCOME, EXTRA_COLUMNS, RESULT_COLUMNS
+from .sweep_rows import COLUMN_TYPES, ERROR_OUTCOME, EXTRA_COLUMNS, RESULT_COLUMNS
 
 
 def sweep_columns(grid_keys: Sequence[str]) -> list[str]:
@@ -24,19 +27,29 @@ def _cell(value):
     return value
 
 
-def write_sweep(rows: list[dict], grid_keys: Sequence[str], out: Path, plot: bool = True) -> list[Path]:
-    """``sweep.csv``, ``sweep.parquet`` (units in the column names) and ``sweep.png``."""
+def write_sweep(rows: list[dict], grid_keys: Sequence[str], out: Path, plot: bool = True, provenance: dict | None = None) -> list[Path]:
+    """``sweep.csv``, ``sweep.parquet`` (units in the column names) and ``sweep.png``.
+
+    ``provenance`` (:func:`analysis.sweep.sweep_provenance`; None: the versions alone) goes into
+    both tables: the CSV's ``# `` header lines (:func:`piezotip.provenance.csv_header`) and the
+    Parquet file's schema metadata, key ``piezotip``, as JSON.  The Parquet columns have their
+    types (:data:`analysis.sweep_rows.COLUMN_TYPES`), nulls where a value is missing."""
     import pyarrow as pa
     import pyarrow.parquet as pq
 
+    from piezotip.provenance import METADATA_KEY, csv_header, versions
+
+    from .runner import json_safe
+
+    provenance = {"versions": versions()} if provenance is None else provenance
     out = Path(out)
     columns = sweep_columns(grid_keys)
     csv_path = out / "sweep.csv"
     with csv_path.open("w", newline="") as fh:
-        writer = csv.DictWriter(fh, fieldnames=columns, extrasaction="ignore")
-        writer.writeheader()
-        writer.writerows([{c: _cell(r.get(c)) for c in columns} for r in rows])
-    table = pa.table({c: _arrow_column([r.get(c) for r in rows]) for c in columns})
+        fh.write(csv_header(provenance, f"piezotip sweep of {provenance.get('scenario', 'a scenario')}"))
+        write_csv_rows(fh, columns, [[_cell(r.get(c)) for c in columns] for r in rows])
+    table = pa.table({c: _typed_column(COLUMN_TYPES[c], rows, c) if c in COLUMN_TYPES else _grid_column(rows, c) for c in columns})
+    table = table.replace_schema_metadata({METADATA_KEY: json.dumps(json_safe(provenance), allow_nan=False)})
     parquet_path = out / "sweep.parquet"
     pq.write_table(table, parquet_path)
     files = [csv_path, parquet_path]
@@ -45,15 +58,68 @@ def write_sweep(rows: list[dict], grid_keys: Sequence[str], out: Path, plot: boo
     return files
 
 
-def _arrow_column(values: list):
-    """A column's values for Arrow: numbers stay numbers (NaN for missing), lists as JSON text."""
+def write_csv_rows(fh, header: Sequence[str], rows: Sequence[Sequence]) -> None:
+    """``header`` and ``rows`` as CSV lines into ``fh``, as the ``csv`` module writes them, but a
+    cell holding "#" is quoted: pandas' ``comment="#"`` (which skips the header lines) would
+    otherwise take the rest of its line for a comment."""
+    for cells in (header, *rows):
+        fh.write(",".join(_csv_field(cell) for cell in cells) + "\r\n")
+
+
+def _csv_field(value) -> str:
+    if value is None or value == "":
+        return ""  # the csv module writes a lone empty field as "" (a row of it would be a blank line)
+    text = io.StringIO()
+    quoting = csv.QUOTE_ALL if "#" in str(value) else csv.QUOTE_MINIMAL
+    csv.writer(text, quoting=quoting, lineterminator="").writerow([value])
+    return text.getvalue()
+
+
+def read_csv_rows(path: Path) -> list[dict]:
+    """A table :func:`write_sweep` (or the experiment) wrote, as ``csv.DictReader`` reads it
+    (every value text), its ``# `` header lines skipped."""
+    with Path(path).open(newline="") as fh:
+        return list(csv.DictReader(itertools.dropwhile(lambda line: line.startswith("#"), fh)))
+
+
+def _missing(value) -> bool:
+    return value is None or (isinstance(value, float) and math.isnan(value))
+
+
+def _typed_column(kind: str, rows: list[dict], column: str):
+    """A result column for Arrow, as its ``kind`` (:data:`COLUMN_TYPES`) says, null where missing."""
     import pyarrow as pa
 
-    if all(isinstance(v, bool) for v in values):
-        return pa.array(values, pa.bool_())
-    if all((isinstance(v, (int, float)) and not isinstance(v, bool)) or v is None for v in values):
-        return pa.array([math.nan if v is None else float(v) for v in values], pa.float64())
-    return pa.array([json.dumps(v) if isinstance(v, (list, tuple)) else ("" if v is None else str(v)) for v in values], pa.string())
+    values = [r.get(column) for r in rows]
+    if kind == "bool":
+        return pa.array([None if _missing(v) else bool(v) for v in values], pa.bool_())
+    if kind == "int":
+        return pa.array([None if _missing(v) else int(v) for v in values], pa.int64())
+    if kind == "float":
+        return pa.array([None if _missing(v) else float(v) for v in values], pa.float64())
+    if kind == "modes":  # "1 2" -> [1, 2]; none for a point that raised
+        raised = [r.get("outcome") == ERROR_OUTCOME or v is None for r, v in zip(rows, values, strict=True)]
+        modes = [None if no else [int(m) for m in str(v).split()] for no, v in zip(raised, values, strict=True)]
+        return pa.array(modes, pa.list_(pa.int64()))
+    if column == "error":  # "" is "no error"
+        return pa.array([None if _missing(v) or v == "" else str(v) for v in values], pa.string())
+    return pa.array([None if _missing(v) else str(v) for v in values], pa.string())
+
+
+def _grid_column(rows: list[dict], column: str):
+    """A grid key's values for Arrow, by what they are: true or false, whole numbers (int64),
+    numbers (float64), else text (a list as JSON); null where one is missing (None or NaN)."""
+    import pyarrow as pa
+
+    values = [r.get(column) for r in rows]
+    present = [v for v in values if not _missing(v)]
+    if present and all(isinstance(v, bool) for v in present):
+        return pa.array([None if _missing(v) else v for v in values], pa.bool_())
+    if present and all(isinstance(v, int) and not isinstance(v, bool) for v in present):
+        return pa.array([None if _missing(v) else v for v in values], pa.int64())
+    if all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in present):
+        return pa.array([None if _missing(v) else float(v) for v in values], pa.float64())
+    return pa.array([None if _missing(v) else json.dumps(v) if isinstance(v, (list, tuple)) else str(v) for v in values], pa.string())
 
 
 #: Colour per outcome in the plots.

@@ -54,6 +54,18 @@ DISTURB_COLUMNS = ("disturb_slip_mm", "disturb_reaction_ms", "disturb_hold_grip_
 #: The referee's numbers a row copies from the run's summary (NaN where the summary has none).
 REFEREE_COLUMNS = (*GRIP_ECONOMY_COLUMNS, *TOUCH_COLUMNS, *DISTURB_COLUMNS)
 
+#: Each result and extra column's type in the sweep's Parquet file (analysis.sweep_output): "bool",
+#: "int" (int64), "float" (float64), "text", or "modes" (list<int64>; a row writes the modes used
+#: as text, "1 2", which the CSV keeps).  A missing value is null there: a NaN number, an ``error``
+#: of "" (no error), the modes of a point that raised.
+COLUMN_TYPES = {
+    **dict.fromkeys((*RESULT_COLUMNS, *EXTRA_COLUMNS), "float"),
+    **dict.fromkeys(("outcome", "reason", "touch_sense", "outside_model", "error"), "text"),
+    **dict.fromkeys(("success", "crushed", "slipped", "lifted"), "bool"),
+    "mode_switches": "int",
+    "modes_used": "modes",
+}
+
 #: The outcome of a point whose run raised.
 ERROR_OUTCOME = "error"
 

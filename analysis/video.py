@@ -243,10 +243,11 @@ class LiveStrip:
         self.lines: list[tuple[str, object]] = []
         for side in sides:
             c = colours.get(side, "tab:green")
-            (true,) = ax_p.plot([], [], "-", color=c, lw=1.4, label=f"{side} true")
+            (true,) = ax_p.plot([], [], "-", color=c, lw=1.4, label=f"{side} true (sensing patch)")
             (est,) = ax_p.plot([], [], ":", color=c, lw=1.4, label=f"{side} estimate")
             (mode,) = ax_m.plot([], [], "-", color=c, lw=1.4, drawstyle="steps-post")
-            self.lines += [(f"{side}_true_pressure_pa", true), (f"{side}_estimate_pa", est), (f"{side}_mode", mode)]
+            # The truth the estimate answers to: what the sensing patch feels (run_report.sensed_pressure_pa).
+            self.lines += [(f"{side}_coverage_pressure_pa", true), (f"{side}_estimate_pa", est), (f"{side}_mode", mode)]
         (phase,) = ax_ph.plot([], [], "-", color="black", lw=1.4, drawstyle="steps-post")
         self.lines.append(("phase", phase))
         ax_p.set_yscale("log")
@@ -298,6 +299,8 @@ class LiveStrip:
             self.canvas.draw()
             self.background = self.canvas.copy_from_bbox(self.fig.bbox)
         for (column, line), trace in zip(self.lines, self._traces, strict=True):
+            if column not in rows and column.endswith("_coverage_pressure_pa"):  # rows made before that column: the pad's mean
+                column = column.replace("_coverage_pressure_pa", "_true_pressure_pa")
             y = np.asarray(rows[column], dtype=float)
             if column.endswith("_pa"):
                 y = np.where(y > 0.0, y, np.nan)  # nothing to draw on a log axis (and NaN: no estimate)

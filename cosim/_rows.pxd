@@ -17,14 +17,14 @@ cdef class RowBuilder:
     cdef Py_ssize_t _left, _right, _table_normal
     cdef bint _track_peaks
     cdef double[::1] _fractions
-    cdef double _stop_pa
+    cdef double _stop_pa, _gel_valid_pa, _backstop_pa, _outside
     cdef dict _status_index
     cdef double[::1] _xpos, _qvel, _sensordata
     cdef bint _bound
 
     @cython.locals(
         vx=double, vy=double, vz=double, wx=double, wy=double, wz=double, row=list, k=Py_ssize_t, i=Py_ssize_t,
-        profile=list, covered=list, p=double, top=double, cell=double,
+        profile=list, covered=list, p=double, top=double, cell=double, code=double,
     )
     cpdef list row(self, time_s, obs, command, list profiles, list cells, finger_peaks)
 

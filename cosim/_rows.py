@@ -7,6 +7,7 @@ columns and their units are documented in :mod:`cosim.rows`.
 
 from __future__ import annotations
 
+import math
 from array import array
 from operator import attrgetter
 
@@ -43,14 +44,22 @@ class RowBuilder:
     cell_fractions : each coverage cell's share of the coverage's length.
     stop_pressure_pa : the pressure at which the gel sits on its housing stop, Pa.
     status_index : each estimate status's number in the record.
+    model_limits_pa : (gel_valid_pa, backstop_pa), where the model ends (Pa;
+        :meth:`sensor.fingertip.Fingertip.model_limit`): a strip over the element past the gel's
+        valid strain, or the coverage's pressure past the element's backstop, and the row's
+        status is ``status_index["outside_model"]``, whatever the readout said (the readout
+        cannot know; the simulator does).  None: no check.
     """
 
     __slots__ = (
         "_args",
+        "_backstop_pa",
         "_bound",
         "_contact_adr",
         "_fractions",
+        "_gel_valid_pa",
         "_left",
+        "_outside",
         "_pads",
         "_qvel",
         "_right",
@@ -62,8 +71,20 @@ class RowBuilder:
         "_xpos",
     )
 
-    def __init__(self, pads, contact_adr, finger_adr, table_adr, track_peaks, cell_fractions, stop_pressure_pa, status_index) -> None:
-        self._args = (pads, contact_adr, finger_adr, table_adr, track_peaks, cell_fractions, stop_pressure_pa, status_index)
+    def __init__(
+        self, pads, contact_adr, finger_adr, table_adr, track_peaks, cell_fractions, stop_pressure_pa, status_index, model_limits_pa=None
+    ) -> None:
+        self._args = (
+            pads,
+            contact_adr,
+            finger_adr,
+            table_adr,
+            track_peaks,
+            cell_fractions,
+            stop_pressure_pa,
+            status_index,
+            model_limits_pa,
+        )
         self._pads = list(pads)
         contact_adr, finger_adr = [int(a) for a in contact_adr], [int(a) for a in finger_adr]
         if len(contact_adr) != len(self._pads) or len(finger_adr) != 2:
@@ -75,6 +96,12 @@ class RowBuilder:
         self._fractions = array("d", [float(f) for f in cell_fractions])
         self._stop_pa = float(stop_pressure_pa)
         self._status_index = {str(k): float(v) for k, v in status_index.items()}
+        gel_valid_pa, backstop_pa = (math.inf, math.inf) if model_limits_pa is None else model_limits_pa
+        self._gel_valid_pa = math.inf if gel_valid_pa is None else float(gel_valid_pa)
+        self._backstop_pa = math.inf if backstop_pa is None else float(backstop_pa)
+        if model_limits_pa is not None and "outside_model" not in self._status_index:
+            raise ValueError("model limits need a status_index with 'outside_model'")
+        self._outside = self._status_index.get("outside_model", -1.0)
         self._bound = False
 
     def bind(self, object_xpos, object_qvel, sensordata) -> None:
@@ -141,13 +168,16 @@ class RowBuilder:
                 for i in range(len(covered)):
                     p = covered[i]
                     cell += self._fractions[i] * p
+            code = self._status_index[status]
+            if top > self._gel_valid_pa or cell > self._backstop_pa:
+                code = self._outside
             row += (
                 profile[0] if len(profile) == 1 else float(np.mean(profile)),
                 cell,
                 abs(self._sensordata[self._contact_adr[k]]),
                 pressure_pa,
                 uncertainty_pa,
-                self._status_index[status],
+                code,
                 float(mode),
                 v1,
                 v1_true,

@@ -822,7 +822,9 @@ class TipReading:
     estimate_pa : the readout's pressure estimate, Pa (NaN while settling or saturated).
     sigma_pa : its uncertainty, one standard deviation, Pa (NaN when unknown): where ``status``
         is "ok" the true pressure lies within estimate +- 3 sigma (the readout's contract).
-    status : "ok", "below_detection", "saturated" or "settling".
+    status : "ok", "below_detection", "saturated" or "settling" (the readout's own), or
+        "outside_model": the truth was past where the model holds (the gel past its valid strain,
+        the element on its backstop), whatever the readout said.
     mode : the vibration mode driven.
     voltage : the sensed amplitude, V (the drive's measure: V_1 times the mode's unloaded output).
     v1 : the normalized reading |V_s| / V_0, dimensionless.
@@ -840,7 +842,7 @@ class TipReading:
 
 
 #: The readout's status as a number in ``piezotip/TIP/status`` (docs/attach.md): 0 is "ok".
-STATUS_CODES = {"ok": 0, "below_detection": 1, "saturated": 2, "settling": 3}
+STATUS_CODES = {"ok": 0, "below_detection": 1, "saturated": 2, "settling": 3, "outside_model": 4}
 #: Each fingertip's MuJoCo sensors, ``piezotip/TIP/<field>``: the :class:`TipReading` field each holds.
 SENSOR_FIELDS = ("pressure_pa", "sigma_pa", "status", "mode", "true_pressure_pa")
 
@@ -905,6 +907,10 @@ class _FingertipHook:
             pad.name: strip_reader(self.bridges[pad.name], pad.geometry, self._layouts[pad.name][1], data) for pad in tips.pads
         }
         self._unloaded_v = {m: fingertip.element.unloaded_voltage(m) for m in fingertip.modes}
+        # Where the model ends (Pa): readings past it are "outside_model" (_sample).
+        backstop_pa = fingertip.backstop_pressure_pa()
+        self._gel_valid_pa = fingertip.gel.params.max_valid_pressure_pa
+        self._backstop_pa = math.inf if backstop_pa is None else backstop_pa
         self.gel = _gel_passive(model, self.bridges.values(), 0.0 if config.physics.gel_update == "substep" else self.period_s)
         self._start()
         mjhooks.register(data, model, self.gel)
@@ -964,15 +970,25 @@ class _FingertipHook:
         """Every fingertip's pressures, sensor and readout, once (one period since the last):
         the sensors' values now, the :class:`TipReading` objects when :meth:`readings` asks."""
         samples, period_s, codes = self._samples, self.period_s, STATUS_CODES
+        gel_valid_pa, backstop_pa, outside = self._gel_valid_pa, self._backstop_pa, STATUS_CODES["outside_model"]
         values = []  # every fingertip's sensors, in order: one write into the array at the end
         for k, (channel, reader, fractions) in enumerate(self._pipeline):
-            _, (cells,) = reader.read()
+            (profile,), (cells,) = reader.read()
             reading = channel.update_trusted(cells, period_s)
             estimate = channel.estimate(reading)
             # The coverage's mean pressure (one cell: fsum of one value is that value).
             truth = cells[0] * fractions[0] if len(cells) == 1 else math.fsum(p * f for p, f in zip(cells, fractions, strict=True))
-            samples[k] = (reading, estimate, truth)
-            values += (estimate.pressure_pa, estimate.uncertainty_pa, codes.get(estimate.status, -1), reading.mode, truth)
+            # Past where the model holds (a strip over the element past the gel's valid strain,
+            # the element on its backstop), whatever the readout said: the simulator knows.
+            past = truth > backstop_pa or max(profile) > gel_valid_pa
+            samples[k] = (reading, estimate, truth, past)
+            values += (
+                estimate.pressure_pa,
+                estimate.uncertainty_pa,
+                outside if past else codes.get(estimate.status, -1),
+                reading.mode,
+                truth,
+            )
         self._values[:] = values
         self._readings = None  # made from the samples when asked
 
@@ -1026,13 +1042,13 @@ class _FingertipHook:
                 name: TipReading(
                     estimate.pressure_pa,
                     estimate.uncertainty_pa,
-                    estimate.status,
+                    "outside_model" if past else estimate.status,
                     reading.mode,
                     reading.v1 * self._unloaded_v[reading.mode],
                     reading.v1,
                     truth,
                 )
-                for name, (reading, estimate, truth) in zip(self.channels, self._samples, strict=True)
+                for name, (reading, estimate, truth, past) in zip(self.channels, self._samples, strict=True)
             }
         return dict(self._readings)
 

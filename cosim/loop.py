@@ -339,6 +339,8 @@ class CoSimulation:
             self._cell_fractions,
             stop_pa,
             _STATUS_INDEX,
+            # Where the model ends: readings past it are recorded "outside_model".
+            (self.fingertip.gel.params.max_valid_pressure_pa, self.fingertip.backstop_pressure_pa()),
         )
         self._row_builder.bind(self._object_xpos, self._object_qvel, self._sensordata)
         if self.disturbance is not None:  # a copy's load acts on its own data

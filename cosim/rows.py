@@ -36,6 +36,7 @@ from ._rows import RowBuilder, stack_rows
 
 __all__ = [
     "PEAK_COLUMNS",
+    "READOUT_STATUSES",
     "ROWS_COMPILED",
     "STATUS_CODES",
     "TRUTH_COLUMNS",
@@ -64,8 +65,12 @@ TRUTH_COLUMNS = (
 #: between two periods' samples.
 PEAK_COLUMNS = ("left_finger_peak_force_n", "right_finger_peak_force_n")
 
-#: Readout statuses, recorded as their index (``{side}_status`` columns).
-STATUS_CODES = ("ok", "below_detection", "saturated", "settling")
+#: Readout statuses, recorded as their index (``{side}_status`` columns).  The first four are the
+#: readout's own; "outside_model" is the simulator's: the reading was taken past where the model
+#: holds (the gel past its valid strain, or the element on its backstop; :class:`RowBuilder`).
+STATUS_CODES = ("ok", "below_detection", "saturated", "settling", "outside_model")
+#: The readout's own statuses (STATUS_CODES' first four): what a controller, and a Gym agent, sees.
+READOUT_STATUSES = STATUS_CODES[:4]
 _STATUS_INDEX = {status: float(i) for i, status in enumerate(STATUS_CODES)}
 
 #: Per instrumented pad, its columns before the element's cells (``{side}_{name}``).

@@ -10,16 +10,19 @@
     result.units["left_true_pressure_pa"]                      # "Pa"
 
     tip = piezotip.fingertip("grasp")                     # the scenario's sensor, as the loop builds it
-    tip.dynamic_range()["dynamic_range"]                  # P_max / P_min over the driven modes
+    tip.dynamic_range()["dynamic_range"]                  # the range within the model (top capped where it ends)
 
 A run needs no output folder: without ``out`` the recording is kept in memory only.  With
 ``out`` the run writes what ``run_sim.py run`` writes there (``run.npz``, ``summary.json``, and
 ``run.png`` with ``plot=True``).  Bad input raises ``ValueError`` naming the bad value, as the
-command line prints it.
+command line prints it.  Ctrl-C raises ``KeyboardInterrupt`` out of a run, SIGTERM
+:class:`piezotip.interrupts.Terminated` (a KeyboardInterrupt, and a SystemExit with status 143),
+each after the partial run is written: a script's loop over runs stops there.
 """
 
 from __future__ import annotations
 
+import signal
 import tempfile
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
@@ -131,22 +134,69 @@ def run(
     video : write ``run.mp4`` (only with ``out``; ``video_fps`` frames per simulated second,
         ``video_size`` (width, height) in pixels; see the README's "Video").
     progress : show a progress bar.
+
+    Raises
+    ------
+    KeyboardInterrupt
+        Ctrl-C (SIGINT) stopped the run; SIGTERM raises :class:`piezotip.interrupts.Terminated`,
+        a KeyboardInterrupt too, which uncaught ends the script with status 143 and no traceback.
+        Either comes after the run's files are written (the recording so far and a summary marked
+        ``"interrupted": true``, in ``out`` when given); its ``result`` is that partial
+        :class:`Result` (None when the signal came before the run began), so a script's loop
+        over runs stops there (:mod:`piezotip.interrupts`).
     """
+    from piezotip import interrupts
+
+    done: dict = {}  # what the run leaves, as it comes: its overrides and folder, then its summary and data
+    files = {"plot": plot, "csv": csv, "video": video, "video_fps": video_fps, "video_size": video_size, "progress": progress}
+    with interrupts.raised():  # SIGTERM as Ctrl-C, from the start (its default would end the process without the summary)
+        try:
+            _run_into(done, scenario, overrides, preset, out, **files)
+            result = _result(scenario, preset, **done)
+        except BaseException as err:  # a signal outside the run's loop: before it, or once its summary was written
+            signum = interrupts.signal_in(err)
+            if signum is None:
+                raise
+            if "summary" not in done:
+                raise interrupts.caller_error(
+                    signum, f"piezotip.run({scenario!r}) interrupted before the run began: nothing was written"
+                ) from None
+            raise interrupts.caller_error(
+                signum, f"piezotip.run({scenario!r}) interrupted as it ended: its result is whole", _result(scenario, preset, **done)
+            ) from None
+        if result.summary["interrupted"]:  # the caller's loop stops here, as the command line's run does
+            kept = f"the recording so far and summary.json are in {out}" if out is not None else "the exception's result holds them"
+            signum = signal.Signals[result.summary["signal"] or "SIGINT"]
+            raise interrupts.caller_error(signum, f"piezotip.run({scenario!r}): {result.reason}; {kept}", result)
+        if interrupts.noted() is not None:  # a signal a library swallowed: the caller stops all the same
+            raise interrupts.caller_error(
+                interrupts.noted(), f"piezotip.run({scenario!r}) interrupted as it ended: its result is whole", result
+            )
+    return result
+
+
+def _run_into(done: dict, scenario, overrides, preset, out, plot, csv, video, video_fps, video_size, progress) -> None:
+    """:func:`run`'s run, what it leaves into ``done`` as it comes (``assignments`` and
+    ``out_dir``, then ``summary`` and ``data``: :func:`_result`'s keywords)."""
     from piezotip.analysis.runner import run_scenario
     from piezotip.scenarios import override_strings
 
-    assignments = override_strings(overrides)
+    done.update(assignments=override_strings(overrides), out_dir=None if out is None else Path(out))
     if out is None:
         if plot or csv or video:
             raise ValueError("plot=True, csv=True and video=True write files: give out=FOLDER")
         with tempfile.TemporaryDirectory(prefix="piezotip-run-") as tmp:
-            summary, data = run_scenario(scenario, assignments, Path(tmp), plot=False, quiet=not progress, preset=preset)
-        summary = dict(summary, files=[])
-        out_dir = None
-    else:
-        out_dir = Path(out)
-        options = {"video": True, "video_fps": video_fps, "video_size": video_size} if video else {}
-        summary, data = run_scenario(scenario, assignments, out_dir, csv=csv, plot=plot, quiet=not progress, preset=preset, **options)
+            summary, data = run_scenario(scenario, done["assignments"], Path(tmp), plot=False, quiet=not progress, preset=preset)
+            done.update(data=dict(data), summary=dict(summary, files=[]))  # read before the folder goes
+        return
+    options = {"video": True, "video_fps": video_fps, "video_size": video_size} if video else {}
+    summary, data = run_scenario(
+        scenario, done["assignments"], done["out_dir"], csv=csv, plot=plot, quiet=not progress, preset=preset, **options
+    )
+    done.update(data=data, summary=summary)
+
+
+def _result(scenario: str, preset: str | None, assignments: list[str], out_dir: Path | None, summary: dict, data) -> Result:
     events = tuple(MappingProxyType(dict(e)) for e in summary.get("events", []))
     return Result(scenario, tuple(assignments), preset, MappingProxyType(summary), MappingProxyType(dict(data)), events, out_dir)
 

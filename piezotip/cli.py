@@ -44,20 +44,20 @@ Exit codes, for every command (a batch script tells them apart):
 from __future__ import annotations
 
 import argparse
-import contextlib
 import json
 import math
 import os
 import signal
 import sys
 import tempfile
-import threading
 import traceback
 from pathlib import Path
 
+from piezotip import interrupts
+
 #: Exit codes (the module docstring): success, another outcome, bad input or environment, a bug, Ctrl-C.
 EXIT_SUCCESS, EXIT_OUTCOME, EXIT_BAD_INPUT, EXIT_INTERNAL, EXIT_INTERRUPTED = 0, 1, 2, 3, 130
-#: An error line's longest message, characters (an unknown key's message lists every valid key).
+#: An error line's longest message, characters (a guard: every message is meant to be far shorter).
 MAX_ERROR_CHARS = 4000
 #: The most points a sweep's grid may have (each point is a run; the points are listed before any runs).
 MAX_SWEEP_POINTS = 100_000
@@ -168,14 +168,15 @@ def _range_unit(args: argparse.Namespace, nominal) -> int:
             labels = {
                 "p_min_pa": "P_min [Pa]",
                 "p_max_pa": "P_max [Pa]",
-                "dynamic_range": "dynamic range",
+                "dynamic_range": "range within model",  # its top no higher than the backstop or the gel's valid strain
+                "dynamic_range_beyond_model": "range beyond model",  # P_max / P_min, its top past them
                 "max_estimate_error": "max estimate error",
             }
             for key, label in labels.items():
                 q = s[key]
                 print(f"  {label:<20} median {q['median']:.3g}  5-95 % {q['p5']:.3g} .. {q['p95']:.3g}", end="")
                 print(f"  (min {q['min']:.3g}, max {q['max']:.3g})")
-            print(f"  yield (dynamic range >= 1e4 and estimate error <= 5 %): {100 * report['yield']:.0f} %")
+            print(f"  yield (dynamic range within the model >= 1e4, estimate error <= 5 %): {100 * report['yield']:.0f} %")
             for f in files:
                 print(f"wrote {f}")
         return 0
@@ -247,6 +248,8 @@ def _cmd_run(args: argparse.Namespace) -> int:
         preset=args.preset,
         **video,
     )
+    if report.get("interrupted"):  # the first signal decided: a later one cannot cut its report short
+        interrupts.hold()
     if args.json:
         print(json.dumps(_json_safe(report), indent=2))
     else:
@@ -265,18 +268,20 @@ def _cmd_experiment(args: argparse.Namespace) -> int:
         raise ValueError(f"unknown experiment {args.name!r}; valid experiments: grasp-range")
     if not args.video:  # with --video each worker loads MuJoCo's GL backend itself, never a forked one
         _start_workers_early(args)
-    from piezotip.analysis.experiment import format_table, passes, run_experiment, write_outputs
+    from piezotip.analysis.experiment import controller_aim, experiment_provenance, format_table, passes, run_experiment, write_outputs
     from piezotip.analysis.runner import check_out_dir
 
     out = check_out_dir(Path(args.out or "out/grasp-range"))
     from piezotip import scenarios
 
-    scenarios.get("grasp", list(args.set or ()), args.preset)  # bad overrides stop here, before any run
+    base = scenarios.get("grasp", list(args.set or ()), args.preset)  # bad overrides stop here, before any run
     _check_workers(args)
     video = _video_options(args)  # one clip per run: runs/NN/run.mp4, NN the row's index in the table
     result = run_experiment(args.preset, tuple(args.set or ()), out, args.workers, args.scheduler, progress=not args.json, options=video)
     rows = result.rows
-    files = [str(p) for p in write_outputs(rows, out, plot=not args.no_plot)]
+    # the line drawn at the controller's aim is its config's as the user set it (--set controller.grip_safety=...)
+    provenance = experiment_provenance(args.preset, tuple(args.set or ()))  # versions, seeds, config: the tables' header
+    files = [str(p) for p in write_outputs(rows, out, plot=not args.no_plot, aim=controller_aim(base.controller), provenance=provenance)]
     if args.json:
         print(json.dumps(_json_safe({"rows": rows, "files": files, "skipped_done": result.skipped}), indent=2))
     else:
@@ -311,10 +316,9 @@ def _start_workers_early(args: argparse.Namespace) -> None:
 
 def _cmd_sweep(args: argparse.Namespace) -> int:
     from piezotip import scenarios
-    from piezotip.analysis.sweep import run_points, runs_in_this_process
+    from piezotip.analysis.sweep import run_points, runs_in_this_process, sweep_provenance
     from piezotip.analysis.sweep_grid import check_points, grid_points, parse_grid
     from piezotip.analysis.sweep_output import format_rows, write_sweep
-    from piezotip.provenance import versions
 
     grid = parse_grid(args.grid or [])
     from piezotip.scenarios.config import parse_value
@@ -336,7 +340,8 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
     _check_workers(args)
     out = check_out_dir(Path(args.out) if args.out else _sweep_out_dir(args))
     result = run_points(args.scenario, points, args.preset, out, args.workers, args.scheduler, progress=not args.json)
-    files = [str(p) for p in write_sweep(result.rows, list(grid), out, plot=not args.no_plot)]
+    provenance = sweep_provenance(args.scenario, grid, list(args.set or ()), args.preset)  # versions, seeds, config
+    files = [str(p) for p in write_sweep(result.rows, list(grid), out, plot=not args.no_plot, provenance=provenance)]
     report = {
         "scenario": args.scenario,
         "preset": args.preset,
@@ -350,7 +355,7 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
         "errors": sum(r["outcome"] == "error" for r in result.rows),
         "rows": result.rows,
         "files": files,
-        "versions": versions(),
+        **{key: provenance[key] for key in ("versions", "seed", "unit_seed", "config")},
     }
     (out / "sweep.json").write_text(json.dumps(_json_safe(report), indent=2) + "\n")
     files.append(str(out / "sweep.json"))
@@ -572,26 +577,24 @@ def _subparser(common: argparse.ArgumentParser):
 
 def main(argv: list[str] | None = None) -> int:
     """Run the command line on ``argv`` (default ``sys.argv[1:]``); return the exit code (module
-    docstring).  Nothing but argparse's own usage errors and ``--help`` (SystemExit) leaves it."""
-    args = build_parser().parse_args(argv)
-    with _sigterm_as_interrupt():
-        return _dispatch(args)
+    docstring).  Nothing but argparse's own usage errors and ``--help`` (SystemExit) leaves it.
 
-
-@contextlib.contextmanager
-def _sigterm_as_interrupt():
-    """SIGTERM ends the command as Ctrl-C does (exit 143, a run's summary kept), not the process
-    with it: while the command runs (main thread, SIGTERM at its default), then as it was."""
-    from piezotip.analysis.runner import sigterm_as_interrupt
-
-    if threading.current_thread() is not threading.main_thread() or signal.getsignal(signal.SIGTERM) is not signal.SIG_DFL:
-        yield
-        return
-    signal.signal(signal.SIGTERM, sigterm_as_interrupt)
-    try:
-        yield
-    finally:
-        signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    SIGINT and SIGTERM stop the command from its start (exit 130, 143): ``interrupted``, a run's
+    summary kept, not the process killed.  Run as the program (``argv`` None: ``run_sim.py``, the
+    ``piezotip`` script), any later one is ignored once the status is decided, until the process
+    ends: Python's exit (MuJoCo's and Dask's clean-up) takes a while, and a signal then would
+    kill the process instead of letting it exit with the status it reported."""
+    with interrupts.raised(keep_held=argv is None):  # piezotip.interrupts is light: before the command's imports
+        try:
+            status = _dispatch(build_parser().parse_args(argv))
+            signum = interrupts.noted()
+            if signum is not None and status != 128 + signum:  # a signal a library swallowed, or one as the command ended
+                return _interrupted(interrupts.interruption(signum))
+            if argv is None:  # the program's status is decided: a signal while Python exits cannot change it
+                interrupts.hold()
+        except KeyboardInterrupt as exc:  # as it parsed its arguments, or as it ended
+            return _interrupted(exc)
+        return status
 
 
 def _dispatch(args) -> int:
@@ -600,19 +603,31 @@ def _dispatch(args) -> int:
         if getattr(args, "render", False) or getattr(args, "video", False):
             _rendering_backend()
         return args.func(args)
-    except KeyboardInterrupt as exc:  # Ctrl-C (or SIGTERM: RunInterrupted) outside a run's loop (set-up, plots, sweeps)
-        print("interrupted", file=sys.stderr)
-        return getattr(exc, "exit_status", EXIT_INTERRUPTED)
-    except (ValueError, OSError) as exc:  # bad input, or a file that cannot be read or written
+    except KeyboardInterrupt as exc:  # Ctrl-C or SIGTERM outside a run's loop (imports, set-up, plots, sweeps)
+        return _interrupted(exc)
+    except Exception as exc:
+        if interrupts.signal_in(exc) is not None:  # a signal a library turned into its own error (an import cut short)
+            return _interrupted(exc)
+        return _error_status(exc, args)
+
+
+def _interrupted(exc: BaseException) -> int:
+    """The one line of a command a signal stopped, and its exit status (130 Ctrl-C, 143 SIGTERM).
+    A later signal is ignored from here on (:func:`main`'s notes): the first decided."""
+    interrupts.hold()
+    print("interrupted", file=sys.stderr)
+    return 128 + (interrupts.signal_in(exc) or signal.SIGINT)
+
+
+def _error_status(exc: Exception, args) -> int:
+    """The exit status of an error (bad input, a missing dependency, a bug), its line printed."""
+    if isinstance(exc, (ValueError, OSError)):  # bad input, or a file that cannot be read or written
         print(f"error: {_one_line(exc)}", file=sys.stderr)
         return EXIT_BAD_INPUT
-    except ModuleNotFoundError as exc:
-        if exc.name and exc.name.split(".")[0] != "piezotip":  # the environment lacks a dependency
-            print(f"error: {_one_line(exc)} (a dependency is missing: pip install piezotip's requirements)", file=sys.stderr)
-            return EXIT_BAD_INPUT
-        return _internal_error(exc, args)
-    except Exception as exc:  # a bug: never read as an outcome
-        return _internal_error(exc, args)
+    if isinstance(exc, ModuleNotFoundError) and exc.name and exc.name.split(".")[0] != "piezotip":  # the environment lacks a dependency
+        print(f"error: {_one_line(exc)} (a dependency is missing: pip install piezotip's requirements)", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    return _internal_error(exc, args)  # a bug: never read as an outcome
 
 
 def _one_line(exc: BaseException) -> str:

@@ -37,7 +37,7 @@ from piezotip import controllers, scenarios  # noqa: E402
 from piezotip.analysis.referee import Criteria, judge  # noqa: E402
 from piezotip.cosim.control import Command, Observation, PadSignal, Phase, RobotLimits, make_command  # noqa: E402
 from piezotip.cosim.loop import CoSimulation, SimulationDiverged, make_controller  # noqa: E402
-from piezotip.cosim.rows import STATUS_CODES  # noqa: E402
+from piezotip.cosim.rows import READOUT_STATUSES as STATUS_CODES  # noqa: E402
 from piezotip.scenarios.config import RATED_MASS_KG, ObjectConfig, ScenarioConfig  # noqa: E402
 from piezotip.sensor.estimator import Estimate  # noqa: E402
 from piezotip.sensor.resonator import Reading  # noqa: E402
@@ -235,7 +235,9 @@ class GraspEnv(gym.Env):
     at rest on the table, the drive in the lowest mode, one control period simulated (the first
     readings).  ``reset(seed=S)`` seeds the readout noise with S (the scenario's
     ``sensor.seed``: ``reset(seed=0)`` is ``run_sim.py run``'s episode) and the object draw; a
-    reset without a seed continues the seeded sequence.
+    reset without a seed continues the seeded sequence.  ``reset(options={"object": obj})``
+    grasps the :class:`~piezotip.scenarios.config.ObjectConfig` ``obj`` in this episode instead
+    (``piezotip/GraspLearn-v0`` draws its objects so).
 
     ## Episode End
 
@@ -360,7 +362,7 @@ class GraspEnv(gym.Env):
     def reset(self, *, seed: int | None = None, options: dict | None = None):
         super().reset(seed=seed)
         cfg = self.base_config
-        obj = self.object_ranges.sample(self.np_random, cfg.object) if self.object_ranges is not None else cfg.object
+        obj = self._episode_object(options)
         noise_seed = int(seed) if seed is not None else int(self.np_random.integers(2**31))
         self.config = dataclasses.replace(cfg, object=obj, sensor=dataclasses.replace(cfg.sensor, seed=noise_seed)).validate()
         # The loop's own controller is replaced by the agent's: build a cheap one (a sensing one
@@ -374,6 +376,19 @@ class GraspEnv(gym.Env):
         self._ended = None
         self._sense_next()
         return self._observation(), {"time_s": sim.time_s}
+
+    def _episode_object(self, options: dict | None) -> ObjectConfig:
+        """The episode's object: ``options["object"]`` (an ObjectConfig, checked) if given, else a
+        draw from the ranges (``randomize_object``), else the scenario's."""
+        if options is not None and "object" in options:
+            obj = options["object"]
+            if not isinstance(obj, ObjectConfig):
+                raise ValueError(f"options['object'] must be an ObjectConfig, got {shown(obj)}")
+            obj.validate()
+            return obj
+        if self.object_ranges is not None:
+            return self.object_ranges.sample(self.np_random, self.base_config.object)
+        return self.base_config.object
 
     def step(self, action):
         if self.sim is None:

@@ -22,7 +22,7 @@ import numpy as np
 from gymnasium import spaces
 
 from piezotip.analysis.referee import Criteria
-from piezotip.cosim.rows import STATUS_CODES
+from piezotip.cosim.rows import READOUT_STATUSES as STATUS_CODES  # the readout's own (what an agent sees)
 from piezotip.cosim.scene import gripper_ranges
 from piezotip.gym_env import GraspEnv, MultimodePolicy, ObjectRanges, RewardWeights, real_numbers, shown
 
@@ -251,7 +251,7 @@ class GraspFlatEnv(gym.Env):
         self.grasp_observation: dict[str, np.ndarray] | None = None
         self._ended: str | None = None  # what ended the episode ("terminated: success", ...), None while it runs
         self._status_ok = [STATUS_CODES.index(s) for s in ("ok", "below_detection")]
-        self._criteria = Criteria()
+        self._gate = PlacedReleasedGate()
 
     # -- Gymnasium API -------------------------------------------------------------------
 
@@ -259,7 +259,7 @@ class GraspFlatEnv(gym.Env):
         super().reset(seed=seed)
         obs, info = self.grasp_env.reset(seed=seed, options=options)
         self.grasp_observation = obs
-        self._gate_start()
+        self._gate.start()
         self._ended = None
         return self._flat(obs), info
 
@@ -273,7 +273,7 @@ class GraspFlatEnv(gym.Env):
         obs, reward, terminated, truncated, info = self.grasp_env.step(self.action_to_grasp(action))
         self.grasp_observation = obs
         if self.terminate_on_success and not terminated:
-            starts = self._placed_and_released()  # every step: it follows the object's rise
+            starts = self._gate.opens(self.grasp_env.last_row())  # every step: it follows the object's rise
             if truncated:  # the scenario's end: GraspEnv has judged (and paid) the episode
                 succeeded = info.get("outcome") == "success"
             elif starts:
@@ -395,32 +395,40 @@ class GraspFlatEnv(gym.Env):
         ]
         return tuple(entries)
 
-    def _gate_start(self) -> None:
-        self._z0 = None
-        self._max_rise = -math.inf
+
+class PlacedReleasedGate:
+    """Opens at the control period where the referee's "placed and released" state begins.
+
+    The referee's own tests on the record's last row (analysis.referee.judge): no finger
+    touches the object, which rests on the table within ``placed_tolerance_m`` of its starting
+    height, after it has been off the table.  Only where that state begins is the whole episode
+    worth judging (GraspEnv.verdict, which reads the whole record): while it lasts, nothing the
+    verdict depends on (the rise, the hold, the slip, the landing) can change.  One per
+    environment; :meth:`start` at each reset, :meth:`opens` on every recorded row.
+    """
+
+    def __init__(self, criteria: Criteria | None = None) -> None:
+        self.criteria = Criteria() if criteria is None else criteria
+        self.start()
+
+    def start(self) -> None:
+        """Forget the episode (a reset)."""
+        self._z0: float | None = None
+        self._max_rise_m = -math.inf
         self._was_resting_released = False
 
-    def _placed_and_released(self) -> bool:
-        """Whether the last recorded step opens the referee's "placed and released" state.
-
-        The referee's own tests on the record's last row (analysis.referee.judge): no finger
-        touches the object, which rests on the table within ``placed_tolerance_m`` of its
-        starting height, after it has been off the table.  Only where that state begins is the
-        whole episode judged (GraspEnv.verdict, which reads the whole record): while it lasts,
-        nothing the verdict depends on (the rise, the hold, the slip, the landing) can change.
-        """
-        c = self._criteria
-        row = self.grasp_env.last_row()  # recording() would copy every row on every step
+    def opens(self, row: Mapping[str, float]) -> bool:
+        """Whether ``row`` (GraspEnv.last_row(): column name -> value) opens the state."""
+        c = self.criteria
         z = row["object_height_m"]
         if self._z0 is None:
             self._z0 = z
         rise = z - self._z0
-        self._max_rise = max(self._max_rise, rise)
+        self._max_rise_m = max(self._max_rise_m, rise)
         touching = row["left_finger_force_n"] > c.contact_force_n or row["right_finger_force_n"] > c.contact_force_n
         at_rest = row["object_speed_m_s"] < c.rest_speed_m_s
         resting = abs(rise) <= c.placed_tolerance_m and at_rest and row["table_force_n"] > c.contact_force_n
-        now = resting and not touching and self._max_rise > c.placed_tolerance_m
+        now = resting and not touching and self._max_rise_m > c.placed_tolerance_m
         starts = now and not self._was_resting_released
         self._was_resting_released = now
         return starts
-

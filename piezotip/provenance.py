@@ -1,10 +1,15 @@
 """What made a result: the versions of piezotip and of the libraries whose numbers it depends on,
-and the git commit when it runs from a checkout (recorded in summary.json, ``run --json``,
-sweep.json and the experiment's JSON, so a result can be traced to the code that made it)."""
+the git commit when it runs from a checkout, the seeds and the fully resolved config (defaults
+and preset included).  Every output carries them (:func:`config_provenance`): summary.json and
+``run --json``, sweep.json, the sweep's Parquet file (its schema metadata, key ``piezotip``) and
+CSV (its ``# `` header lines, :func:`csv_header`), the experiment's JSON and CSV; so a result can
+be traced to the code and the settings that made it, and made again."""
 
 from __future__ import annotations
 
+import dataclasses
 import functools
+import json
 import platform
 import subprocess
 from importlib import metadata
@@ -53,4 +58,66 @@ def versions() -> dict[str, str | None]:
     return out
 
 
-__all__ = ["DISTRIBUTIONS", "git_commit", "versions"]
+def resolved_config(config) -> dict:
+    """``config`` (a :class:`~piezotip.scenarios.ScenarioConfig` as ``scenarios.get`` returns it:
+    the scenario's defaults, the preset and the overrides applied) as plain data, every field of
+    every section by the name ``--set`` takes (``["object"]["mass_kg"]`` is ``object.mass_kg``).
+    A value JSON cannot hold (a registered controller's own type) is kept as its text: a record
+    must not stop the run it records."""
+    return json.loads(json.dumps(dataclasses.asdict(config), default=str))
+
+
+def config_provenance(config) -> dict:
+    """What made a result beside its inputs' names: ``versions`` (:func:`versions`), ``seed``
+    (``sensor.seed``: the readout noise, and every other draw of the run), ``unit_seed``
+    (``sensor.unit_seed``: which physical unit, when ``sensor.variation`` is not ``none``) and
+    ``config`` (:func:`resolved_config`)."""
+    return {"versions": versions(), "seed": config.sensor.seed, "unit_seed": config.sensor.unit_seed, "config": resolved_config(config)}
+
+
+#: The name of the provenance in a Parquet file's schema metadata, and its CSV header line's tag.
+METADATA_KEY = "piezotip"
+
+
+def csv_header(provenance: dict, what: str) -> str:
+    """The comment lines a CSV table starts with (each begins ``# ``; pandas reads the table with
+    ``comment="#"``): a line for people (``what`` the table is, the versions, the commit, the
+    seeds), then ``# piezotip: `` and ``provenance`` as one line of strict JSON, what the
+    Parquet file's metadata holds."""
+    from piezotip.analysis.runner import json_safe
+
+    v = provenance.get("versions") or {}
+    made = ", ".join(f"{name} {v[name]}" for name in (*DISTRIBUTIONS, "python") if v.get(name))
+    commit = v.get("git_commit") or "unknown"
+    grid = provenance.get("grid") or {}  # a sweep's: a seed it varies is its row's
+
+    def seed(name: str, key: str) -> str:
+        return f"{name} per row" if f"sensor.{key}" in grid else f"{name} {provenance[key]}"
+
+    seeds = f"{seed('seed', 'seed')}, {seed('unit seed', 'unit_seed')}" if "seed" in provenance else "seeds unknown"
+    people = f"# {what}: {made}; git commit {commit}; {seeds}"
+    # one line for people whatever ``what`` holds; the JSON (no indent) is one line too
+    return f"{' '.join(people.split())}\n# {METADATA_KEY}: {json.dumps(json_safe(provenance), allow_nan=False)}\n"
+
+
+def read_csv_header(lines) -> dict | None:
+    """The provenance of a CSV table :func:`csv_header` began (``lines``: the file's lines, or
+    an open file), or None for a table without one."""
+    for line in lines:
+        if not line.startswith("#"):
+            return None
+        if line.startswith(f"# {METADATA_KEY}: "):
+            return json.loads(line[len(f"# {METADATA_KEY}: ") :])
+    return None
+
+
+__all__ = [
+    "DISTRIBUTIONS",
+    "METADATA_KEY",
+    "config_provenance",
+    "csv_header",
+    "git_commit",
+    "read_csv_header",
+    "resolved_config",
+    "versions",
+]

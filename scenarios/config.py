@@ -3,8 +3,9 @@
 A scenario's whole configuration is one :class:`ScenarioConfig`.  Any value can be changed
 by a dotted key (``object.mass_kg=0.4``, ``controller.modes=[1]``); the value is parsed as
 a Python literal (numbers, lists, tuples, booleans, ``None``) or else taken as a string,
-then checked against the field's type.  An unknown key gets an error listing the valid
-ones; a value of the wrong type or range gets an error naming the key and the value.
+then checked against the field's type.  An unknown key gets a short error naming it, the keys
+it may have meant ("did you mean ...?") and where the valid ones are listed; a value of the
+wrong type or range gets an error naming the key and the value.
 
 Every value is bounded before it is parsed (:data:`MAX_VALUE_CHARS` characters, nested at most
 :data:`MAX_VALUE_DEPTH` deep; no mappings or sets), and every field's range is the one the
@@ -18,6 +19,7 @@ from __future__ import annotations
 
 import ast
 import dataclasses
+import difflib
 import itertools
 import math
 import re
@@ -580,16 +582,38 @@ class GentleConfig(MultimodeConfig):
         slide up the object meanwhile; the probe lasts ln(grip / floor) / growth rate (one to
         three seconds from milli-newtons to tens of newtons), so they slide a millimetre or two,
         well inside the 7.5 mm element under the contact.
+    closing_speed_m_s : the fingers' closing speed away from the object, m/s: 0.05, the middle of
+        common parallel grippers' 20-150 mm/s (the multimode controller's 0.02 closes at its
+        slowest all the way).  Within the camera's band (``touch_band_sigmas``, and everywhere
+        without a camera) the fingers close at the touch speed instead, which the touch's bound
+        sets (cosim/control/gentle.py, ``touch_speed_m_s``: 1.4 mm/s with the defaults).
+    touch_force_n : the touch's bound, N per finger: the most the fingers may press the object
+        with before they have stopped on it (cosim/control/gentle.py, ``touch_speed_m_s``:
+        the closing speed within the camera's band is set so that the force the loop adds while
+        it reacts stays within it).  None: TOUCH_FLOORS = 3 grip floors (18.5 mN with the
+        default fingertip): the touch may add twice the gentlest grip the fingertip measures to
+        the floor it is detected at, what the probe's grip reaches five growth steps (0.3 s)
+        after the squeeze anyway (1.25^5 = 3.05).  At least the grip floor (what the fingertip
+        resolves: the touch is detected there), checked where the floor is known.
+    touch_band_sigmas : how many of the camera's sigmas (``perception.width_sigma_m``) wider
+        than its width the fingers slow to their touch speed, -: 3 (a Gaussian error past 3
+        sigma comes once in 740 objects).
     """
 
     kind: str = "gentle"
+    closing_speed_m_s: float = 0.05
     friction_max: float = 1.5
     probe_speed_m_s: float = 0.001
+    touch_force_n: float | None = None
+    touch_band_sigmas: float = 3.0
 
     def validate(self) -> None:
         super().validate()
         _positive("controller.friction_max", self.friction_max)
         _positive("controller.probe_speed_m_s", self.probe_speed_m_s)
+        if self.touch_force_n is not None:
+            _positive("controller.touch_force_n", self.touch_force_n)
+        _positive("controller.touch_band_sigmas", self.touch_band_sigmas)
 
 
 @dataclass(frozen=True)
@@ -695,6 +719,62 @@ class DisturbConfig(_CheckedOnConstruction):
         return float(weight_n) if self.extra_load_n is None else float(self.extra_load_n)
 
 
+#: The widest camera width uncertainty a scenario may state, m: half the house gripper's 90 mm
+#: stroke (a prior that uncertain says nothing the stroke does not).
+MAX_WIDTH_SIGMA_M = 0.045
+
+
+@dataclass(frozen=True)
+class PerceptionConfig(_CheckedOnConstruction):
+    """What the robot's camera tells the controller before the touch: the object's width across
+    the fingers, with its stated uncertainty (a perception prior, as a robot that looked before
+    it reached has).  The gentle controller closes fast until the fingers are
+    ``controller.touch_band_sigmas`` sigmas wide of the width, and at its touch speed from there
+    on (cosim/control/gentle.py); the multimode and scripted controllers do not read it.
+
+    Attributes
+    ----------
+    width_sigma_m : the camera's stated 1-sigma uncertainty of the width, m: 0.001.  A wrist
+        RGB-D camera 0.3-0.5 m from the object resolves an edge to about a pixel (0.5-1 mm) and
+        measures depth to 1-2 mm (Intel RealSense D435 datasheet: under 2 % of the range); the
+        width across the fingers is an edge-to-edge measurement.  None: no camera, no prior:
+        the gentle controller closes at its touch speed from the open fingers (slow: its
+        touch bound then costs the whole stroke's time).  0: an exact width.
+    width_m : the width the camera reports, m; None: the camera's own reading of the scene's
+        object, its true width (``object.size_m``) plus a Gaussian error of ``width_sigma_m``
+        drawn from ``seed`` (a camera is off by about its stated sigma, never by nothing).
+        A number: the camera reported that (e.g. a wrong prior, to see the touch it costs).
+    seed : the seed of the camera's error, an integer in 0..2**63-1.
+    """
+
+    width_sigma_m: float | None = 0.001
+    width_m: float | None = None
+    seed: int = 0
+
+    def validate(self) -> None:
+        sigma = self.width_sigma_m
+        if sigma is not None and not (_is_number(sigma) and 0.0 <= sigma <= MAX_WIDTH_SIGMA_M):
+            raise ValueError(
+                f"perception.width_sigma_m must be None (no camera) or a width uncertainty within 0-{MAX_WIDTH_SIGMA_M:g} m, "
+                f"got {_short(sigma)}"
+            )
+        if self.width_m is not None:
+            _positive("perception.width_m", self.width_m)
+        _seed("perception.seed", self.seed)
+
+    def width_prior_m(self, true_width_m: float) -> tuple[float, float] | None:
+        """(the width the camera reports, its sigma), m, for an object ``true_width_m`` wide, or
+        None without a camera (the class docstring)."""
+        if self.width_sigma_m is None:
+            return None
+        if self.width_m is not None:
+            return float(self.width_m), float(self.width_sigma_m)
+        import numpy as np
+
+        error_m = float(np.random.default_rng(self.seed).standard_normal()) * self.width_sigma_m
+        return float(true_width_m) + error_m, float(self.width_sigma_m)
+
+
 def _names_once(key: str, names) -> None:
     """A non-empty list of names, each once; a list written unquoted (``[a, b]``, which reads as
     one name) gets the quoting it needs."""
@@ -721,6 +801,8 @@ class ScenarioConfig:
         (:mod:`piezotip.controllers`), the gentle controller's by default (GentleConfig).
     gripper : the gripper on the lift (:class:`GripperConfig`): the house's by default.
     disturb : a load change while the object is held (:class:`DisturbConfig`): none by default.
+    perception : what a camera tells the controller of the object before the touch
+        (:class:`PerceptionConfig`): its width, within 1 mm, by default.
     """
 
     name: str
@@ -732,6 +814,7 @@ class ScenarioConfig:
     controller: ControllerConfig = field(default_factory=GentleConfig)
     gripper: GripperConfig = field(default_factory=GripperConfig)
     disturb: DisturbConfig = field(default_factory=DisturbConfig)
+    perception: PerceptionConfig = field(default_factory=PerceptionConfig)
 
     def validate(self) -> ScenarioConfig:
         """Check every value, then the ranges that depend on several; return self so it chains."""
@@ -742,7 +825,7 @@ class ScenarioConfig:
                 f"controller.kind {self.controller.kind!r} takes a {registration.config.__name__}, got a "
                 f"{type(self.controller).__name__} (piezotip.controllers.configure builds the one a kind takes)"
             )
-        for part in (self.object, self.physics, self.sensor, self.controller, self.gripper, self.disturb):
+        for part in (self.object, self.physics, self.sensor, self.controller, self.gripper, self.disturb, self.perception):
             part.validate()
         steps = self.duration_s / self.physics.control_period_s
         longest = MAX_RECORDED_STEPS * self.physics.control_period_s
@@ -1064,18 +1147,64 @@ def with_overrides(config: ScenarioConfig, assignments: list[str]) -> ScenarioCo
     return config.validate()
 
 
-def unknown_key_message(config: ScenarioConfig, key: str) -> str:
-    """Why ``key`` is not one of ``config``'s: the valid keys; for a ``controller.*`` key, the
-    chosen controller's keys, and which registered controllers have it."""
-    head, _, name = key.partition(".")
-    if head != "controller" or not name or "." in name:
-        return f"unknown key {_short(key)}; valid keys: {', '.join(valid_keys(config))}"
-    from piezotip import controllers
+#: An unknown key's error lists the keys of its part (``object.*``, ...) when there are at most
+#: this many: a list a reader scans at a glance.  A longer one (a controller's 30-odd) is left
+#: to its dataclass's docstring, which the error names: one line of every key (1,629 characters
+#: for a mistyped controller key) is read by no one.
+MAX_LISTED_KEYS = 12
+#: How close a valid key's last part must come to the unknown one's to be suggested (difflib's
+#: ratio: 0.6 takes "mas" for "mass_kg"), and how far behind the best a second may be.
+CLOSE_KEY_RATIO, CLOSE_KEY_SPREAD = 0.6, 0.1
 
-    c = config.controller
-    owners = [kind for kind in controllers.names() if name in {f.name for f in dataclasses.fields(controllers.get(kind).config)}]
-    elsewhere = f" (the {', '.join(owners)} controller{'s have' if len(owners) > 1 else ' has'} it)" if owners else ""
+
+def close_keys(key: str, keys: list[str], n: int = 3) -> list[str]:
+    """Up to ``n`` of ``keys`` that ``key`` may have meant, best first: those whose last part is
+    closest to its last part (a typo in the name, or the right name under the wrong part:
+    ``sensor.mass_kg`` is ``object.mass_kg``), those in the key's own part first."""
+    leaf = key.rpartition(".")[2]
+    by_leaf: dict[str, list[str]] = {}
+    for k in keys:
+        by_leaf.setdefault(k.rpartition(".")[2], []).append(k)
+    scored = [(difflib.SequenceMatcher(None, leaf, name).ratio(), name) for name in by_leaf]
+    best = max((score for score, _ in scored), default=0.0)
+    names = [name for score, name in sorted(scored, key=lambda sn: -sn[0]) if score >= max(CLOSE_KEY_RATIO, best - CLOSE_KEY_SPREAD)]
+    head = key.partition(".")[0] + "."
+    found = sorted((k for name in names for k in by_leaf[name]), key=lambda k: not k.startswith(head))  # stable: by score within
+    return found[:n]
+
+
+def unknown_key_message(config: ScenarioConfig, key: str) -> str:
+    """Why ``key`` is not one of ``config``'s, in one short line: the keys it may have meant
+    (:func:`close_keys`), the keys of its part when they are few (:data:`MAX_LISTED_KEYS`), and
+    the dataclass whose docstring lists them all with their units and ranges.  For a
+    ``controller.*`` key: the chosen controller's keys, and which registered controllers have it."""
+    head, _, name = key.partition(".")
+    suggestions = close_keys(key, valid_keys(config))
+    meant = f" (did you mean {' or '.join(suggestions)}?)" if suggestions else ""
+
+    def listed(what: str, keys: list[str], doc: str) -> str:
+        # the keys themselves when few, else how many and where they are documented
+        if len(keys) <= MAX_LISTED_KEYS:
+            return f"; {what}: {', '.join(keys)} (their units and ranges: {doc}'s docstring in scenarios/config.py)"
+        return f"; {what} ({len(keys)}), their units and ranges: {doc}'s docstring in scenarios/config.py"
+
+    if head == "controller" and name and "." not in name:
+        from piezotip import controllers
+
+        c = config.controller
+        owners = [kind for kind in controllers.names() if name in {f.name for f in dataclasses.fields(controllers.get(kind).config)}]
+        elsewhere = f" (the {', '.join(owners)} controller{'s have' if len(owners) > 1 else ' has'} it)" if owners else ""
+        own = [f"controller.{k}" for k in valid_keys(c)]
+        kind = type(c).__name__
+        return f"unknown key {_short(key)} for the {c.kind} controller ({kind}){elsewhere}{meant}{listed('its valid keys', own, kind)}"
+    part = getattr(config, head, None) if head in {f.name for f in dataclasses.fields(config)} else None
+    if dataclasses.is_dataclass(part):
+        own = [f"{head}.{k}" for k in valid_keys(part)]
+        return f"unknown key {_short(key)}{meant}{listed(f'the {head} keys', own, type(part).__name__)}"
+    fields = dataclasses.fields(config)
+    plain = [f.name for f in fields if not dataclasses.is_dataclass(getattr(config, f.name))]
+    parts = [f"{f.name}.*" for f in fields if dataclasses.is_dataclass(getattr(config, f.name))]
     return (
-        f"unknown key {_short(key)} for the {c.kind} controller ({type(c).__name__}){elsewhere}; "
-        f"its valid keys: {', '.join(f'controller.{k}' for k in valid_keys(c))}"
+        f"unknown key {_short(key)}{meant}; a key is one of {', '.join(plain)} or in {', '.join(parts)} "
+        f"(every key with its unit and range: the docstrings of {type(config).__name__} and its parts in scenarios/config.py)"
     )

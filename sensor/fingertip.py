@@ -31,6 +31,26 @@ _GRID_DECADES = (-4.0, 6.5)
 _GRID_POINTS = 421
 
 
+def range_within_model(p_min_pa: float, p_max_pa: float, model_limit_pa: float) -> dict:
+    """The range a fingertip measures within its model, as the range report's keys.
+
+    ``p_max_within_model_pa``: P_max, capped at where the model ends (``model_limit_pa``,
+    :meth:`Fingertip.model_limit`); ``dynamic_range``: that over P_min; and
+    ``dynamic_range_beyond_model``: P_max / P_min, the resolution criterion's figure alone, whose
+    top may lie past the backstop or the gel's valid strain (4.6x past the backstop with the gel
+    over the whole beam).  NaN where a limit is missing (no P_max, or no P_min: infinite), and
+    ``dynamic_range`` NaN too where P_min itself lies past the model's end (a strip of gel at
+    the clamp: nothing it detects is within the model).
+    """
+    top = math.nan if math.isnan(p_max_pa) else min(p_max_pa, model_limit_pa)
+
+    def over_p_min(p: float) -> float:
+        return p / p_min_pa if math.isfinite(p_min_pa) else math.nan
+
+    within = over_p_min(top) if top > p_min_pa else math.nan
+    return {"p_max_within_model_pa": top, "dynamic_range": within, "dynamic_range_beyond_model": over_p_min(p_max_pa)}
+
+
 class Fingertip:
     """A fingertip that turns pressure (Pa) into normalized outputs V_1 per mode, and back.
 
@@ -239,16 +259,21 @@ class Fingertip:
     def dynamic_range(self) -> dict:
         """The sensor's range as a JSON-ready dict (physics.md section 5 definitions).
 
-        Keys: ``p_min_pa``, ``p_max_pa``, ``dynamic_range``, ``modes`` (per mode: ``mode``,
-        ``freq_hz``, ``p_min_pa``, ``p_max_pa``, ``sigma_v1``), ``switch_pressures_pa``, and
-        ``mode_bands`` (``mode``, ``from_pa``, ``to_pa``), ``coverage_m``,
-        ``rated_pressure_pa``, ``backstop_pressure_pa``.  Pressures in Pa, frequencies in Hz.
+        Keys: ``p_min_pa``, ``p_max_pa`` (the resolution limits, P_max up to the rating, which
+        may lie past the model's end), the range within the model (:func:`range_within_model`:
+        ``p_max_within_model_pa``, ``dynamic_range``, ``dynamic_range_beyond_model``),
+        ``modes`` (per mode: ``mode``, ``freq_hz``, ``p_min_pa``, ``p_max_pa``, ``sigma_v1``),
+        ``switch_pressures_pa``, and ``mode_bands`` (``mode``, ``from_pa``, ``to_pa``),
+        ``coverage_m``, ``rated_pressure_pa``, ``backstop_pressure_pa``, and where the model
+        ends (:meth:`model_limit`): ``gel_valid_pressure_pa``, ``model_limit_pa`` and
+        ``model_limit`` ("backstop" or "gel_strain").  Pressures in Pa, frequencies in Hz.
         """
         p_min, p_max = self.sensor_limits()
+        limit_pa, limit = self.model_limit()
         return {
             "p_min_pa": p_min,
             "p_max_pa": p_max,
-            "dynamic_range": p_max / p_min,
+            **range_within_model(p_min, p_max, limit_pa),
             "modes": [
                 {
                     "mode": m,
@@ -264,6 +289,9 @@ class Fingertip:
             "coverage_m": list(self.coverage),
             "rated_pressure_pa": self.rated_pressure_pa,
             "backstop_pressure_pa": self.backstop_pressure_pa(),
+            "gel_valid_pressure_pa": self.gel.params.max_valid_pressure_pa,
+            "model_limit_pa": limit_pa,
+            "model_limit": limit,
         }
 
     def backstop_pressure_pa(self) -> float | None:
@@ -272,6 +300,19 @@ class Fingertip:
             return None
         per_pa = float(self.stress(1.0).max_deflection_m)
         return self.mounting.backstop_gap_m / per_pa
+
+    def model_limit(self) -> tuple[float, str]:
+        """(pressure in Pa, why) where the model ends: the lower of the backstop pressure
+        ("backstop": above it a backed element rests on its stop, and its vibration is no longer
+        the free beam's) and the gel's valid-strain pressure ("gel_strain": above it no simple
+        hyperelastic law describes the layer, :attr:`GelParams.max_valid_pressure_pa`).  The
+        outputs above it are still computed, but nothing there is a measurement the model
+        vouches for."""
+        gel_pa = self.gel.params.max_valid_pressure_pa
+        backstop_pa = self.backstop_pressure_pa()
+        if backstop_pa is not None and backstop_pa <= gel_pa:
+            return backstop_pa, "backstop"
+        return gel_pa, "gel_strain"
 
     # -- the inverse -----------------------------------------------------------------
 

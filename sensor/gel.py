@@ -126,6 +126,14 @@ class GelParams:
         """lambda_lim < 1 at which Gent's compression law locks (lambda^2 + 2/lambda - 3 = J_m)."""
         return _locking_stretch(float(self.gent_jm))
 
+    @property
+    def max_valid_pressure_pa(self) -> float:
+        """The pressure that compresses the gel to ``max_valid_strain``, Pa: Gent's law at
+        lambda = 1 - max_valid_strain (37.3 kPa with the defaults).  Above it the law is outside
+        its range (:attr:`GelState.beyond_valid_strain`), so the model ends there
+        whatever the element does."""
+        return float(gent_pressure_pa(1.0 - self.max_valid_strain, self))
+
 
 LAYERS = ("winkler", "dynamic")
 

@@ -51,6 +51,19 @@ def test_bad_input_is_one_line_naming_the_value(capsys, argv, words):
     fails_with(capsys, argv, *words)
 
 
+@pytest.mark.parametrize(
+    ("assignment", "words"),
+    [
+        ("bogus.key=1", ["unknown key 'bogus.key'", "object.*", "scenarios/config.py"]),
+        ("controller.grip_safty=1.3", ["unknown key 'controller.grip_safty'", "did you mean controller.grip_safety?", "GentleConfig"]),
+    ],
+)
+def test_an_unknown_key_is_one_short_line_saying_what_was_meant(capsys, assignment, words):
+    """Issue 44, item 10: one line of 942 (1,629 for a controller key) characters, no guess."""
+    err = fails_with(capsys, ["run", "grasp", "--set", assignment], *words)
+    assert len(err) < 300, (len(err), err)
+
+
 def test_an_out_path_that_is_a_file_or_cannot_be_written_is_refused(capsys, tmp_path):
     existing = tmp_path / "run.txt"
     existing.write_text("keep me\n")

@@ -19,6 +19,12 @@ KEYS = {
     "coverage_m",
     "rated_pressure_pa",
     "backstop_pressure_pa",
+    # where the model ends, and the range within it (issue 44, item 10)
+    "p_max_within_model_pa",
+    "dynamic_range_beyond_model",
+    "gel_valid_pressure_pa",
+    "model_limit_pa",
+    "model_limit",
 }
 MODE_KEYS = {"mode", "freq_hz", "p_min_pa", "p_max_pa", "sigma_v1"}
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
@@ -53,9 +59,38 @@ def test_range_json_has_exact_keys_and_consistent_values(whole_report):
     assert r["coverage_m"] == [0.0, 7.5e-3]
     assert r["p_min_pa"] == min(m["p_min_pa"] for m in r["modes"])
     assert r["p_max_pa"] == max(m["p_max_pa"] for m in r["modes"])
-    assert_allclose(r["dynamic_range"], r["p_max_pa"] / r["p_min_pa"], rtol=1e-15)
+    assert_allclose(r["dynamic_range_beyond_model"], r["p_max_pa"] / r["p_min_pa"], rtol=1e-15)
+    assert_allclose(r["dynamic_range"], r["p_max_within_model_pa"] / r["p_min_pa"], rtol=1e-15)
     assert r["switch_pressures_pa"] == sorted(r["switch_pressures_pa"])
     assert r["dynamic_range"] >= 1e4  # the paper's calibration target (physics.md section 4)
+
+
+@pytest.mark.parametrize("coverage", [(), ("--coverage", "6.5", "7.5")])
+def test_the_dynamic_range_stops_where_the_model_does(capsys, coverage):
+    """``dynamic_range`` reported 1.18e5 (whole beam) and 2.15e5 (tip), P_max / P_min, whose tops
+    lie 4.6x past the backstop listed beside them and 6.1x: the range is now the one the model
+    vouches for, up to the backstop or the gel's valid strain, and P_max / P_min is named for
+    what it is."""
+    assert run_sim.main(["range", "--json", *coverage]) == 0
+    r = _strict(capsys.readouterr().out)
+    ends = {"backstop": r["backstop_pressure_pa"], "gel_strain": r["gel_valid_pressure_pa"]}
+    assert r["model_limit_pa"] == min(ends.values()) and ends[r["model_limit"]] == r["model_limit_pa"]
+    assert r["p_max_within_model_pa"] == min(r["p_max_pa"], r["model_limit_pa"])
+    top = r["dynamic_range"] * r["p_min_pa"]  # the range's top
+    assert top <= r["backstop_pressure_pa"] * (1 + 1e-12) and top <= r["gel_valid_pressure_pa"] * (1 + 1e-12)
+    assert r["dynamic_range_beyond_model"] > 4 * r["dynamic_range"]  # P_max lies far past the model's end
+    # The gel's law is outside its range above its valid-strain pressure, not below it.
+    from piezotip.sensor import GelModel
+
+    strain = GelModel().state([0.999 * r["gel_valid_pressure_pa"], 1.001 * r["gel_valid_pressure_pa"]]).beyond_valid_strain
+    assert strain.tolist() == [False, True]
+
+
+def test_the_table_gives_the_range_within_the_model_and_names_the_other(capsys):
+    assert run_sim.main(["range"]) == 0
+    text = capsys.readouterr().out
+    assert "dynamic range within the model 2.55e+04" in text and "the element's backstop ends the model" in text
+    assert "past the model's end, 1.18e+05" in text
 
 
 def test_range_json_via_capsys(capsys):

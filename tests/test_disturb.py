@@ -5,7 +5,6 @@ referee's ``disturb_*``) and the referee's touch in every output (item 5: ``touc
 The synthetic-record tests of the referee's numbers are in tests/test_referee.py; here the
 loop's schedule against hand-computed numbers, the keys' checks, and whole runs."""
 
-import csv
 import itertools
 import json
 import math
@@ -16,6 +15,7 @@ import pytest
 import piezotip
 from piezotip import cli, scenarios
 from piezotip.analysis.referee import disturb_onset_s
+from piezotip.analysis.sweep_output import read_csv_rows
 from piezotip.cosim.disturb import onset_s, ramp_share
 from piezotip.cosim.loop import CoSimulation
 from piezotip.scenarios.config import MAX_EXTRA_LOAD_N, valid_keys
@@ -284,14 +284,13 @@ def test_the_sweeps_csv_and_parquet_carry_the_columns(tmp_path, capsys):
     argv = ["sweep", "grasp-disturb", "--grid", "disturb.extra_load_n=0,None", "--set", "controller.kind=multimode"]
     assert cli.main([*argv, "--preset", "fast", "--workers", "0", "--no-plot", "--out", str(out), "--json"]) == 0
     capsys.readouterr()
-    with (out / "sweep.csv").open() as fh:
-        reader = csv.DictReader(fh)
-        header, rows = reader.fieldnames, list(reader)
+    rows = read_csv_rows(out / "sweep.csv")  # its "# " header lines skipped
+    header = list(rows[0])
     table = pq.read_table(out / "sweep.parquet")
     for column in (*TOUCH_KEYS, *DISTURB_KEYS):
         assert column in header and column in table.column_names
     quiet, loaded = table.to_pylist()  # extra_load_n 0 (none), then None (the box's weight)
-    assert math.isnan(quiet["disturb_needed_grip_n"]) and rows[0]["disturb_needed_grip_n"] == "nan"
+    assert quiet["disturb_needed_grip_n"] is None and rows[0]["disturb_needed_grip_n"] == "nan"  # Parquet's null, the CSV's nan
     assert loaded["disturb_needed_grip_n"] == pytest.approx(NEEDED_UNDER_LOAD_N, rel=1e-9)
     assert loaded["disturb_slip_mm"] < GOAL_SLIP_MM and loaded["disturb_reaction_ms"] > 0
     assert quiet["touch_peak_n"] == loaded["touch_peak_n"] > 0  # the same grasp up to the hold
@@ -306,8 +305,7 @@ def test_the_grasp_range_table_shows_the_touch_per_object(tmp_path):
     result = experiment.run_experiment("fast", objects=(box,), controllers=(gentle,), workers=0, progress=False)
     (row,) = result.rows
     files = experiment.write_outputs(result.rows, tmp_path, plot=False)
-    with files[0].open() as fh:
-        assert tuple(next(csv.reader(fh))) == experiment.COLUMNS
+    assert tuple(read_csv_rows(files[0])[0]) == experiment.COLUMNS
     assert set(TOUCH_KEYS) <= set(experiment.COLUMNS)
     units = json.loads(files[1].read_text())["units"]
     assert units["touch_peak_n"].startswith("N") and units["time_to_touch_s"].startswith("s")

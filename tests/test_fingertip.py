@@ -147,6 +147,11 @@ DOCUMENTED_KEYS = {
     "coverage_m",
     "rated_pressure_pa",
     "backstop_pressure_pa",
+    "p_max_within_model_pa",
+    "dynamic_range_beyond_model",
+    "gel_valid_pressure_pa",
+    "model_limit_pa",
+    "model_limit",
 }
 
 
@@ -163,12 +168,36 @@ def test_dynamic_range_report_structure_and_consistency(any_tip):
         assert m["p_min_pa"] < m["p_max_pa"]
     assert report["p_min_pa"] == min(m["p_min_pa"] for m in report["modes"])
     assert report["p_max_pa"] == max(m["p_max_pa"] for m in report["modes"])
-    assert_allclose(report["dynamic_range"], report["p_max_pa"] / report["p_min_pa"], rtol=1e-15)
+    assert_allclose(report["dynamic_range_beyond_model"], report["p_max_pa"] / report["p_min_pa"], rtol=1e-15)
+    top = min(report["p_max_pa"], report["model_limit_pa"])  # the range within the model stops where the model does
+    assert report["p_max_within_model_pa"] == top
+    assert_allclose(report["dynamic_range"], top / report["p_min_pa"], rtol=1e-15)
     assert_allclose(report["coverage_m"], any_tip.coverage, rtol=0)
     sw = report["switch_pressures_pa"]
     assert sw == sorted(sw) and len(sw) == len(report["mode_bands"]) - 1
     assert report["mode_bands"][0]["from_pa"] == report["p_min_pa"]
     assert report["mode_bands"][-1]["to_pa"] == report["p_max_pa"]
+
+
+def test_the_model_ends_at_the_lower_of_the_backstop_and_the_gels_valid_strain(whole, tip_only):
+    from piezotip.sensor import Mounting
+
+    gel_pa = whole.gel.params.max_valid_pressure_pa
+    assert_allclose(gel_pa, 37333.33, rtol=1e-6)  # Gent at 50 % strain, the default gel
+    assert whole.model_limit() == (whole.backstop_pressure_pa(), "backstop")  # 23.8 kPa: the beam's stop first
+    assert tip_only.model_limit() == (gel_pa, "gel_strain")  # the tip's stop is at 74.5 kPa
+    free = Fingertip(coverage=whole.coverage, mounting=Mounting(kind="free-span"))
+    assert free.model_limit() == (gel_pa, "gel_strain") and free.dynamic_range()["backstop_pressure_pa"] is None
+
+
+def test_the_range_within_the_model_is_capped_where_the_model_ends():
+    from piezotip.sensor.fingertip import range_within_model
+
+    r = range_within_model(1.0, 1e5, 2e4)  # P_max past the model's end: the range stops there
+    assert r == {"p_max_within_model_pa": 2e4, "dynamic_range": 2e4, "dynamic_range_beyond_model": 1e5}
+    assert range_within_model(1.0, 1e3, 2e4)["dynamic_range"] == 1e3  # P_max within it: the same figure
+    assert math.isnan(range_within_model(3e4, 1e5, 2e4)["dynamic_range"])  # P_min past it: none within the model
+    assert all(math.isnan(v) for v in range_within_model(math.inf, math.nan, 2e4).values())
 
 
 def test_frequencies_are_the_cantilever_modes(whole):

@@ -9,6 +9,7 @@ import pytest
 from piezotip import scenarios
 from piezotip.cosim.control import ModeSelector, TouchDetector
 from piezotip.cosim.loop import make_fingertip
+from piezotip.cosim.rows import STATUS_CODES
 from piezotip.sensor.channel import SensorChannel
 
 DT = 0.005
@@ -194,8 +195,11 @@ def test_heavy_object_held_without_losing_the_estimate(tmp_path):
     summary, data = grasp(tmp_path, "grasp-10kg")
     hold = data["phase"] == 4.0
     assert hold.sum() > 100
+    outside = float(STATUS_CODES.index("outside_model"))
     for side in ("left", "right"):
-        ok = data[f"{side}_status"][hold] == 0.0
+        # Hundreds of kPa: past where the model holds (the gel's valid strain), so recorded
+        # "outside_model" though the readout itself reads on ("ok"), its estimate kept.
+        ok = data[f"{side}_status"][hold] == outside
         assert ok.mean() > 0.95
         est, true = data[f"{side}_estimate_pa"][hold][ok], data[f"{side}_true_pressure_pa"][hold][ok]
         assert np.median(np.abs(est / true - 1)) < 0.05
@@ -273,10 +277,11 @@ def test_the_settling_remainder_is_the_geometric_tail_of_shrinking_rises():
 
 def test_the_joints_feel_a_contact_as_a_rise_of_the_closing_drive_over_the_grip_floor():
     """The drive's force at pace is learned once steady; a rise over it by more than the grip
-    floor is a contact felt by the joints, a smaller one (or any while speeding up) is not."""
+    floor is a contact felt by the joints, a smaller one (or any while speeding up) is not (the
+    multimode controller's; the gentle one learns it over a plateau window, test_gentle_touch.py)."""
     from piezotip.cosim.loop import CoSimulation
 
-    c = CoSimulation(scenarios.get("grasp")).controller
+    c = CoSimulation(scenarios.get("grasp", {"controller.kind": "multimode"})).controller
     floor, pace = c.grip_floor_n, c.cfg.closing_speed_m_s
     c._finger_speed = 0.5 * pace  # speeding up: the drive's force climbs, and says nothing
     assert not any(c._joint_touch(0.1 * k) for k in range(5))

@@ -143,6 +143,32 @@ def test_progress_bar_of_an_interrupted_run_stays_partial(monkeypatch, tmp_path)
     assert bar.total > bar.n
 
 
+def test_the_true_pressure_drawn_is_what_the_sensing_patch_feels(recorded):
+    """On a round object the pad's mean over the element is not what the sensor feels (an egg:
+    1.25x, a 50 mm ball 1.47x, the 30 mm paper ball 1.82x the coverage's mean while held), yet it
+    was drawn as the truth beside estimates of the coverage's pressure: the truth line is now the
+    coverage's."""
+    config, tip, data = recorded
+    data = dict(data)
+    n = data["time_s"].size
+    for side in config.sensor.pads:
+        data[f"{side}_true_pressure_pa"] = np.full(n, 1800.0)  # the pad's mean, not sensed
+        data[f"{side}_coverage_pressure_pa"] = np.full(n, 1000.0)  # what the readout's input is
+    ax_p = _axes(run_report.run_figure(config, tip, data, REPORT), "pressure on element")
+    for side in config.sensor.pads:
+        truth = [ln for ln in ax_p.lines if ln.get_label().startswith(f"{side}: true")]
+        assert [ln.get_label() for ln in truth] == [f"{side}: true, felt by the sensing patch"]
+        np.testing.assert_array_equal(truth[0].get_ydata(), 1000.0)
+        pad = next(ln for ln in ax_p.lines if ln.get_label().startswith(f"{side}: pad's mean"))
+        assert "not sensed" in pad.get_label() and pad.get_linewidth() < truth[0].get_linewidth()
+        np.testing.assert_array_equal(pad.get_ydata(), 1800.0)
+    # a record from before the coverage column: the pad's mean, the one truth there is
+    old = {k: v for k, v in data.items() if not k.endswith("_coverage_pressure_pa")}
+    ax_p = _axes(run_report.run_figure(config, tip, old, REPORT), "pressure on element")
+    np.testing.assert_array_equal(next(ln for ln in ax_p.lines if ln.get_label().startswith("left: true")).get_ydata(), 1800.0)
+    assert not any("pad's mean" in ln.get_label() for ln in ax_p.lines)
+
+
 def _rows():
     """An experiment's rows: three objects by three controllers, one run never carried its object."""
     rows = []
@@ -198,11 +224,23 @@ def test_experiment_grip_margin_is_grouped_bars_per_object():
     assert any(ax.get_title().startswith("referee's outcome") for ax in fig.axes)
 
 
+def test_experiment_plot_draws_the_controllers_aim_from_its_config_and_the_bound_as_a_bound():
+    """The figure drew "1.5: the target" where the default controller aims at its grip_safety
+    (1.25; it holds at 1.2-1.4x): the aim is now read from the controller's config, and 1.5 is
+    labelled as the bound it is."""
+    safety = scenarios.get("grasp").controller.grip_safety
+    for aim, level in ((None, safety), (experiment.ControllerAim("gentle", 1.4), 1.4)):
+        ax = _axes(experiment.experiment_figure(_rows(), aim), "grip margin")
+        levels = {float(ln.get_ydata()[0]): ln.get_label() for ln in ax.lines if np.ptp(np.asarray(ln.get_ydata(), float)) == 0}
+        assert "aim" in levels[level] and "controller.grip_safety" in levels[level], levels
+        assert "bound" in levels[1.5] and "target" not in levels[1.5]
+        assert not any("target" in label for label in levels.values())
+    assert experiment.controller_aim(scenarios.get("grasp", ["controller.grip_safety=1.3"]).controller).margin == 1.3
+    assert experiment.controller_aim(scenarios.get("grasp", ["controller.kind=scripted"]).controller) is None
+
+
 def test_experiment_plot_is_written(tmp_path):
-    rows = [
-        {c: r.get(c, "") for c in experiment.COLUMNS} | {"touch_latency_s": 0.01, "touch_sense": "fingertip"}
-        for r in _rows()
-    ]
+    rows = [{c: r.get(c, "") for c in experiment.COLUMNS} | {"touch_latency_s": 0.01, "touch_sense": "fingertip"} for r in _rows()]
     files = experiment.write_outputs(rows, tmp_path)
     assert (tmp_path / "grasp_range.png") in files and (tmp_path / "grasp_range.png").stat().st_size > 10_000
 

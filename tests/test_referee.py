@@ -78,6 +78,32 @@ def test_an_object_left_on_the_table_never_lifted():
     assert "rose 0.0 mm" in v.reason and "the pads slide" in v.reason
 
 
+def _untouched_record() -> dict[str, np.ndarray]:
+    """The fingers still closing when the record ends: the object never touched, never moved."""
+    d = clean_record()
+    for key in ("left_finger_force_n", "right_finger_force_n", "object_vz_m_s", "object_speed_m_s"):
+        d[key][:] = 0.0
+    d["object_height_m"][:] = Z0
+    d["table_force_n"][:] = WEIGHT
+    return d
+
+
+def test_time_running_out_before_any_touch_is_a_timeout_not_never_lifted():
+    """`run grasp --set duration_s=1`: the fingers were still closing when the time ran out.
+    Nothing was tried on the object, so it did not fail to lift it: the outcome was
+    `never_lifted` ("rose 0.0 mm of the 50 mm asked")."""
+    v = verdict(_untouched_record(), finished=False)
+    assert v.outcome == "timeout", v.reason
+    assert "before the fingers touched the object" in v.reason and "6.00 s" in v.reason
+    # A controller that gave up without touching (finished) did fail to lift: never_lifted.
+    gave_up = verdict(_untouched_record(), events=[{"kind": "no_object", "message": "nothing between the fingers", "time_s": 2.0}])
+    assert gave_up.outcome == "never_lifted" and "nothing between the fingers" in gave_up.reason
+    # Touched and not lifted when the time ran out: never_lifted, as before.
+    d = _untouched_record()
+    d["left_finger_force_n"][100:] = d["right_finger_force_n"][100:] = 0.5
+    assert verdict(d, finished=False).outcome == "never_lifted"
+
+
 def test_a_grip_over_the_crush_limit_is_crushed_even_when_the_rest_went_well():
     v = verdict(clean_record(), crush_force_n=0.9)
     assert v.outcome == "crushed" and v.crushed

@@ -1,6 +1,5 @@
 """Sweeps on Dask: grid parsing, parallel rows equal serial ones, resume, errors, the files."""
 
-import csv
 import json
 import math
 import os
@@ -14,6 +13,7 @@ from piezotip.analysis import sweep as sweep_module
 from piezotip.analysis import sweep_cluster
 from piezotip.analysis.sweep import run_points
 from piezotip.analysis.sweep_grid import grid_points, parse_grid, split_values
+from piezotip.analysis.sweep_output import read_csv_rows
 from piezotip.analysis.sweep_rows import ERROR_OUTCOME, RESULT_COLUMNS, error_row
 
 #: A short, cheap scenario: the fast preset, the grasp cut at 3 s (touch, squeeze, lift begins).
@@ -139,9 +139,8 @@ def test_the_command_writes_csv_parquet_plot_and_json(tmp_path, capsys):
     assert cli.main([*argv, "--workers", "0", "--out", str(out), "--json"]) == 0
     report = json.loads(capsys.readouterr().out)
     assert report["points"] == 2 and report["skipped_done"] == 0
-    with (out / "sweep.csv").open() as fh:
-        reader = csv.DictReader(fh)
-        header, rows = reader.fieldnames, list(reader)
+    rows = read_csv_rows(out / "sweep.csv")  # its "# " header lines skipped
+    header = list(rows[0])
     assert header[: 1 + len(RESULT_COLUMNS)] == ["object.mass_kg", *RESULT_COLUMNS]
     table = pq.read_table(out / "sweep.parquet").to_pylist()
     assert [r["object.mass_kg"] for r in table] == [0.05, 0.2]
@@ -257,8 +256,7 @@ def _sweep_files(out) -> dict:
     paths, the workers used)."""
     import pyarrow.parquet as pq
 
-    with (out / "sweep.csv").open() as fh:
-        table = [{k: v for k, v in r.items() if k != "wall_time_s"} for r in csv.DictReader(fh)]
+    table = [{k: v for k, v in r.items() if k != "wall_time_s"} for r in read_csv_rows(out / "sweep.csv")]
     report = json.loads((out / "sweep.json").read_text())
     journal = [json.loads(line) for line in (out / "points.jsonl").read_text().splitlines()]
     return {

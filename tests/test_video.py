@@ -172,7 +172,8 @@ def _long_strip_data(n: int, seed: int = 1) -> dict[str, np.ndarray]:
     est = p * (1.0 + 0.1 * rng.normal(size=n))
     est[int(0.2 * n) : int(0.25 * n)] = np.nan
     mode = np.round(np.cumsum(rng.normal(0.0, 0.05, n))) % 4 + 1
-    return {"time_s": t, "phase": np.floor(t / (t[-1] / 8)) % 8, "left_true_pressure_pa": p, "left_estimate_pa": est, "left_mode": mode}
+    # The strip draws the sensing patch's truth (the coverage's pressure; the pad's mean in rows made before it).
+    return {"time_s": t, "phase": np.floor(t / (t[-1] / 8)) % 8, "left_coverage_pressure_pa": p, "left_estimate_pa": est, "left_mode": mode}
 
 
 def test_m4_keeps_each_buckets_extremes_ends_and_gaps():
