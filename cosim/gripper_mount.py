@@ -19,7 +19,9 @@ gripper in the house scene: its table, object, options (timestep, integrator, co
    gravity-compensated (the arm holds the gripper's weight, as the house's ``gravcomp``).
 4. The drive (:class:`GripperDrive`) is measured on the mounted model: the actuators are swept
    from open to closed with the object away (the fingers' free closing, :func:`_free_closing`),
-   the actuator lengths, joint positions and the opening between the pads' surfaces recorded.
+   the actuator lengths, joint positions and the opening between the pads' surfaces recorded,
+   starting from the open pose the actuators command (the file's ``qpos0`` may be no pose the
+   gripper can take: closed, or outside its joints' ranges; :func:`reference_qpos`).
    From that path come the command for an opening, the grip each finger feels from the
    actuators' forces, the force limits that cap it, the grip rating and the damping the drive
    must overcome (:class:`~cosim.control.interface.RobotLimits`): nothing typed again.
@@ -27,6 +29,7 @@ gripper in the house scene: its table, object, options (timestep, integrator, co
 A position servo (MuJoCo's ``position``, or a ``general`` actuator with an affine bias: it holds
 the actuator length its command sets) keeps its own gains; a motor is made a position servo
 (:func:`_motor_gains`: as stiff per rated grip as the house's finger servo, critically damped).
+An actuator that cannot be either is refused with the reason (:func:`_drive_kind`).
 """
 
 from __future__ import annotations
@@ -46,7 +49,7 @@ import numpy as np
 from piezotip.scenarios.config import GripperConfig, ScenarioConfig
 from piezotip.sensor.gel import GelParams
 
-from .attach import fingertip_pads
+from .attach import fingertip_pads, open_pose_qpos
 from .control.interface import RobotLimits
 from .pad_geometry import PAD_SIDES, PadGeometry
 from .pad_model import PadPlacement, add_pad_strips, apply_pad_contact, build_model, resolve_pad_contact
@@ -235,6 +238,8 @@ class _Actuator:
     ctrl_range : the commands it takes (the servo's; a motor's, once a servo: its lengths).
     length_per_ctrl : the actuator length a unit of command holds (1 for MuJoCo's position;
         a servo's gains are the file's, in the model).
+    length_offset : the length a command of 0 holds (a servo's bias biasprm[0] over its kp; 0 for
+        MuJoCo's position): a command c holds ``length_offset + length_per_ctrl c``.
     """
 
     name: str
@@ -243,6 +248,7 @@ class _Actuator:
     force_max: float
     ctrl_range: tuple[float, float]
     length_per_ctrl: float
+    length_offset: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -335,6 +341,7 @@ def _parts(key: tuple, given: str, fingertips: tuple[str, ...], actuators: tuple
                 f"(gripper.mjcf {given!r})"
             )
     data = mujoco.MjData(model)
+    data.qpos[:] = reference_qpos(model)
     mujoco.mj_forward(model, data)
     overlapping = _overlapping(model, data, tree, fingers)
     surfaces, normals = zip(*(_pad_frame(data, b, p[2]) for b, p in zip(bodies, pads, strict=True)), strict=True)
@@ -361,6 +368,24 @@ def _parts(key: tuple, given: str, fingertips: tuple[str, ...], actuators: tuple
         tuple((towards / np.linalg.norm(towards)).tolist()),
         tuple(centre.tolist()),
     )
+
+
+def reference_qpos(model: mujoco.MjModel) -> np.ndarray:
+    """The file's reference pose as a pose the gripper can take: ``qpos0`` with every limited
+    hinge and slide clamped into its range (the first step of :func:`cosim.attach.open_pose_qpos`).
+
+    The mount reads the gripper's frames (:class:`GripperParts`: the closing and approach axes,
+    the pads' centre) and the links modelled through each other in this pose, not in the open
+    one: MuJoCo places no pose by solving the file's equality constraints, so a linkage's loops
+    are closed only where its author assembled it, at ``qpos0``.  A file whose ``qpos0`` lies
+    outside its joints' ranges (the ALOHA gripper's fingers at 0 on rails of 21-57 mm) has no
+    such pose there: its joints come to their nearest ends."""
+    qpos = model.qpos0.copy()
+    for joint in range(model.njnt):
+        if model.jnt_limited[joint] and int(model.jnt_type[joint]) in _ONE_DOF:
+            adr = int(model.jnt_qposadr[joint])
+            qpos[adr] = np.clip(qpos[adr], *model.jnt_range[joint])
+    return qpos
 
 
 def _refuse_free_joints(model: mujoco.MjModel, tree: set[int], given: str) -> None:
@@ -438,29 +463,84 @@ def _actuator(model: mujoco.MjModel, name: str, tree: set[int], given: str) -> _
             raise ValueError(f"gripper.actuators: {name!r} drives joint {model.joint(j).name!r}, not the gripper's {where}")
         if int(model.jnt_type[j]) not in _ONE_DOF:
             raise ValueError(f"gripper.actuators: {name!r} drives joint {model.joint(j).name!r}, neither a hinge nor a slide {where}")
+    kind, reason = _drive_kind(model, a)
+    if kind is None:
+        raise ValueError(f"gripper.actuators: {name!r} cannot close the fingers: {reason} {where}")
     gain, bias = model.actuator_gainprm[a], model.actuator_biasprm[a]
-    plain = model.actuator_dyntype[a] == mujoco.mjtDyn.mjDYN_NONE and model.actuator_gaintype[a] == mujoco.mjtGain.mjGAIN_FIXED
     limited = bool(model.actuator_ctrllimited[a])
-    if plain and model.actuator_biastype[a] == mujoco.mjtBias.mjBIAS_AFFINE and bias[0] == 0 and bias[1] < 0 < gain[0]:
-        # force = g ctrl - kp l - kv l': a servo holding the length g ctrl / kp (position: g = kp).
-        kind, kp, scale = "position", float(-bias[1]), float(gain[0] / -bias[1])
+    if kind == "position":
+        # force = g ctrl + b0 - kp l - kv l': a servo holding the length (g ctrl + b0) / kp
+        # (MuJoCo's position: g = kp, b0 = 0; Menagerie's 0-255 servos: g = kp x stroke / 255).
+        kp, scale, offset = float(-bias[1]), float(gain[0] / -bias[1]), float(bias[0] / -bias[1])
         ctrl = (
-            tuple(float(c) for c in model.actuator_ctrlrange[a]) if limited else tuple(r / scale for r in _length_range(model, a, joints))
+            tuple(float(c) for c in model.actuator_ctrlrange[a])
+            if limited
+            else tuple((r - offset) / scale for r in _length_range(model, a, joints))
         )
         reach = kp * scale * (ctrl[1] - ctrl[0])  # the most it commands: its whole range off target
-    elif plain and model.actuator_biastype[a] == mujoco.mjtBias.mjBIAS_NONE and gain[0] != 0:
-        kind, scale = "motor", 1.0
+    else:
+        scale, offset = 1.0, 0.0
         ctrl = _length_range(model, a, joints)
         reach = float(abs(gain[0]) * min(-model.actuator_ctrlrange[a, 0], model.actuator_ctrlrange[a, 1])) if limited else 0.0
-    else:
-        raise ValueError(f"gripper.actuators: {name!r} is neither a position servo nor a motor (MuJoCo's position or motor) {where}")
     if model.actuator_forcelimited[a]:
         force_max = float(min(-model.actuator_forcerange[a, 0], model.actuator_forcerange[a, 1]))
     else:
         force_max = reach
     if not (math.isfinite(force_max) and force_max > 0):
-        raise ValueError(f"gripper.actuators: {name!r} has no force to close with (its force or command range) {where}")
-    return _Actuator(name, kind, joints, force_max, (min(ctrl), max(ctrl)), scale)
+        unbounded = "a motor with neither a force range nor a command range that bounds its force both ways"
+        why = unbounded if kind == "motor" and not limited else "its force range or command range leaves it no force to close with"
+        raise ValueError(f"gripper.actuators: {name!r} cannot close the fingers: {why} (the grip's rating) {where}")
+    return _Actuator(name, kind, joints, force_max, (min(ctrl), max(ctrl)), scale, offset)
+
+
+#: Activation dynamics a drive can have: none, or a first-order filter of the command (at rest its
+#: activation is the command, so a command still sets a length; the filter's lag is the servo's).
+_DRIVE_DYNAMICS = (int(mujoco.mjtDyn.mjDYN_NONE), int(mujoco.mjtDyn.mjDYN_FILTER), int(mujoco.mjtDyn.mjDYN_FILTEREXACT))
+
+
+def _drive_kind(model: mujoco.MjModel, a: int) -> tuple[str | None, str]:
+    """Whether actuator ``a`` can be the drive, as (``position``, ``motor`` or None, why not).
+
+    The drive commands an opening as the actuator lengths along the free closing and reads the
+    grip from the actuator's force through the path's levers (:class:`GripperDrive`), so an
+    actuator must have, at rest, a force ``g ctrl + b0 - kp l - kv l'`` with fixed g, kp and kv:
+
+    - a position servo (kp > 0: it holds the length ``(g ctrl + b0) / kp``, g > 0 so that a
+      larger command holds a longer length), or a motor (no bias: the mount makes it a servo);
+    - its activation the command at rest: no dynamics, or a filter of the command (not an
+      integrator, whose command is a speed, nor a muscle's or a user's);
+    - a gain and a bias MuJoCo computes from those numbers alone: not a muscle's length-force
+      curves, not a user callback, not a gain that changes with the length or the speed.
+    """
+    dyn, gaintype, biastype = int(model.actuator_dyntype[a]), int(model.actuator_gaintype[a]), int(model.actuator_biastype[a])
+    gain, bias = model.actuator_gainprm[a], model.actuator_biasprm[a]
+    if dyn not in _DRIVE_DYNAMICS:
+        what = mujoco.mjtDyn(dyn).name.removeprefix("mjDYN_").lower()
+        if dyn == mujoco.mjtDyn.mjDYN_INTEGRATOR:
+            return None, "its command is its activation's rate (dyntype integrator), where the drive commands a length"
+        return None, f"its activation follows dynamics of its own (dyntype {what}), where the drive commands a length"
+    fixed = gaintype == mujoco.mjtGain.mjGAIN_FIXED or (gaintype == mujoco.mjtGain.mjGAIN_AFFINE and gain[1] == gain[2] == 0)
+    if not fixed:
+        what = mujoco.mjtGain(gaintype).name.removeprefix("mjGAIN_").lower()
+        if gaintype == mujoco.mjtGain.mjGAIN_AFFINE:
+            return None, "its gain changes with its length or speed (gaintype affine, gainprm[1:3]): no command holds one length"
+        return None, f"its force comes from a {what} gain (gaintype {what}), which the drive cannot invert into a length"
+    if not gain[0] > 0:
+        return None, f"its gain gainprm[0] = {gain[0]:g} is not positive: its command pushes no way or the wrong way"
+    if biastype == mujoco.mjtBias.mjBIAS_NONE:
+        return "motor", ""
+    if biastype != mujoco.mjtBias.mjBIAS_AFFINE:
+        what = mujoco.mjtBias(biastype).name.removeprefix("mjBIAS_").lower()
+        return None, f"its bias is a {what}'s (biastype {what}), which the drive cannot invert into a length"
+    if bias[1] < 0:
+        return "position", ""
+    if bias[1] > 0:
+        return None, f"its bias pushes away from its target (biasprm[1] = {bias[1]:g} > 0): there is no length it holds"
+    if bias[2] != 0:
+        return None, "it is a velocity servo (biasprm[2] without biasprm[1]): it holds a speed, not a length"
+    if bias[0] != 0:
+        return None, f"its bias is a constant force (biasprm[0] = {bias[0]:g}) with no servo to hold a length"
+    return "motor", ""
 
 
 def _length_range(model: mujoco.MjModel, a: int, joints: tuple[int, ...]) -> tuple[float, float]:
@@ -645,6 +725,7 @@ class GripperDrive:
         self.force_max = np.array([a.force_max for a in parts.actuators])
         self.ctrl_range = np.array([a.ctrl_range for a in parts.actuators])
         self._ctrl_per_length = [1.0 / a.length_per_ctrl for a in parts.actuators]
+        self._length_offset = [a.length_offset for a in parts.actuators]
         self.path = path
         self.joint_qpos = [int(model.jnt_qposadr[j]) for j in joints]
         self._sites = [model.site(f"{side}_pad_surface").id for side in PAD_SIDES]
@@ -665,7 +746,7 @@ class GripperDrive:
         """The actuators' commands for an opening target, m: those that hold the path's lengths
         there (a target past the path's ends commands its end), within their ranges."""
         lengths = [float(np.interp(opening_m, self._grid, row)) for row in self.path.lengths]
-        commands = [v * c for v, c in zip(lengths, self._ctrl_per_length, strict=True)]
+        commands = [(v - o) * c for v, o, c in zip(lengths, self._length_offset, self._ctrl_per_length, strict=True)]
         return [min(max(v, lo), hi) for v, (lo, hi) in zip(commands, self.ctrl_range, strict=True)]
 
     def opening_m(self, data: mujoco.MjData) -> float:
@@ -714,10 +795,18 @@ def _free_closing(model: mujoco.MjModel, parts: GripperParts, actuators: list[in
     """The fingers' free closing: the object taken away, the actuators hold their open commands
     for SETTLE_S, then ramp to closed over STROKE_S and hold there for SETTLE_S, recorded every
     step until the fingers touch each other; returns the path (:class:`DrivePath`) and the open
-    commands."""
+    commands.
+
+    The fingers start in the open pose (:func:`cosim.attach.open_pose_qpos`: the joints in their
+    ranges, the servos at their open ends), not at the file's ``qpos0``: a hand closed there
+    (Menagerie's Franka hand) starts with its pads pressed through each other, and one whose
+    ``qpos0`` lies outside its joints' ranges (the ALOHA gripper) against its limits, both far
+    past what the contacts and limits can push out in a step.  The settling closes what the open
+    pose leaves open (a linkage's loops, which it does not solve)."""
     data = mujoco.MjData(model)
     left, right = (model.site(f"{side}_pad_surface").id for side in PAD_SIDES)
     ranges = np.array([a.ctrl_range for a in parts.actuators])
+    data.qpos[:] = open_pose_qpos(model, [model.body(PREFIX + pad[1]).id for pad in parts.pads])
     mujoco.mj_forward(model, data)
     opens = _opening_grows(model, data, actuators, left, right)
     open_ctrl = np.where(opens, ranges[:, 1], ranges[:, 0])
@@ -731,6 +820,7 @@ def _free_closing(model: mujoco.MjModel, parts: GripperParts, actuators: list[in
     dt = model.opt.timestep
     settle, stroke = round(SETTLE_S / dt), round(STROKE_S / dt)
     data.ctrl[actuators] = open_ctrl
+    hold_activations(model, data, actuators)
     for _ in range(settle):
         mujoco.mj_step(model, data)
     samples = []
@@ -758,8 +848,9 @@ def _free_closing(model: mujoco.MjModel, parts: GripperParts, actuators: list[in
     opening = np.array([s[0] for s in samples])
     if len(samples) < 2 or opening.max() - opening.min() < 1e-3:
         names = [a.name for a in parts.actuators]
+        moved = opening.max() - opening.min() if len(samples) else 0.0
         raise ValueError(
-            f"gripper.actuators {names!r} move the pads {1e3 * (opening.max() - opening.min()):.2g} mm before the fingers touch: "
+            f"gripper.actuators {names!r} move the pads {1e3 * moved:.2g} mm before the fingers touch: "
             f"they do not close this gripper (gripper.mjcf {parts.path!r})"
         )
     grid = np.linspace(opening.min(), opening.max(), PATH_POINTS)
@@ -891,6 +982,7 @@ class MountedGripper:
         data.qpos[adr : adr + 7] = [0.0, 0.0, object_shape(config.object).rest_height_m, 1.0, 0.0, 0.0, 0.0]
         data.ctrl[m.actuator("lift_actuator").id] = lift
         data.ctrl[self.drive.actuators] = self.open_ctrl
+        hold_activations(m, data, self.drive.actuators)
         mujoco.mj_forward(m, data)
         return {"lift_m": lift, "opening_m": self.drive.home_opening_m}
 
@@ -957,6 +1049,15 @@ def mount_gripper(config: ScenarioConfig, gel: GelParams | None = None) -> Mount
         )
     pads = {f"{side}_pad": geometry.strip_names(side) for side in PAD_SIDES}
     return MountedGripper(model, parts, geometry, pads, drive, open_ctrl)
+
+
+def hold_activations(model: mujoco.MjModel, data: mujoco.MjData, actuators: list[int]) -> None:
+    """Set the activation of each of ``actuators`` that filters its command to the command in
+    ``data.ctrl``, as if held there for long: a reset puts every activation at 0, which such a
+    servo would first drive to (a closed hand, for Menagerie's 0-255 servos)."""
+    for a in actuators:
+        if model.actuator_actnum[a] and int(model.actuator_dyntype[a]) != mujoco.mjtDyn.mjDYN_NONE:
+            data.act[model.actuator_actadr[a]] = data.ctrl[a]
 
 
 def _gripper_joints(model: mujoco.MjModel) -> list[int]:

@@ -115,7 +115,7 @@ def test_more_than_the_gripper_can_hold_is_a_clear_never_lifted(tmp_path):
     summary, _ = grasp(tmp_path, "grasp-10kg", "object.friction=0.3")  # needs 164 N per finger
     assert summary["outcome"] == "never_lifted" and not summary["success"]
     assert "100 N" in summary["reason"]
-    assert summary["sim_time_s"] < 6.0  # it gave up, it did not run out the clock
+    assert summary["sim_time_s"] < 8.0  # it gave up, it did not run out the clock (12 s)
 
 
 @pytest.mark.slow
@@ -326,13 +326,14 @@ def test_an_object_no_fingertip_feels_is_given_up_not_pushed_until_the_clock_run
     no fingertip can feel it.  The controller used to close on it until the clock ran out (or
     loop touch, "false touch", close on, a hundred times); now the joints feel the contact,
     the fingertips read nothing at the grip floor, and it says so within a second of the
-    fingers stopping (the closing takes 4 s from 90 mm) and opens."""
+    fingers stopping (the closing takes 4 s from 90 mm: fast to the camera's band, at the touch
+    speed within it) and opens."""
     args = ["object.shape='sphere'", "object.size_m=0.013", "sensor.load_spread=none"]
     summary, data = run_scenario("grasp", args, tmp_path, plot=False, quiet=True, preset=preset)
     assert summary["outcome"] == "never_lifted" and "unfelt_contact" in summary["reason"], summary["reason"]
     gave_up = next(e for e in summary["events"] if e["kind"] == "unfelt_contact")
-    closing_s = (0.090 - 0.013) / scenarios.get("grasp").controller.closing_speed_m_s
-    assert gave_up["time_s"] < closing_s + 1.0
+    touched_s = data["time_s"][np.flatnonzero(np.maximum(data["left_finger_force_n"], data["right_finger_force_n"]) > 0.0)[0]]
+    assert gave_up["time_s"] < touched_s + 1.0
     assert data["opening_m"][-1] > 0.08  # opened again, and the run ended before its duration
     assert data["time_s"][-1] < scenarios.get("grasp").duration_s - 1.0
     assert data["left_finger_force_n"].max() > 0.0 and data["right_finger_force_n"].max() > 0.0  # it was touched
@@ -359,7 +360,8 @@ def test_a_fragile_object_touched_outside_the_gel_coverage_is_not_crushed(tmp_pa
     summary, data = run_scenario("grasp", scenarios.object_overrides("paper-ball-2g"), tmp_path, plot=False, quiet=True, preset="accurate")
     # what the fingertip can feel is where the contact lands: here not under the coverage
     touch = np.flatnonzero(data["left_finger_force_n"] > 0.0)[0]
-    assert data["left_cell4_pressure_pa"][touch] == 0.0 and data["left_cell2_pressure_pa"][touch] > 0.0
+    # (the tip cell's micropascals are the pad's own gel as the fingers slow: rho h0 a)
+    assert data["left_cell4_pressure_pa"][touch] < 1e-4 * data["left_cell2_pressure_pa"][touch]
     assert summary["outcome"] == "success", summary["reason"]
     assert any("felt by the joints" in e["message"] for e in summary["events"])
 

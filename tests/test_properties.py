@@ -42,6 +42,7 @@ from piezotip.scenarios.config import (
     MAX_RECORDED_STEPS,
     MAX_SEED,
     MAX_TIMESTEP_S,
+    MAX_WIDTH_SIGMA_M,
     MIN_COVERAGE_MM,
     MIN_QUALITY_FACTOR,
     MIN_TIMESTEP_S,
@@ -51,6 +52,7 @@ from piezotip.scenarios.config import (
     ControllerConfig,
     DisturbConfig,
     ObjectConfig,
+    PerceptionConfig,
     PhysicsConfig,
     ScenarioConfig,
     SensorConfig,
@@ -219,6 +221,11 @@ def scenario_configs(draw) -> ScenarioConfig:
         sensor=sensor,
         controller=draw(controller_configs(sensor.modes)),
         disturb=DisturbConfig(extra_load_n=draw(st.none() | st.floats(0.0, MAX_EXTRA_LOAD_N)), ramp_s=draw(_positive_floats())),
+        perception=PerceptionConfig(
+            width_sigma_m=draw(st.none() | st.floats(0.0, MAX_WIDTH_SIGMA_M)),
+            width_m=draw(st.none() | _positive_floats()),
+            seed=draw(st.integers(0, MAX_SEED)),
+        ),
     )
 
 

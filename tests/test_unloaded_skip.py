@@ -90,13 +90,14 @@ def test_a_run_records_the_same_bits_with_and_without_the_reuse(case, sampler_cl
 
 def test_the_default_grasp_reuses_the_response_on_its_unloaded_pad_steps(monkeypatch):
     """The share of the default grasp's pad-steps without load (its approach, the moves with the
-    pads open, the tail after the release): measured 1156 of 2792 (41 %); a few hundred more
-    carry the gel's residual 1e-8 Pa, a load however small, and are computed."""
+    pads open, the tail after the release): measured 836 of 3516 (24 %; 1156 of 2792 before the
+    gentle touch's slow approach, whose pads carry the gel's micropascals as the fingers slow:
+    rho h0 a, a load however small, and are computed)."""
     record, columns, sim = _run(DEFAULT, True, sampler.ModeSampler, monkeypatch)
     reused = sum(ch.unloaded_samples for ch in sim.channels.values())
     pad_steps = record.shape[0] * len(sim.pads)
     assert reused == _unloaded_pad_steps(record, columns, sim.pads)
-    assert reused / pad_steps > 0.3
+    assert reused / pad_steps > 0.2
 
 
 def _channel(sampler_class, skip: bool, monkeypatch, **options) -> SensorChannel:

@@ -168,6 +168,11 @@ class MultimodeGrasp:
     dt_s : the control period, s.
     """
 
+    #: Whether the grip, once the object is carried, is closed on what the fingertips feel rather
+    #: than commanded to the drive (:meth:`_drive_for_grip`; the gentle controller's, on a drive
+    #: whose force the pads do not feel).
+    grips_on_fingertips = False
+
     #: Whether the fingers shut past the object's width count as a loss during the transfer too
     #: (not only once carried): the gentle probe grows the grip while the lift rises, which
     #: closes fingers that hold nothing.
@@ -234,6 +239,13 @@ class MultimodeGrasp:
         self.lift_opens = bool(robot.lift_coupling_kg[0])
         self._braking = False  # the period after a touch: the fingers are being stopped
         self._finger_speed = 0.0
+        #: The closing's pace now, m/s of opening: the speed the fingers close toward, and at which
+        #: the joints learn the drive's free force (``closing_speed_m_s``; gentle.py slows it).
+        self._pace_m_s = c.closing_speed_m_s
+        #: What the pads' own inertia takes off each fingertip's reading this period (V_1 units),
+        #: given back to the touch detector: none here (the fingers speed up slowly enough that
+        #: a reading or two does not show it); the gentle controller's longer speed-up is read.
+        self._pad_inertia_v1 = 0.0
         self._opening_speed = 0.0  # of the opening target on release, m/s
         # The drive's force while the fingers close freely at pace (learned, as the fingertips'
         # baselines are), and the force in the last period: see _joint_touch.
@@ -329,7 +341,17 @@ class MultimodeGrasp:
             # them it is left alone, as slides never feel it.  Once carried: the probe's lift
             # barely accelerates, and its grip is what the probe reads the friction by.
             grip_n += max(0.0, self.robot.lift_opens_n(obs.opening_m, lift.measured_accel_m_s2))
+        if self.grips_on_fingertips and self.raising and self.phase in _CARRYING:
+            # The grip closed on what the fingertips feel (gentle.py): the drive's force and its
+            # direction that bring the pads' grip to grip_n.
+            limit_n, opening_m = self._drive_for_grip(obs, t, grip_n)
+            return make_command(lift.target_m, opening_m, limit_n, modes, self.phase, Why.join(reasons))
         return make_command(lift.target_m, self.opening_target, grip_n, modes, self.phase, Why.join(reasons))
+
+    def _drive_for_grip(self, obs: Observation, t: float, grip_n: float) -> tuple[float, float]:
+        """The drive's force limit (N) and opening target (m) that bring the pads' grip to
+        ``grip_n`` (:attr:`grips_on_fingertips`): here the drive's force is the grip."""
+        return grip_n, self.opening_target
 
     def _read_fingertips(self, obs: Observation, t: float) -> tuple[dict[str, int], list]:
         """Check each reading's range and choose each fingertip's next mode."""
@@ -360,10 +382,17 @@ class MultimodeGrasp:
             self.grip_n = self.moving_force_n
             self._enter(Phase.CLOSE, t)
 
-    def _close(self, obs: Observation, t: float, dt_s: float) -> None:
+    def _close_step(self, obs: Observation, dt_s: float) -> None:
+        """Move the closing's target on by a period: at ``closing_speed_m_s`` all the way, speeding
+        up at the fingers' acceleration (the gentle controller slows down near where a camera saw
+        the object, gentle.py)."""
         self._finger_speed = min(self.cfg.closing_speed_m_s, self._finger_speed + self.finger_accel_m_s2 * dt_s)
         self.opening_target = max(0.0, self.opening_target - self._finger_speed * dt_s)
-        touched = [self.touch[pad].update(obs.pads[pad].reading.v1) for pad in self.pads]
+
+    def _close(self, obs: Observation, t: float, dt_s: float) -> None:
+        self._close_step(obs, dt_s)
+        inertia_v1 = self._pad_inertia_v1
+        touched = [self.touch[pad].update(obs.pads[pad].reading.v1 + inertia_v1) for pad in self.pads]
         felt_by_joints = self._joint_touch(obs.grip_force_n)
         if all(touched) or felt_by_joints:
             self.touch_time_s = t
@@ -383,7 +412,7 @@ class MultimodeGrasp:
             if self.opening_target <= 0.0:
                 if obs.opening_m < 0.002:
                     self._give_up(t, "no_object", "closed without feeling a touch", Phase.RELEASE)
-                elif self._last_opening_m - obs.opening_m < 0.5 * self.cfg.closing_speed_m_s * dt_s:
+                elif self._last_opening_m - obs.opening_m < 0.5 * self._pace_m_s * dt_s:
                     # Told to close all the way, the fingers stand still (under half a period's free
                     # travel) wide of it, and the fingertips did not both feel a touch: a finger
                     # touches the object off its pad, and pushing on would only run out the clock.
@@ -411,7 +440,7 @@ class MultimodeGrasp:
         last, self._last_drive_n = self._last_drive_n, drive_n
         rise, last_rise = drive_n - last, self._last_rise_n
         self._last_rise_n = rise
-        if self._finger_speed < self.cfg.closing_speed_m_s:  # still speeding up
+        if self._finger_speed != self._pace_m_s:  # still speeding up (or slowing down) to the pace
             self._free_drive_n = None
             return ""
         free, floor = self._free_drive_n, self.grip_floor_n
@@ -479,7 +508,7 @@ class MultimodeGrasp:
         if empty:
             # Closing on is for fingers that are free.  If every fingertip read nothing here and
             # at the last false touch, and the fingers have not closed since by what one control
-            # period of free closing covers, something they do not feel blocks them (an object
+            # period of free closing at the pace covers, something they do not feel blocks them (an object
             # touching the guards below or above the pads): closing on would loop forever.
             unfelt = len(empty) == len(self.pads)
             previous, self._unfelt_opening_m = self._unfelt_opening_m, obs.opening_m if unfelt else None
@@ -494,7 +523,7 @@ class MultimodeGrasp:
                     Phase.RELEASE,
                 )
                 return
-            if unfelt and previous is not None and previous - obs.opening_m < self.cfg.closing_speed_m_s * dt_s:
+            if unfelt and previous is not None and previous - obs.opening_m < self._pace_m_s * dt_s:
                 self._give_up(
                     t,
                     "unfelt_contact",

@@ -1,0 +1,191 @@
+"""A touch no harder than the fingertip needs (issue 43, item 1): the gentle controller closes fast
+until it nears the width its camera reports (``perception.*``) and, within the camera's band, at
+the speed that keeps the force the loop adds while it reacts within the touch's bound
+(``controller.touch_force_n``): v = (F_touch - F_floor) / (k t_react), k the pads' contact
+stiffness, t_react a control period and the fingers' stop (cosim/control/gentle.py).  The objects
+here are no catalogue's: light, fragile, of sizes, frictions and shapes no other test names."""
+
+from __future__ import annotations
+
+import itertools
+import math
+
+import numpy as np
+import pytest
+
+import piezotip
+from piezotip import cli as run_sim
+from piezotip import scenarios
+from piezotip.analysis.touch_trade import impact_n
+from piezotip.cosim.control import phase_index
+from piezotip.cosim.control.gentle import (
+    TOUCH_FLOORS,
+    approach_pace_m_s,
+    pad_contact_stiffness_n_m,
+    touch_reaction_s,
+    touch_speed_m_s,
+)
+from piezotip.cosim.loop import CoSimulation
+from piezotip.scenarios.config import PerceptionConfig
+
+#: The default box's whole grasp before the bounded touch (mujoco 4.0.0, the default preset), s.
+BOX_GRASP_BEFORE_S = 7.97
+
+
+# -- the derivation --------------------------------------------------------------------------
+
+
+def test_the_pads_contact_stiffness_is_two_winkler_gels_in_series():
+    """E A / h0 a pad (30 kPa, 20 x 20 mm, 5 mm: 2.4 kN/m, models/README.md), half on the opening."""
+    assert pad_contact_stiffness_n_m(30e3, 5e-3, 4e-4) == pytest.approx(1200.0, rel=1e-12)
+
+
+def test_the_reaction_is_a_period_and_the_fingers_stop():
+    """The house's 23 g on 10 N s/m stop in 2.3 ms; fingers braked for a period take a period."""
+    assert touch_reaction_s(0.005, 0.023, 10.0, brakes=False) == pytest.approx(0.0073, rel=1e-12)
+    assert touch_reaction_s(0.005, 0.56, 50.0, brakes=True) == pytest.approx(0.010, rel=1e-12)
+    assert touch_reaction_s(0.002, 0.0, 0.0, brakes=False) == 0.002
+
+
+def test_the_touch_speed_keeps_the_force_the_loop_adds_within_the_bound():
+    """k v t_react added to the force the touch is detected at reaches the bound exactly."""
+    v = touch_speed_m_s(0.0185, 0.0062, 1200.0, 0.0073)
+    assert 0.0062 + 1200.0 * v * 0.0073 == pytest.approx(0.0185, rel=1e-12)
+    assert touch_speed_m_s(0.03, 0.0062, 1200.0, 0.0073) > v  # a harder bound closes faster
+    assert touch_speed_m_s(0.0185, 0.0062, 1200.0, 0.004) > v  # so does a faster loop
+
+
+def test_the_pace_is_fast_far_from_the_band_and_the_touch_speed_inside_it():
+    top, touch, accel, dt = 0.05, 0.0014, 0.21, 0.005
+    assert approach_pace_m_s(0.09, 0.043, touch, top, accel, dt) == top
+    assert approach_pace_m_s(0.043, 0.043, touch, top, accel, dt) == touch
+    assert approach_pace_m_s(0.03, 0.043, touch, top, accel, dt) == touch
+    # braking: stepping down by a dt at the fingers' acceleration arrives at the band's edge at the touch speed
+    opening, speed = 0.06, top
+    while opening > 0.043:
+        speed = max(approach_pace_m_s(opening, 0.043, touch, top, accel, dt), speed - accel * dt)
+        opening -= speed * dt
+    assert speed == pytest.approx(touch, abs=accel * dt)
+    paces = [approach_pace_m_s(o, 0.043, touch, top, accel, dt) for o in np.linspace(0.03, 0.09, 200)]
+    assert all(b >= a for a, b in itertools.pairwise(paces))
+
+
+def test_the_controller_derives_its_touch_from_the_fingertip_and_the_drive():
+    c = CoSimulation(scenarios.get("grasp")).controller
+    assert c.touch_force_n == pytest.approx(TOUCH_FLOORS * c.grip_floor_n, rel=1e-12)
+    assert c.contact_stiffness_n_m == pytest.approx(1200.0, rel=1e-9)
+    assert c.touch_reaction_s == pytest.approx(0.005 + 0.023 / 10.0, rel=0.01)
+    assert c.touch_speed_m_s == pytest.approx((c.touch_force_n - c.grip_floor_n) / (c.contact_stiffness_n_m * c.touch_reaction_s))
+    width, sigma = c.width_prior_m
+    assert sigma == 0.001 and abs(width - 0.04) < 4 * sigma and c.slow_from_m == pytest.approx(width + 3 * sigma)
+    faster = CoSimulation(scenarios.get("grasp", {"physics.control_period_s": 0.002})).controller
+    assert faster.touch_speed_m_s > 1.5 * c.touch_speed_m_s
+
+
+# -- the camera ---------------------------------------------------------------------------------
+
+
+def test_the_camera_reports_the_width_off_by_its_sigma_or_what_it_is_told():
+    camera = PerceptionConfig()
+    width, sigma = camera.width_prior_m(0.04)
+    assert sigma == 0.001 and width != 0.04 and abs(width - 0.04) < 4e-3
+    assert PerceptionConfig(seed=1).width_prior_m(0.04)[0] != width  # another draw
+    assert camera.width_prior_m(0.04) == (width, sigma)  # the same seed, the same reading
+    errors = [PerceptionConfig(seed=s).width_prior_m(0.04)[0] - 0.04 for s in range(400)]
+    assert np.std(errors) == pytest.approx(0.001, rel=0.15)
+    assert PerceptionConfig(width_m=0.05).width_prior_m(0.04) == (0.05, 0.001)
+    assert PerceptionConfig(width_sigma_m=None).width_prior_m(0.04) is None
+
+
+def test_without_a_camera_the_fingers_close_at_the_touch_speed_from_the_start():
+    c = CoSimulation(scenarios.get("grasp", {"perception.width_sigma_m": None})).controller
+    assert c.width_prior_m is None and c.slow_from_m == math.inf
+
+
+# -- bad input ------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    ("assignment", "words"),
+    [
+        ("controller.touch_force_n=0.004", ["controller.touch_force_n", "0.004", "grip floor", "0.00618"]),
+        ("controller.touch_force_n=-1", ["controller.touch_force_n", "-1"]),
+        ("perception.width_sigma_m=-0.001", ["perception.width_sigma_m", "-0.001"]),
+        ("perception.width_m=0", ["perception.width_m"]),
+        ("controller.touch_band_sigmas=0", ["controller.touch_band_sigmas"]),
+    ],
+)
+def test_a_bad_touch_or_camera_is_one_line_naming_the_key_and_exit_2(capsys, tmp_path, assignment, words):
+    code = run_sim.main(["run", "grasp", "--set", assignment, "--out", str(tmp_path / "out")])
+    err = capsys.readouterr().err.strip()
+    assert code == 2, (code, err)
+    assert err.startswith("error: ") and "\n" not in err and "Traceback" not in err, err
+    for word in words:
+        assert word in err, (word, err)
+    with pytest.raises(ValueError, match=words[0].replace(".", r"\.")):
+        piezotip.run("grasp", overrides=[assignment])
+
+
+# -- grasps ---------------------------------------------------------------------------------------
+
+#: Light, fragile objects no other test names: from 1.5 g, crushing at 0.03 N and up, each held by
+#: at most 2/3 of its crush force (crush >= 1.5x the least grip m g / (2 mu)).
+LIGHT_FRAGILE = [
+    {"object.shape": "sphere", "object.mass_kg": 0.0015, "object.size_m": 0.027, "object.friction": 0.8, "object.crush_force_n": 0.03},
+    {"object.shape": "box", "object.mass_kg": 0.0017, "object.size_m": 0.033, "object.friction": 0.55, "object.crush_force_n": 0.035},
+    {"object.shape": "cylinder", "object.mass_kg": 0.0025, "object.size_m": 0.036, "object.friction": 0.95, "object.crush_force_n": 0.04},
+    {"object.shape": "egg", "object.mass_kg": 0.002, "object.size_m": 0.024, "object.friction": 0.7, "object.crush_force_n": 0.03},
+]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("obj", LIGHT_FRAGILE, ids=lambda o: f"{o['object.shape']}-{o['object.mass_kg'] * 1e3:g}g")
+def test_a_light_fragile_object_survives_the_touch_within_its_bound(obj):
+    """The touch's own force (first contact to the lift's start) stays within the controller's
+    bound, and the referee's touch peak (to the lift-off: the probe's grip too) under the crush
+    force; the object is carried and held within 1.5x its need (closed at 20 mm/s, the touch
+    was 0.06-0.15 N on such objects: crushed)."""
+    result = piezotip.run("grasp", overrides=obj)
+    bound = TOUCH_FLOORS * CoSimulation(scenarios.get("grasp", obj)).controller.grip_floor_n
+    assert impact_n(result.data) <= bound
+    assert result.summary["touch_peak_n"] < obj["object.crush_force_n"]
+    data = result.data
+    force = np.maximum(data["left_finger_peak_force_n"], data["right_finger_peak_force_n"])
+    until_placed = data["phase"] < phase_index("place")
+    assert force[until_placed].max() < obj["object.crush_force_n"]  # the touch, the probe, the lift and the hold
+    assert 1.0 < result.grip_margin <= 1.5
+
+
+@pytest.mark.slow
+@pytest.mark.xfail(strict=True, reason="the touchdown presses a light box into the pads: 1.84x its hold at 20 mm/s (a known gap)")
+def test_a_light_box_is_not_pressed_past_its_crush_force_as_it_lands():
+    """The 1.7 g box lands at the touchdown speed (20 mm/s) and its pads' normal force jumps from
+    the hold's 0.0198 N to 0.0364 N in the landing's period, past its 0.035 N: the rise grows
+    with the speed (1.45x at 10 mm/s, 1.26x at 5 mm/s), not with the control period."""
+    result = piezotip.run("grasp", overrides=LIGHT_FRAGILE[1])
+    assert result.outcome == "success", result.reason
+
+
+@pytest.mark.slow
+def test_the_default_box_is_touched_within_the_bound_and_grasped_at_most_a_quarter_slower():
+    """The default job: its touch within the bound (it was 0.13 N at 20 mm/s all the way), the
+    whole grasp within 1.25x the 7.97 s it took then (8.79 s: the camera's band costs 2.1 s at
+    1.4 mm/s, the far approach at 50 mm/s gives 1.3 s back)."""
+    result = piezotip.run("grasp")
+    bound = TOUCH_FLOORS * CoSimulation(scenarios.get("grasp")).controller.grip_floor_n
+    assert impact_n(result.data) <= bound
+    assert result.outcome == "success", result.reason
+    assert result.summary["sim_time_s"] <= 1.25 * BOX_GRASP_BEFORE_S
+    assert result.grip_margin <= 1.5
+
+
+@pytest.mark.slow
+def test_a_camera_that_misses_the_band_costs_a_hard_touch_not_a_wrong_verdict():
+    """A camera 6 mm narrow (the band ends 3 mm inside the object): the fingers meet the wafer at
+    the top speed, and the touch is the 50 mm/s one.  The record shows it (the referee's
+    ``touch_peak_n``); the touch speed needs the camera to be right within its band."""
+    wafer = {"object.shape": "box", "object.mass_kg": 0.002, "object.friction": 0.39, "object.size_m": 0.03}
+    good = piezotip.run("grasp", overrides=wafer)
+    wrong = piezotip.run("grasp", overrides={**wafer, "perception.width_m": 0.024})
+    assert impact_n(wrong.data) > 3 * impact_n(good.data)
+    assert wrong.summary["time_to_touch_s"] < good.summary["time_to_touch_s"]
