@@ -131,10 +131,10 @@ def load_gripper_spec(path: str | Path, warn: bool = True) -> mujoco.MjSpec:
     ValueError
         naming ``gripper.mjcf`` and the file: missing, not XML, or refused by MuJoCo.
     """
-    text, repairs, has_angle, directory = _read_file(*_file_key(path))
+    text, repairs, has_angle, directory, includes = _read_file(*_file_key(path))
     for repair in repairs if warn else ():
         warnings.warn(f"gripper.mjcf {str(path)!r}: {repair}", GripperFileWarning, 2)
-    spec = mujoco.MjSpec.from_string(text)
+    spec = mujoco.MjSpec.from_string(text, include=dict(includes))
     spec.modelfiledir = directory
     if not has_angle:
         spec.compiler.degree = False
@@ -156,19 +156,52 @@ _UNKNOWN_ATTRIBUTE = re.compile(r"unrecognized attribute: '([^']+)'\s*Element '(
 _MAX_REPAIRS = 32
 
 
+#: The most ``<include>`` files a gripper file may bring in (nested ones counted), a guard.
+_MAX_INCLUDES = 64
+
+
+def _included_files(path: str, root: ET.Element) -> dict[str, bytes]:
+    """The files ``<include file=...>`` elements of the file at ``path`` (parsed: ``root``) bring
+    in, nested ones too, read as MuJoCo reads them when it loads that file: from the including
+    file's folder, else the gripper file's (a string parsed elsewhere would look in the working
+    folder: the wrong file, or none).  Keyed by the name as written (MuJoCo looks a nested name
+    up either way).  A ValueError names the gripper file and the include that cannot be read."""
+    top = Path(path).parent
+    found: dict[str, bytes] = {}
+    pending = [(root, top)]
+    while pending:
+        element_root, folder = pending.pop()
+        for element in element_root.iter("include"):
+            name = element.get("file")
+            if name is None or name in found:
+                continue
+            if len(found) >= _MAX_INCLUDES:
+                raise ValueError(f"gripper.mjcf {path!r} includes more than {_MAX_INCLUDES} files")
+            candidates = [folder / name, top / name] if folder != top else [top / name]
+            file = next((c for c in candidates if c.is_file()), candidates[0])
+            try:
+                found[name] = file.read_bytes()
+                pending.append((ET.fromstring(found[name]), file.parent))
+            except (OSError, ET.ParseError) as err:
+                raise ValueError(f"gripper.mjcf {path!r}: its <include file={name!r}> (in {str(folder)!r}) cannot be read: {err}") from None
+    return found
+
+
 @functools.lru_cache(maxsize=32)
-def _read_file(path: str, mtime_ns: int, size: int) -> tuple[str, tuple[str, ...], bool, str]:
+def _read_file(path: str, mtime_ns: int, size: int) -> tuple[str, tuple[str, ...], bool, str, tuple[tuple[str, bytes], ...]]:
     """The file's text as MuJoCo takes it (load_gripper_spec's repairs made), the repairs, whether
-    it sets its compiler's angle unit, and its directory."""
+    it sets its compiler's angle unit, its directory, and the files it includes (name, contents;
+    read from its directory: :func:`_included_files`)."""
     try:
         text = Path(path).read_text()
         root = ET.fromstring(text)
     except (ET.ParseError, OSError, UnicodeDecodeError) as err:
         raise ValueError(f"gripper.mjcf {path!r} is no XML file: {err}") from None
+    includes = _included_files(path, root)
     repairs: list[str] = []
     for _ in range(_MAX_REPAIRS):
         try:
-            mujoco.MjSpec.from_string(text)  # parsed only: its meshes are read when compiled
+            mujoco.MjSpec.from_string(text, include=includes)  # parsed only: its meshes are read when compiled
             break
         except Exception as err:  # MuJoCo raises ValueError; name the file whatever it raises
             message = str(err)
@@ -188,8 +221,9 @@ def _read_file(path: str, mtime_ns: int, size: int) -> tuple[str, tuple[str, ...
                 raise ValueError(f"gripper.mjcf {path!r} does not load: {err}") from None
     else:
         raise ValueError(f"gripper.mjcf {path!r} does not load: more than {_MAX_REPAIRS} attributes MuJoCo does not know")
-    has_angle = any(c.get("angle") is not None for c in root.iter("compiler"))
-    return text, tuple(repairs), has_angle, str(Path(path).parent)
+    roots = [root, *(ET.fromstring(contents) for contents in includes.values())]
+    has_angle = any(c.get("angle") is not None for r in roots for c in r.iter("compiler"))
+    return text, tuple(repairs), has_angle, str(Path(path).parent), tuple(includes.items())
 
 
 def _without_attribute(text: str, attribute: str, element: str, line: str) -> str | None:

@@ -436,3 +436,54 @@ def test_grasp_actions_of_any_real_number_type_are_taken(grasp):
         action = {**_hold(grasp), "grip_force_n": part, "mode": np.array([1.0, 0.0])}
         obs, *_ = grasp.step(action)
         assert grasp.observation_space.contains(obs)
+
+
+# -- a gripper file's <include>: read from the file's own folder (issue 44, item 4) ----------------
+
+_PART_XML = """<mujoco><worldbody><body name="{name}"><geom size=".01"/></body></worldbody></mujoco>"""
+
+
+def test_a_gripper_files_include_is_read_from_its_own_folder_not_the_working_one(tmp_path, monkeypatch):
+    """MuJoCo resolves a file's ``<include>`` against the file's folder; the mount read the file
+    as a string, so the working folder's file of that name was merged in (or none found)."""
+    from piezotip.cosim.gripper_mount import load_gripper_spec
+
+    gripper = tmp_path / "gripper"
+    (gripper / "parts").mkdir(parents=True)
+    (gripper / "hand.xml").write_text('<mujoco model="hand"><include file="parts/finger.xml"/></mujoco>')
+    # A nested include, named from the including file's folder (MuJoCo also takes it from the top file's).
+    (gripper / "parts" / "finger.xml").write_text('<mujoco><include file="tip.xml"/>' + _PART_XML.format(name="finger")[8:])
+    (gripper / "parts" / "tip.xml").write_text(_PART_XML.format(name="tip"))
+    elsewhere = tmp_path / "elsewhere"
+    (elsewhere / "parts").mkdir(parents=True)
+    (elsewhere / "parts" / "finger.xml").write_text(_PART_XML.format(name="decoy"))  # a file of the same name where the user runs
+    monkeypatch.chdir(elsewhere)
+    names = {body.name for body in load_gripper_spec(gripper / "hand.xml").bodies}
+    assert {"finger", "tip"} <= names and "decoy" not in names  # nested includes too, against the gripper file's folder
+    (gripper / "parts" / "tip.xml").unlink()
+    (gripper / "hand.xml").write_text('<mujoco model="hand2"><include file="parts/finger.xml"/></mujoco>')  # a new reading
+    with pytest.raises(ValueError, match=r"hand\.xml.*tip\.xml.*cannot be read"):
+        load_gripper_spec(gripper / "hand.xml")
+
+
+def test_a_mounted_gripper_split_by_include_grasps_from_any_working_folder(tmp_path, monkeypatch):
+    """robosuite's Panda as a file that includes its body from beside it, run from another folder."""
+    from test_third_party_grippers import _robosuite_grippers  # found without importing robosuite
+
+    source = _robosuite_grippers()
+    wrapper_dir = tmp_path / "grippers"
+    (wrapper_dir / "parts").mkdir(parents=True)
+    (wrapper_dir / "parts" / "meshes").symlink_to(source / "meshes")  # an included file's meshes: its own folder's (MuJoCo's rule)
+    (wrapper_dir / "parts" / "panda_gripper.xml").write_text((source / "panda_gripper.xml").read_text())
+    wrapper = wrapper_dir / "panda_wrapper.xml"
+    wrapper.write_text('<mujoco model="wrapped panda"><include file="parts/panda_gripper.xml"/></mujoco>')
+    (tmp_path / "parts").mkdir()
+    (tmp_path / "parts" / "panda_gripper.xml").write_text("<mujoco/>")  # a decoy where the user runs
+    monkeypatch.chdir(tmp_path)
+    overrides = {
+        "gripper.mjcf": str(wrapper),
+        "gripper.fingertips": ["finger_joint1_tip", "finger_joint2_tip"],
+        "gripper.actuators": ["gripper_finger_joint1", "gripper_finger_joint2"],
+    }
+    result = piezotip.run("grasp", overrides=overrides, preset="fast")
+    assert result.outcome == "success", result.reason
