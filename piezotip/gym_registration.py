@@ -1,5 +1,6 @@
-"""Register the Gymnasium environments ``piezotip/Grasp-v0`` and ``piezotip/GraspFlat-v0`` (the
-same task with flat, scaled spaces for learning libraries: piezotip/gym_flat.py) without
+"""Register the Gymnasium environments ``piezotip/Grasp-v0``, ``piezotip/GraspFlat-v0`` (the
+same task with flat, scaled spaces for learning libraries: piezotip/gym_flat.py) and
+``piezotip/GraspLearn-v0`` (the task shaped for learning: piezotip/gym_learn.py) without
 importing gymnasium.
 
 ``import gymnasium`` costs about 130 ms, and the command line imports the ``piezotip`` package
@@ -13,7 +14,7 @@ gymnasium is imported, lets the normal import run and registers them right after
     import gymnasium, piezotip; gymnasium.make("piezotip/Grasp-v0")
 
 The entry points are strings, so registering imports nothing of the environments' own code
-(``piezotip.gym_env``, ``piezotip.gym_flat``, MuJoCo) until ``gymnasium.make`` is called.  In a
+(``piezotip.gym_env``, ``piezotip.gym_flat``, ``piezotip.gym_learn``, MuJoCo) until ``gymnasium.make`` is called.  In a
 process that never imports ``piezotip`` (a ``spawn``-ed worker),
 ``gymnasium.make("piezotip:piezotip/Grasp-v0")`` imports it first.
 """
@@ -26,8 +27,10 @@ ENV_ID = "piezotip/Grasp-v0"
 ENTRY_POINT = "piezotip.gym_env:GraspEnv"
 FLAT_ENV_ID = "piezotip/GraspFlat-v0"
 FLAT_ENTRY_POINT = "piezotip.gym_flat:GraspFlatEnv"
+LEARN_ENV_ID = "piezotip/GraspLearn-v0"
+LEARN_ENTRY_POINT = "piezotip.gym_learn:GraspLearnEnv"
 #: Every environment this package registers: id -> entry point.
-ENVIRONMENTS = {ENV_ID: ENTRY_POINT, FLAT_ENV_ID: FLAT_ENTRY_POINT}
+ENVIRONMENTS = {ENV_ID: ENTRY_POINT, FLAT_ENV_ID: FLAT_ENTRY_POINT, LEARN_ENV_ID: LEARN_ENTRY_POINT}
 
 
 def register_env(gymnasium) -> None:
