@@ -69,7 +69,9 @@ class LearnSettings:
     grip_rate_decades_per_s : the grip action's full rate, decades per second: 5 (x1.58 per
         40 ms decision at +-1; from the start to the 40 N a 10 kg object needs in 0.4 s, to the
         4 mN of a 1 g one in 0.4 s); the same factor per step at every grip.
-    lift_span : the lift's range above its home as a multiple of the scenario's lift height: 2.
+    lift_span : the lift's range above its home as a multiple of the scenario's lift height: 1.2
+        (60 mm for 50 mm): a saturated action lifts high enough and no higher (at 2, a policy
+        lifted to 100 mm and ran out of time coming back down).
     """
 
     decision_period_s: float = 0.04
@@ -78,7 +80,7 @@ class LearnSettings:
     opening_speed_m_s: float = 0.1
     grip_decades: float = 5.0
     grip_rate_decades_per_s: float = 5.0
-    lift_span: float = 2.0
+    lift_span: float = 1.2
 
     def validate(self, control_period_s: float) -> LearnSettings:
         """Check every value is positive and finite, and the decision a whole number of control periods."""
@@ -125,8 +127,8 @@ class LearnReward:
         the referee's): 1.25, the 10-40 % people keep (Johansson and Westling 1984).
     grip_cap : the largest log-excess charged: ln 10 (a grip 12.5x the need).
     crush, drop, slip : paid once (negative) when the episode ends so.  Small next to the
-        success they forfeit: large ones teach an agent never to lift (issue 46).  A crush also
-        takes back every progress paid: a broken object is worse than none touched.
+        success they forfeit: large ones teach an agent never to lift (issue 46).  The crush's
+        is larger: the fingertip's point is gentleness.
     """
 
     touch: float = 0.25
@@ -236,7 +238,7 @@ def _log_uniform(rng: np.random.Generator, low: float, high: float) -> float:
 
 class GraspProgress:
     """The episode's progress from the simulator's truth, one control period at a time, by the
-    referee's criteria (analysis.referee.judge): potentials for the reward and the slip.
+    referee's criteria (analysis.referee.judge): each stage's best progress so far (the reward's) and the slip.
 
     Parameters
     ----------
@@ -382,7 +384,7 @@ class GraspLearnEnv(gym.Env):
     |---|---|---|---|---|
     | 0 | grip rate: the fingers' force limit (per finger, from 0.32 N) times 10^(a rate dt) | /1.58 | x1.58 | - |
     | 1 | fingers: closed (target 0) up to 0.3, open (home, 90 mm) above; at ``opening_speed_m_s`` | closed | open | - |
-    | 2 | lift target, max(a, 0) x ``lift_span`` x lift height over home, at ``lift_speed_m_s``; up only when blocked | home | +100 mm | m |
+    | 2 | lift target, max(a, 0) x ``lift_span`` x lift height over home, at ``lift_speed_m_s``; up only when blocked | home | +60 mm | m |
     | 3 | mode of both fingertips: below 0.25 the lowest, then equal bins (:func:`mode_index`) | the lowest mode | the highest | - |
 
     The fingers' drive is a force-limited position servo: a closed target squeezes what the
@@ -431,12 +433,11 @@ class GraspLearnEnv(gym.Env):
     share of the way back down, 1 once resting at the start in the fingers);
     ``reward_grip`` = -``grip_per_s`` dt min(ln(grip / (1.25 need)), ln 10) for each period the
     object is carried (both fingers on it, off the table) where the mean finger force ``grip``
-    exceeds 1.25 ``need`` = 1.25 m g / (2 mu); ``reward_crush``: -0.5 and every progress paid,
-    ``reward_drop`` (dropped or lost), ``reward_slip`` (moved more than 5 mm in the fingers
-    while carried): -0.1, each once, ending the episode; ``reward_success``: +10 when the
-    referee judges it a success, ending it.  A placed grasp at no excess grip returns 16.25;
-    doing nothing returns 0; a crush -0.5 less its grip cost; the least successful return is
-    checked to be above 0 (``LearnReward.validate``).
+    exceeds 1.25 ``need`` = 1.25 m g / (2 mu); ``reward_crush`` (-0.5), ``reward_drop`` (dropped
+    or lost), ``reward_slip`` (moved more than 5 mm in the fingers while carried; -0.1 each),
+    once, ending the episode; ``reward_success``: +10 when the referee judges it a success,
+    ending it.  A placed grasp at no excess grip returns 16.25; doing nothing returns 0; the
+    least successful return is checked to be above 0 (``LearnReward.validate``).
 
     ## Starting State and Objects
 
@@ -617,10 +618,6 @@ class GraspLearnEnv(gym.Env):
             if ended in penalty:
                 key, value = penalty[ended]
                 parts[key] = -value
-            if ended == "crushed":
-                # A broken object is worse than none touched: the crush takes back every progress
-                # paid (else a policy earns the lift and the hold, then squeezes on: issue 46).
-                parts["reward_crush"] -= sum(getattr(w, k) * v for k, v in progress.potentials.items())
             if ended == "success":
                 parts["reward_success"] = w.success
             info.update(
