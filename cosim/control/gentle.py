@@ -380,10 +380,7 @@ class GentleGrasp(MultimodeGrasp):
             if self._quiet_periods >= self.lift.plateau_steps:
                 self._free_drive_n = drive_n
             return ""
-        if drive_n - free > floor:
-            return f"the drive needs {drive_n:.3g} N against its free {free:.3g} N"
-        self._free_drive_n = min(free, drive_n)
-        return ""
+        return self._against_free_drive(drive_n)
 
     def _grip_felt_n(self, obs: Observation) -> float:
         """The grip the probe reads, N per finger (:func:`grip_read_n`): the drive's, within its

@@ -453,7 +453,14 @@ class MultimodeGrasp:
             if abs(rise) < floor and settling_remainder_n(rise, last_rise) < floor:
                 self._free_drive_n = drive_n
             return ""
-        if drive_n - free > floor:
+        return self._against_free_drive(drive_n)
+
+    def _against_free_drive(self, drive_n: float) -> str:
+        """Once the drive's free force is learned: a contact where ``drive_n`` (N) rises over it by
+        more than the grip floor (a message saying so), else "" and the free force follows the
+        drive down (the lowest it has been)."""
+        free = self._free_drive_n
+        if drive_n - free > self.grip_floor_n:
             return f"the drive needs {drive_n:.3g} N against its free {free:.3g} N"
         self._free_drive_n = min(free, drive_n)
         return ""
