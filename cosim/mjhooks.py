@@ -234,7 +234,10 @@ class GelPassive:
         self._views_of = None  # a weak reference to the MjData the kernel is bound to (the hooks must not keep it alive)
         if not self.implicit:
             model.jnt_stiffness[self._jnt] = 0.0  # the law is all in the passive force
-            self._bind(mujoco.MjData(model))
+            # The masses at qpos0, before any MjData: the kernel on the model's arrays alone (its
+            # force arrays, zeros, are not written by scale_masses; the first step binds a data's).
+            nowhere = np.zeros(model.nv)
+            self._kernel.bind(model.qpos0, nowhere, nowhere, model.jnt_stiffness, model.dof_armature, model.dof_damping)
             self._kernel.scale_masses(self._area * np.interp(model.qpos0[self._qadr], grid_m, tangent_pa_m))
 
     def _bind(self, data: mujoco.MjData) -> None:
