@@ -38,6 +38,7 @@ KERNELS = (
     ("sensor", "_sampler"),
     ("sensor", "_estimator"),
     ("sensor", "_inference"),
+    ("sensor", "_channel"),
     ("cosim", "_pad_kernels"),
     ("cosim", "_period"),
     ("cosim", "_rows"),

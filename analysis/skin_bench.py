@@ -16,7 +16,10 @@ side by side in one process, in a plain ``mujoco.mj_step`` loop at MuJoCo's defa
   ``data.sensordata`` (``mjcb_sensor``).  ``piezotip_mechanics`` is the same model with the
   readout unbound: the pads and the gel law alone;
 - ``piezotip_lean``: the same with sites the size of the element (7.5 x 5 mm): one strip a pad
-  instead of three (the guards, the pad beyond the element, go; docs/attach.md).
+  instead of three (the guards, the pad beyond the element, go; docs/attach.md);
+- ``piezotip_touch``: ``attach(..., pad="touch")`` on the bare model's sites: no pad geometry,
+  the palm's own contacts in each site read by MuJoCo's ``touch`` and pressing the element
+  (the model steps bit for bit as ``bare``): the readout's cost alone, over ``touch``'s.
 
 Each variant is warmed up, then timed in ``repeats`` rounds that alternate the variants (so
 that each sees the machine alike); the fastest round is kept (noise only ever adds time).
@@ -78,9 +81,14 @@ def _variants(rows: int, cols: int) -> dict[str, tuple[mujoco.MjModel, mujoco.Mj
         model = mujoco.MjModel.from_xml_string(skin_xml(rows, cols, **options))
         out[name] = (model, mujoco.MjData(model))
     sites = [f"tip{i}_{j}" for i in range(rows) for j in range(cols)]
-    for name, lean in (("piezotip", False), ("piezotip_mechanics", False), ("piezotip_lean", True)):
+    for name, lean, pad in (
+        ("piezotip", False, "gel"),
+        ("piezotip_mechanics", False, "gel"),
+        ("piezotip_lean", True, "gel"),
+        ("piezotip_touch", False, "touch"),
+    ):
         spec = mujoco.MjSpec.from_string(skin_xml(rows, cols, lean=lean))
-        tips = attach(spec, sites=sites)
+        tips = attach(spec, sites=sites, pad=pad)
         model = spec.compile()
         data = mujoco.MjData(model)
         loop = tips.bind(model, data)

@@ -90,6 +90,13 @@ _NEEDED = {
     mujoco.mjtDisableBit.mjDSBL_SPRING: "the gel's stiffness acts as the strip joints' spring",
     mujoco.mjtDisableBit.mjDSBL_DAMPER: "the gel's loss acts as the strip joints' damping",
 }
+#: What a ``"touch"`` pad needs of them: the contacts it reads.
+_TOUCH_NEEDED = {
+    mujoco.mjtDisableBit.mjDSBL_CONSTRAINT: "a touch pad reads the contacts' normal force",
+    mujoco.mjtDisableBit.mjDSBL_CONTACT: "a touch pad reads the contacts' normal force",
+}
+#: What :func:`attach`'s ``pad`` takes: the house's gel pad, or the model's own contacts read as MuJoCo's ``touch``.
+PAD_KINDS = ("gel", "touch")
 #: ...and enable flags they cannot run with.
 _REFUSED = {
     mujoco.mjtEnableBit.mjENBL_OVERRIDE: "it replaces the pads' hard contact parameters (the gel is the pads' compliance)",
@@ -130,7 +137,12 @@ class AttachedPad:
     body : the body it sits on (its strips are that body's children).
     placement : the pad frame in that body (:class:`cosim.pad_model.PadPlacement`).
     geometry : its layout (the site's or face's size, the fingertip's resolution).
-    strips : its strips' body names, distal first (``piezotip/<name>/seg0``, ...).
+    strips : its strips' body names, distal first (``piezotip/<name>/seg0``, ...); none for a
+        ``"touch"`` pad.
+    kind : ``"gel"`` (the house's strip pad) or ``"touch"`` (no pad geometry: the model's own
+        contacts in the zone, read by MuJoCo's ``touch`` sensor; :func:`attach`'s ``pad``).
+    zone : a ``"touch"`` pad's zone, the box site its ``touch`` sensor reads (the site given, or
+        ``piezotip/<name>/zone`` on a body's face); "" for a gel pad.
     """
 
     name: str
@@ -139,6 +151,13 @@ class AttachedPad:
     placement: PadPlacement
     geometry: PadGeometry
     strips: tuple[str, ...]
+    kind: str = "gel"
+    zone: str = ""
+
+    @property
+    def area_m2(self) -> float:
+        """The pad's area, m^2 (the site's or face's x by y)."""
+        return self.geometry.pad_length_m * self.geometry.pad_width_m
 
 
 @dataclass(frozen=True)
@@ -361,10 +380,11 @@ def _pose_qpos(model: mujoco.MjModel, pose: str | None, bodies: Sequence[int]) -
     return model.key_qpos[key].copy(), f"keyframe {pose!r}"
 
 
-def _body_patches(model: mujoco.MjModel, names: Sequence[str], pose: str | None = None) -> list[_Patch]:
+def _body_patches(model: mujoco.MjModel, names: Sequence[str], pose: str | None = None, whole_face: bool = False) -> list[_Patch]:
     """Each body's pad on the face of its collision box towards the other bodies' (their centre),
     in ``pose`` (a keyframe's name, or None: :func:`open_pose_qpos`); none for no names (the
-    pose is checked all the same)."""
+    pose is checked all the same).  ``whole_face``: the patch is the whole face (a touch pad's
+    zone), not the house pad's 20 x 20 mm on it."""
     faces = []
     for name in names:
         try:
@@ -373,10 +393,10 @@ def _body_patches(model: mujoco.MjModel, names: Sequence[str], pose: str | None 
             raise ValueError(f"attach: body {name!r} is not in the model (its bodies: {_names(model, 'body', model.nbody)})") from None
     if len(faces) == 1:
         raise ValueError(f"attach: a pad on body {names[0]!r} faces the other fingertip: give two or more bodies, or a site")
-    return _face_patches(model, faces, pose)
+    return _face_patches(model, faces, pose, whole_face)
 
 
-def _face_patches(model: mujoco.MjModel, faces: Sequence[_Face], pose: str | None = None) -> list[_Patch]:
+def _face_patches(model: mujoco.MjModel, faces: Sequence[_Face], pose: str | None = None, whole_face: bool = False) -> list[_Patch]:
     """Each face's pad on the side of its box towards the other faces' boxes (their centre), in
     ``pose`` (a keyframe's name, or None: :func:`open_pose_qpos`; only which face and which way
     come from it): the house pad's 20 x 20 mm or the face if smaller, its length along the
@@ -410,8 +430,10 @@ def _face_patches(model: mujoco.MjModel, faces: Sequence[_Face], pose: str | Non
         x = np.eye(3)[along] * (1.0 if parent[along] >= 0 else -1.0)
         z = np.eye(3)[out] * np.sign(towards[out])
         origin = centre + z * half[out]
-        length = min(half[along], 0.5 * _ELEMENT.pad_length_m)
-        width = min(half[across], 0.5 * _ELEMENT.pad_width_m)
+        # A touch pad's zone must hold every contact on the face (a box's corners, for one), so
+        # it is the whole face; a gel pad is the house's, or the face where that is smaller.
+        length = half[along] if whole_face else min(half[along], 0.5 * _ELEMENT.pad_length_m)
+        width = half[across] if whole_face else min(half[across], 0.5 * _ELEMENT.pad_width_m)
         patches.append(_Patch(face.source, model.body(body).name, origin, np.column_stack((x, np.cross(z, x), z)), length, width))
     return patches
 
@@ -640,14 +662,14 @@ def fingertip_config(config: Mapping[str, object] | SensorConfig | None, option)
         raise ValueError(f"attach: {err}{whose}") from None
 
 
-def _check_options(option, who: str = "attach") -> None:
-    """The model's options the gel pads need (``option``: an MjSpec's or an MjModel's); ``who``
-    begins the messages.  Any integrator and timestep will do (:class:`cosim.mjhooks.GelPassive`)."""
-    for flag, why in _NEEDED.items():
+def _check_options(option, who: str = "attach", kind: str = "gel") -> None:
+    """The model's options the pads of ``kind`` need (``option``: an MjSpec's or an MjModel's);
+    ``who`` begins the messages.  Any integrator and timestep will do (:class:`cosim.mjhooks.GelPassive`)."""
+    for flag, why in (_NEEDED if kind == "gel" else _TOUCH_NEEDED).items():
         if option.disableflags & flag:
             name = flag.name.removeprefix("mjDSBL_").lower()
             raise ValueError(f'{who}: the model disables {name!r} (<option><flag {name}="disable"/>): {why}')
-    for flag, why in _REFUSED.items():
+    for flag, why in _REFUSED.items() if kind == "gel" else ():
         if option.enableflags & flag:
             name = flag.name.removeprefix("mjENBL_").lower()
             raise ValueError(f'{who}: the model enables {name!r} (<option><flag {name}="enable"/>): {why}')
@@ -664,6 +686,7 @@ def attach(
     bodies: Sequence[str] | None = None,
     config: Mapping[str, object] | SensorConfig | None = None,
     pose: str | None = None,
+    pad: str = "gel",
 ) -> Fingertips:
     """Put a piezotip fingertip (gel pad, element, readout) on each site and body of ``spec``.
 
@@ -683,6 +706,17 @@ def attach(
         (default) for the open pose (:func:`open_pose_qpos`: qpos0 in the joints' ranges, the
         position servos at their open ends).  Only which face carries a pad, and which way it
         runs, come from it; the model and its keyframes are left as they are.
+    pad : what carries the load, for every fingertip of the call (:data:`PAD_KINDS`):
+
+        - ``"gel"`` (default): the house's gel pad, strips standing 5 mm out of the patch, the
+          gel law on each (its compliance is in the model's dynamics);
+        - ``"touch"``: no pad geometry, the price of a sensor: the model's own contacts in the
+          zone (a site's own box, as MuJoCo's ``touch`` marks it; on a body's face, a box the
+          face's size reaching the gel's thickness either side of it) press the element
+          uniformly, the zone's normal force (MuJoCo's ``touch`` sensor,
+          ``piezotip/TIP/touch_n``) over the pad's area.  The model steps bit for bit as it did
+          without fingertips; what it gives up is the gel's compliance in the grasp and the
+          pressure's profile along the element (docs/attach.md, "A skin").
 
     The strips' geoms touch what the geoms of the body they sit on touch: their contype and
     conaffinity are :func:`pad_collision_bits`'s (the house class's on a body without collision
@@ -700,10 +734,12 @@ def attach(
         smaller than the element, a ``pose`` that is no keyframe, bodies whose boxes coincide in
         it, a model option the pads cannot run under (a disabled contact, limit, spring or damper,
         contact override; any integrator and timestep will do), a bad fingertip key or value, a
-        spec that already has fingertips (attach once, all of them).
+        spec that already has fingertips (attach once, all of them), an unknown ``pad``.
     """
     if not isinstance(spec, mujoco.MjSpec):
         raise ValueError(f"attach: spec must be a mujoco.MjSpec, got {type(spec).__name__}")
+    if pad not in PAD_KINDS:
+        raise ValueError(f"attach: unknown pad {pad!r}; valid: {', '.join(PAD_KINDS)}")
     sites, bodies = _name_list("sites", sites), _name_list("bodies", bodies)
     if not sites and not bodies:
         raise ValueError("attach: give the fingertips' sites=[...] or bodies=[...]")
@@ -715,18 +751,25 @@ def attach(
         before = spec.compile()
     except Exception as err:  # MuJoCo raises ValueError; say it is the user's model as given
         raise ValueError(f"attach: the model does not compile as given: {err}") from err
-    if spec.find_default(PAD_CLASS) is not None or any(b.name.startswith(PREFIX) for b in spec.bodies):
+    if spec.find_default(PAD_CLASS) is not None or any(e.name.startswith(PREFIX) for e in (*spec.bodies, *spec.sensors)):
         raise ValueError("attach: the spec already has piezotip fingertips: attach all of them in one call")
 
     settings = fingertip_config(config, spec.option)
     fingertip = make_fingertip(settings)
     gel = fingertip.gel
-    patches = [_site_patch(before, s) for s in sites] + _body_patches(before, bodies, pose)
+    patches = [_site_patch(before, s) for s in sites] + _body_patches(before, bodies, pose, whole_face=pad == "touch")
     pads = []
     for name, patch in zip(names, patches, strict=True):
         geometry = _geometry(patch, settings.physics.pad_segments, gel.params.thickness_m)
         placement = _placement(patch, gel.params.thickness_m)
-        pads.append(AttachedPad(name, patch.source, patch.body, placement, geometry, geometry.strip_body_names(f"{PREFIX}{name}/")))
+        if pad == "touch":
+            zone = name if name in sites else f"{PREFIX}{name}/zone"
+            pads.append(AttachedPad(name, patch.source, patch.body, placement, geometry, (), "touch", zone))
+        else:
+            pads.append(AttachedPad(name, patch.source, patch.body, placement, geometry, geometry.strip_body_names(f"{PREFIX}{name}/")))
+    if pad == "touch":
+        _check_options(spec.option, kind="touch")
+        return _attach_touch(spec, pads, patches, settings, fingertip)
     _check_options(spec.option)
 
     # The house's class `pad` (contacts, housing stop), its time constant at this model's step.
@@ -765,6 +808,38 @@ def attach(
         for key, k, (qpos, qvel) in zip(spec.keys, range(after.nkey), keyed, strict=True):
             key.qpos = after.key_qpos[k].tolist() if qpos else []
             key.qvel = after.key_qvel[k].tolist() if qvel else []
+    return Fingertips(tuple(pads), settings, fingertip)
+
+
+def _attach_touch(spec: mujoco.MjSpec, pads: list[AttachedPad], patches: list[_Patch], settings: ScenarioConfig, fingertip) -> Fingertips:
+    """``attach(..., pad="touch")``: per fingertip, its zone (a body's: a site on the face), a
+    ``touch`` sensor on it and the readout's user sensors, computed at the acceleration stage
+    (after the contact forces that ``touch`` sums); nothing else of the spec changes."""
+    for tip, patch in zip(pads, patches, strict=True):
+        if tip.zone != tip.name:  # a body's face: the zone a box the pad's size, h0 either side of the face
+            rotation = patch.axes.ravel().copy()
+            quat = np.zeros(4)
+            mujoco.mju_mat2Quat(quat, rotation)
+            spec.body(tip.body).add_site(
+                name=tip.zone,
+                type=mujoco.mjtGeom.mjGEOM_BOX,
+                pos=patch.origin_m.tolist(),
+                quat=quat.tolist(),
+                size=[patch.half_length_m, patch.half_width_m, fingertip.gel.params.thickness_m],
+                group=5,  # out of MuJoCo's default visible groups: a zone, not a part
+            )
+        spec.add_sensor(
+            name=sensor_name(tip.name, TOUCH_FIELD), type=mujoco.mjtSensor.mjSENS_TOUCH, objtype=mujoco.mjtObj.mjOBJ_SITE, objname=tip.zone
+        )
+    for tip in pads:
+        for field in SENSOR_FIELDS:
+            spec.add_sensor(
+                name=sensor_name(tip.name, field), type=mujoco.mjtSensor.mjSENS_USER, dim=1, needstage=mujoco.mjtStage.mjSTAGE_ACC
+            )
+    try:
+        spec.compile()
+    except Exception as err:
+        raise ValueError(f"attach: the model does not compile with its fingertips: {err}") from err
     return Fingertips(tuple(pads), settings, fingertip)
 
 
@@ -845,6 +920,8 @@ class TipReading:
 STATUS_CODES = {"ok": 0, "below_detection": 1, "saturated": 2, "settling": 3, "outside_model": 4}
 #: Each fingertip's MuJoCo sensors, ``piezotip/TIP/<field>``: the :class:`TipReading` field each holds.
 SENSOR_FIELDS = ("pressure_pa", "sigma_pa", "status", "mode", "true_pressure_pa")
+#: A ``"touch"`` pad's MuJoCo ``touch`` sensor, ``piezotip/TIP/touch_n``: its zone's normal force, N.
+TOUCH_FIELD = "touch_n"
 
 
 def sensor_name(tip: str, field: str) -> str:
@@ -881,14 +958,22 @@ class _FingertipHook:
         # The data weakly: MuJoCo's callbacks keep these fingertips registered for as long as the
         # MjData lives (cosim.mjhooks), so a strong reference here would keep it alive for good.
         self.model, self._data, self.tips = model, weakref.ref(data), tips
-        _check_options(model.opt, "bind")
+        kind = tips.pads[0].kind
+        _check_options(model.opt, "bind", kind)
         self.timestep_s = float(model.opt.timestep)
         self.substeps = max(1, round(config.physics.control_period_s / self.timestep_s))
         self.period_s = self.substeps * self.timestep_s
         self._unit = make_unit(config)  # the physical unit the channels run, when not the nominal design
         self.bridges: dict[str, PadBridge] = {}
         self._layouts = {}
+        # A touch pad reads MuJoCo's touch sensor, computed at the acceleration stage (after the
+        # contact forces); a gel pad reads its strips' positions.
+        # (A plain int: comparing MuJoCo's enum costs a microsecond at every step.)
+        self._stage = int(mujoco.mjtStage.mjSTAGE_ACC if kind == "touch" else mujoco.mjtStage.mjSTAGE_POS)
         for pad in tips.pads:
+            if pad.kind == "touch":
+                self._layouts[pad.name] = touch_layout(fingertip, self._unit)
+                continue
             try:
                 bridge = PadBridge(model, gel=fingertip.gel, geometry=pad.geometry, pads={pad.name: pad.strips}, check_integration=False)
             except ValueError as err:
@@ -903,17 +988,26 @@ class _FingertipHook:
         except KeyError as err:
             raise ValueError(f"bind: the model lacks the fingertips' sensor {err} (compile the spec given to attach)") from None
         self._sensordata, self._sensordata_of = data.sensordata, weakref.ref(data)
-        self._readers = {
-            pad.name: strip_reader(self.bridges[pad.name], pad.geometry, self._layouts[pad.name][1], data) for pad in tips.pads
-        }
+        try:
+            self._readers = {
+                pad.name: TouchReader(int(model.sensor(sensor_name(pad.name, TOUCH_FIELD)).adr[0]), pad.area_m2, data)
+                if pad.kind == "touch"
+                else strip_reader(self.bridges[pad.name], pad.geometry, self._layouts[pad.name][1], data)
+                for pad in tips.pads
+            }
+        except KeyError as err:
+            raise ValueError(f"bind: the model lacks the fingertips' sensor {err} (compile the spec given to attach)") from None
         self._unloaded_v = {m: fingertip.element.unloaded_voltage(m) for m in fingertip.modes}
         # Where the model ends (Pa): readings past it are "outside_model" (_sample).
         backstop_pa = fingertip.backstop_pressure_pa()
         self._gel_valid_pa = fingertip.gel.params.max_valid_pressure_pa
         self._backstop_pa = math.inf if backstop_pa is None else backstop_pa
-        self.gel = _gel_passive(model, self.bridges.values(), 0.0 if config.physics.gel_update == "substep" else self.period_s)
+        hold_s = 0.0 if config.physics.gel_update == "substep" else self.period_s
+        # The gel law on the strips (none on touch pads: the model's own contacts carry the load).
+        self.gel = _gel_passive(model, self.bridges.values(), hold_s) if self.bridges else None
         self._start()
-        mjhooks.register(data, model, self.gel)
+        if self.gel is not None:
+            mjhooks.register(data, model, self.gel)
         mjhooks.register(data, model, self)
 
     def _start(self) -> None:
@@ -925,8 +1019,9 @@ class _FingertipHook:
             self.channels[name] = make_channel(config, fingertip, self._unit, edges, np.random.default_rng(rng.integers(2**63)))
         self._readings: dict[str, TipReading] | None = None
         self._samples: list[tuple | None] = [None] * len(self.channels)
-        # Per fingertip, in order: its channel, its strips' reader, its coverage cells' shares.
-        self._pipeline = [(self.channels[name], self._readers[name], self._layouts[name][2]) for name in self.channels]
+        # Per fingertip, in order: its channel's reading and estimate (one call), its pad's
+        # reader, its coverage cells' shares.
+        self._pipeline = [(self.channels[name].sample, self._readers[name].read, self._layouts[name][2]) for name in self.channels]
         first = [math.nan, math.nan, float(STATUS_CODES["settling"]), float(min(config.sensor.modes)), math.nan]
         self._values = np.tile(first, len(self.channels))
         self._last_s = self.data.time
@@ -946,7 +1041,8 @@ class _FingertipHook:
 
     def unbind(self) -> None:
         """Stop running the fingertips in ``data``'s steps (the model's strips keep their last law)."""
-        mjhooks.unregister(self.data, self.gel)
+        if self.gel is not None:
+            mjhooks.unregister(self.data, self.gel)
         mjhooks.unregister(self.data, self)
 
     # -- the hook: inside mj_step ----------------------------------------------------------
@@ -955,7 +1051,7 @@ class _FingertipHook:
         return None
 
     def sensor(self, model: mujoco.MjModel, data: mujoco.MjData, stage: int) -> None:
-        if stage != mujoco.mjtStage.mjSTAGE_POS:
+        if stage != self._stage:
             return
         t, half = data.time, 0.5 * self.timestep_s
         if t < self._last_s - half:  # time went back: a reset
@@ -972,10 +1068,9 @@ class _FingertipHook:
         samples, period_s, codes = self._samples, self.period_s, STATUS_CODES
         gel_valid_pa, backstop_pa, outside = self._gel_valid_pa, self._backstop_pa, STATUS_CODES["outside_model"]
         values = []  # every fingertip's sensors, in order: one write into the array at the end
-        for k, (channel, reader, fractions) in enumerate(self._pipeline):
-            (profile,), (cells,) = reader.read()
-            reading = channel.update_trusted(cells, period_s)
-            estimate = channel.estimate(reading)
+        for k, (sample, read, fractions) in enumerate(self._pipeline):
+            (profile,), (cells,) = read()
+            reading, estimate = sample(cells, period_s)
             # The coverage's mean pressure (one cell: fsum of one value is that value).
             truth = cells[0] * fractions[0] if len(cells) == 1 else math.fsum(p * f for p, f in zip(cells, fractions, strict=True))
             # Past where the model holds (a strip over the element past the gel's valid strain,
@@ -1014,9 +1109,10 @@ class _FingertipHook:
             raise RuntimeError("step: these fingertips were unbound (bind again)")
         _check_controls(m, d)
         start_s, before = d.time, _unstable_counts(d)
-        prepare = self.gel.prepare
+        prepare = self.gel.prepare if self.gel is not None else None
         for _ in range(self.substeps):
-            prepare(d)  # the discrete integrator's stiffness at this step's state (the hook's comes a step late)
+            if prepare is not None:
+                prepare(d)  # the discrete integrator's stiffness at this step's state (the hook's comes a step late)
             step(m, d)
         warned = [w.name for w, n0, n1 in zip(_UNSTABLE, before, _unstable_counts(d), strict=True) if n1 != n0]
         if warned or d.time <= start_s:
@@ -1062,9 +1158,18 @@ class _FingertipHook:
             raise ValueError(f"set_mode: fingertip {name!r}: {err}") from None
 
     def pad_state(self, name: str) -> PadReading:
-        """Fingertip ``name``'s pad now (the simulator's truth: normal force, contact area, bottomed)."""
+        """Fingertip ``name``'s pad now (the simulator's truth: normal force, contact area, bottomed;
+        a touch pad's: its zone's normal force over the whole pad, uniform, never bottomed)."""
         self._channel(name)
-        return self.bridges[name].read(self.data)[name]
+        if name in self.bridges:
+            return self.bridges[name].read(self.data)[name]
+        reader = self._readers[name]
+        force_n = reader.force_n(self.data)
+        pressure_pa = force_n / reader.area_m2
+        loaded = force_n > 0.0
+        return PadReading(
+            name, force_n, force_n, reader.area_m2 if loaded else 0.0, np.array([pressure_pa]), pressure_pa, np.array([math.nan]), False
+        )
 
     def _channel(self, name: str) -> SensorChannel:
         if name not in self.channels:
@@ -1146,6 +1251,32 @@ def make_channel(config: ScenarioConfig, fingertip, unit, edges_m: np.ndarray, r
     if unit is None:
         return SensorChannel(fingertip, rng=rng, **options)
     return UnitChannel(fingertip, unit, rng=rng, **options)
+
+
+def touch_layout(fingertip, unit) -> tuple[np.ndarray, list, list[float]]:
+    """A touch pad's coverage cells as :func:`coverage_layout` gives them: one cell over the
+    gel's coverage (the pressure is uniform), which feels the whole pad, its whole share."""
+    coverage = unit.coverage if unit is not None else fingertip.coverage
+    return np.asarray(coverage, float), [[(0, 1.0)]], [1.0]
+
+
+class TouchReader:
+    """A touch pad's per-period read, bound to ``data``: its zone's normal force (MuJoCo's
+    ``touch`` sensor at ``adr`` of ``sensordata``, N) over the pad's area ``area_m2`` (m^2), the
+    pressure pressing the element uniformly, Pa; as :func:`strip_reader`'s ``read``: the element
+    profile and the coverage cells, one value each."""
+
+    def __init__(self, adr: int, area_m2: float, data: mujoco.MjData) -> None:
+        self.adr, self.area_m2 = adr, float(area_m2)
+        self._sensordata = data.sensordata  # a view kept: an MjData attribute builds a new one at each access
+
+    def force_n(self, data: mujoco.MjData) -> float:
+        """The zone's normal force now, N (``data``'s: the one bound, or another of the model's)."""
+        return float(data.sensordata[self.adr])
+
+    def read(self) -> tuple[tuple[list[float]], tuple[list[float]]]:
+        pressure_pa = float(self._sensordata[self.adr]) / self.area_m2
+        return ([pressure_pa],), ([pressure_pa],)
 
 
 def strip_reader(bridge: PadBridge, geometry: PadGeometry, cell_weights: list, data: mujoco.MjData):

@@ -3,6 +3,7 @@
     pip install -e ".[hand]"          # Gymnasium-Robotics: only its Shadow Hand model is used
     python examples/shadow_hand_skin.py
     python examples/shadow_hand_skin.py --out out/shadow-hand --seconds 4
+    python examples/shadow_hand_skin.py --bench   # mj_step bare, with gel pads, with touch pads
 
 Gymnasium-Robotics' Shadow Hand (``envs/assets/hand/reach.xml``: the hand palm up on its
 mount, read from the installed package, never copied) gets a box site on the palm side of each
@@ -73,6 +74,7 @@ import csv
 import importlib.util
 import math
 import sys
+import time
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -593,10 +595,36 @@ def print_summary(record: SkinRecord) -> None:
         print(f"{FINGER_NAMES[s.fingertip]:<15} {touch:>15} {s.peak_true_pa:15.1f} {run:>15} {hold:>15}")
 
 
+def bench(scene: Path, steps: int = 500, repeats: int = 5) -> dict[str, float]:
+    """What the five fingertips cost the hand per ``mj_step`` (us, the fastest of ``repeats``
+    rounds of ``steps``, the variants alternating in one process): the hand with its pad sites
+    and the ball (``bare``), with gel pads (``attach``'s default) and with touch pads
+    (``pad="touch"``: no pad geometry), each bound and stepped from the same start (the ball
+    dropping onto the palm, the hand open: its own dynamics, its contacts, every readout)."""
+    variants = {}
+    for kind in ("bare", "gel", "touch"):
+        spec = build_scene(scene)
+        tips = None if kind == "bare" else piezotip.attach(spec, sites=[f"{tip}_pad" for tip in FINGERTIPS], pad=kind)
+        model = spec.compile()
+        data = mujoco.MjData(model)
+        if tips is not None:
+            tips.bind(model, data)
+        variants[kind] = (model, data)
+    best = dict.fromkeys(variants, math.inf)
+    for _ in range(repeats):
+        for kind, (model, data) in variants.items():
+            start = time.perf_counter()
+            for _ in range(steps):
+                mujoco.mj_step(model, data)
+            best[kind] = min(best[kind], 1e6 * (time.perf_counter() - start) / steps)
+    return best
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0], formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--out", type=Path, default=Path("out/shadow-hand"), help="output folder (default out/shadow-hand)")
     parser.add_argument("--seconds", type=float, default=4.0, help="simulated time, s (default 4; the hold's readings start at 2.8 s)")
+    parser.add_argument("--bench", action="store_true", help="only time mj_step: the hand bare, with gel pads, with touch pads")
     args = parser.parse_args(argv)
     script = GraspScript()
     if not script.closed_s < args.seconds <= 60:
@@ -605,6 +633,12 @@ def main(argv: list[str] | None = None) -> int:
     if scene is None:
         print("the Shadow Hand needs Gymnasium-Robotics: pip install -e '.[hand]'", file=sys.stderr)
         return 2
+    if args.bench:
+        times = bench(scene)
+        print("the Shadow Hand's mj_step with five fingertips (fastest round; ratios measured side by side):")
+        for kind, us in times.items():
+            print(f"  {kind:<6} {us:7.1f} us/step  {us / times['bare']:5.2f}x bare")
+        return 0
     args.out.mkdir(parents=True, exist_ok=True)
     record = run(scene, args.seconds, script)
     files = [*save_readings(record, args.out), plot_skin(record, args.out / "skin.png")]

@@ -21,7 +21,11 @@ computed after a run from the recorded pressures: analysis/run_report.py).  A sa
 work (a few table lookups and complex numbers), so it runs on Python floats and complex
 numbers (tests/test_channel_perf_equivalence.py checks it against the documented numpy
 functions).  :meth:`SensorChannel.update` checks its input and the co-simulation, whose
-profiles are checked by construction, calls :meth:`SensorChannel.update_trusted`.
+profiles are checked by construction, calls :meth:`SensorChannel.update_trusted`.  The state a
+reading changes (mode, clocks, envelope, noise, the inference) is held by the channel's
+:class:`ChannelCore` (a kernel, sensor/_channel.py), whose per-step path runs a table-driven
+channel's :meth:`SensorChannel.update_trusted` and :meth:`SensorChannel.estimate`; the channel's
+attributes of those names are that state.
 
 The readout (:meth:`SensorChannel.estimate`) turns each reading into a pressure estimate.  Its
 contract, measured by tests/test_readout_honesty.py: an "ok" estimate's interval, estimate +-
@@ -35,9 +39,11 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from operator import attrgetter
 
 import numpy as np
 
+from ._channel import ChannelCore
 from .carrier import CarrierResonator
 from .equations import normalized_response
 from .estimator import _SATURATED, _SETTLING, Estimate, ModeInverse, mode_tables
@@ -45,9 +51,6 @@ from .fingertip import Fingertip
 from .inference import MAX_GAIN, SteadyInference
 from .resonator import _SETTLE_TAUS, DYNAMICS, Reading, _rate, _reading, _step
 from .sampler import ModeSampler
-
-#: Noise is drawn in blocks (one generator call per block, not per reading; even: I and Q pair up).
-_NOISE_BLOCK = 4096
 
 #: A mode is known to be saturated, while its inference cannot tell, once every reading for
 #: SATURATION_TAUS unloaded time constants has stayed under half the mode's output at P_max (by 3
@@ -77,6 +80,16 @@ def _modal_load(table_at, pressure_cells_pa, weights) -> tuple[float, float]:
     return kappa, gamma
 
 
+def _state(name: str, doc: str) -> property:
+    """The attribute ``name`` of a channel's :class:`ChannelCore`, read and written through the
+    channel (the core is its one owner)."""
+
+    def put(channel: SensorChannel, value) -> None:
+        setattr(channel._core, name, value)
+
+    return property(attrgetter(f"_core.{name}"), put, doc=doc)
+
+
 class SensorChannel:
     """The readout of one fingertip: drives one mode at a time, samples, switches.
 
@@ -100,6 +113,23 @@ class SensorChannel:
     #: Whether the readout re-zeroes while unloaded (a calibrated physical unit's: UnitChannel).
     _tracking = False
 
+    # The state a reading changes, held by the channel's core (sensor/_channel.py).
+    mode = _state("mode", "The mode driven.")
+    noise = _state("noise", "Whether readings carry noise.")
+    rng = _state("rng", "The noise generator.")
+    evaluations = _state("evaluations", 'Gel/sensor evaluations, counted for "compute only what is needed" tests.')
+    envelope = _state("envelope", "The resonator's envelope over the unloaded steady one (complex, dimensionless).")
+    time_in_mode_s = _state("time_in_mode_s", "Time driving this mode, s (inf: settled before the scene).")
+    _noise = _state("_noise", "The lock-in's unit noise drawn ahead (complex), taken from the end.")
+    _clock_s = _state("_clock_s", "The readout's own clock: time since the channel started or last switched, s.")
+    _dt_s = _state("_dt_s", "The last sample period, s.")
+    _inference = _state("_inference", "The readout's SteadyInference (None before the first estimate).")
+    _inference_mode = _state("_inference_mode", "The mode the inference reads.")
+    _estimated_at = _state("_estimated_at", "The readout clock of the last estimate, s (NaN: none since a switch).")
+    _last_estimate = _state("_last_estimate", "The last estimate (a reading estimated twice).")
+    _seed_a = _state("_seed_a", "The settled, unloaded reading before the scene (complex).")
+    _low_since_s = _state("_low_since_s", "Since when every reading has stayed low (SATURATION_TAUS), s; None.")
+
     def __init__(
         self,
         fingertip: Fingertip,
@@ -115,8 +145,6 @@ class SensorChannel:
             raise ValueError(f"unknown sensor dynamics {dynamics!r}; valid: {', '.join(DYNAMICS)}")
         self.tip = fingertip
         self.dynamics = dynamics
-        self.noise = noise
-        self.rng = rng or np.random.default_rng(0)
         self.exact = exact
         # default: one cell over the gel's contact
         self.edges_m = np.asarray(edges_m if edges_m is not None else fingertip.coverage, float)
@@ -149,43 +177,67 @@ class SensorChannel:
             else {}
         )
         self._tau0 = 2.0 * self._rho_a_f / self._c_f  # unloaded envelope time constant, s
-        self.evaluations = 0  # gel/sensor evaluations, counted for "compute only what is needed" tests
-        self.mode = fingertip.modes[0] if mode is None else fingertip._mode(mode)
-        # The instrument has been running unloaded before the scene starts: steady, settled.
-        self.envelope = 1 + 0j
-        self.time_in_mode_s = math.inf
+        # A mode is saturated once every reading has stayed under half its output at P_max (by
+        # 3 sigma of noise) for _saturation_s (SATURATION_TAUS).
+        self._saturation_s = SATURATION_TAUS * self._tau0
+        self._low_amplitude = {m: 0.5 * self._inverse[m].v_at_p_max - 3.0 * self._sigma[m] for m in used}
+        # The state a reading changes, from the settled, unloaded instrument before the scene
+        # (ChannelCore's constructor); its per-step path where the readings are the samplers'.
+        start = fingertip.modes[0] if mode is None else fingertip._mode(mode)
+        self._core = ChannelCore(
+            self._samplers,
+            self._inverse,
+            self._sigma,
+            self._low_amplitude,
+            self._tau0,
+            self._saturation_s,
+            dynamics,
+            start,
+            noise,
+            rng or np.random.default_rng(0),
+        )
+        self._fast_core = self._core if self._samplers else None
+        self._bind_fast_path()
         self._carrier_spc = int(carrier_samples_per_cycle)
         self._carrier: CarrierResonator | None = None
         if dynamics == "carrier":
             self._carrier = self._new_carrier(self.mode)
             self._carrier.start_steady()
-        self._noise: list[complex] = []
-        # The readout's own clock: time since the channel started or last switched, s.
-        self._clock_s = 0.0
-        self._dt_s = 0.005  # the last sample period, s (for the settled history before the scene)
-        # The readout's inference of the steady reading (its mode, and the last estimate, for a
-        # reading estimated twice); created at the first estimate from the unloaded history.
-        self._inference: SteadyInference | None = None
-        self._inference_mode = self.mode
-        self._estimated_at, self._last_estimate = math.nan, _SETTLING
-        # The readout's history before the scene: settled, unloaded readings of this value.
-        self._seed_a = 1 + 0j
-        # Since when (readout clock, s) every reading has stayed under half the driven mode's
-        # output at P_max (SATURATION_TAUS); None while the last one did not.
-        self._low_since_s: float | None = None
-        self._saturation_s = SATURATION_TAUS * self._tau0
-        self._low_amplitude = {m: 0.5 * self._inverse[m].v_at_p_max - 3.0 * self._sigma[m] for m in used}
+
+    def _bind_fast_path(self) -> None:
+        """A SensorChannel (not a subclass, which may override or re-zero) whose readings are its
+        samplers' reads and estimates through its core's own methods, set on the instance over
+        the class's functions: a control step's call costs no Python frame of the channel's."""
+        if type(self) is SensorChannel and self._fast_core is not None:
+            core = self._fast_core
+            self.update_trusted, self.estimate, self.sample = core.update, core.estimate, core.sample
+
+    def __getstate__(self) -> dict:
+        # Without the core's bound methods (a copy binds its own core's: _bind_fast_path).
+        state = self.__dict__.copy()
+        state.pop("update_trusted", None)
+        state.pop("estimate", None)
+        state.pop("sample", None)
+        return state
+
+    def __setstate__(self, state: dict) -> None:
+        self.__dict__.update(state)
+        self._bind_fast_path()
+
+    def sample(self, pressure_cells_pa: Sequence[float], dt_s: float) -> tuple[Reading, Estimate]:
+        """One period's :meth:`update_trusted` and its :meth:`estimate`, in one call (a plain
+        channel's is its core's :meth:`ChannelCore.sample`: what a readout pass over many
+        fingertips calls)."""
+        reading = self.update_trusted(pressure_cells_pa, dt_s)
+        return reading, self.estimate(reading)
 
     def _new_carrier(self, mode: int) -> CarrierResonator:
         return CarrierResonator(self._rho_a_f, self._c_f, float(self._omega[mode]), self._carrier_spc)
 
     def _iq_noise(self) -> complex:
         """The lock-in's noise on one reading: independent standard normal draws on I and Q,
-        from a block drawn ahead (the generator's draws taken in pairs, I first)."""
-        if not self._noise:
-            draws = self.rng.standard_normal(_NOISE_BLOCK).tolist()
-            self._noise = [complex(i, q) for i, q in zip(draws[-1::-2], draws[-2::-2], strict=True)][::-1]
-        return self._noise.pop()
+        from a block drawn ahead (:meth:`ChannelCore.iq_noise`)."""
+        return self._core.iq_noise()
 
     @property
     def n_cells(self) -> int:
@@ -264,16 +316,11 @@ class SensorChannel:
         wrong profile gives a wrong reading, not an error.  One table lookup per cell for the
         active mode (counted in :attr:`evaluations`), then the envelope in complex scalars.
         """
+        core = self._fast_core
+        if core is not None:  # a sampler per mode: the core's path (ChannelCore.update)
+            return core.update(pressure_cells_pa, dt_s)
         mode = self.mode
         self.evaluations += 1
-        sampler = self._samplers.get(mode)
-        if sampler is not None:
-            self.time_in_mode_s = t = self.time_in_mode_s + dt_s
-            self._clock_s += dt_s
-            self._dt_s = dt_s
-            noise = (self._noise.pop() if self._noise else self._iq_noise()) if self.noise else None  # _iq_noise, inlined
-            reading, self.envelope = sampler.sample(pressure_cells_pa, self.envelope, dt_s, t, noise)
-            return reading
         omega, sigma, table_at, weights = self._fast[mode]
         c = self._c_f
         if table_at is None:  # exact: the gel model itself, on arrays
@@ -311,6 +358,9 @@ class SensorChannel:
         The readout uses only what a lock-in gives (I, Q, the time since its own switch) and
         the unloaded time constant from calibration, never the simulator's load.
         """
+        core = self._fast_core
+        if core is not None and not self._tracking:  # the core's path (ChannelCore.estimate)
+            return core.estimate(reading)
         inverse = self._inverse[reading.mode]
         if self.dynamics == "steady":
             if self._tracking:

@@ -10,6 +10,9 @@ a control step's.  Each lives in one Python module, its one source, the one to r
   steady reading (:meth:`sensor.estimator.ModeInverse.inferred`);
 - ``sensor/_inference.py``: :class:`sensor.inference.SteadyInference`, the readout's
   steady-reading inference;
+- ``sensor/_channel.py``: ``ChannelCore``, a :class:`sensor.channel.SensorChannel`'s per-reading
+  state and its per-step path (a reading through the sampler, its estimate through the
+  inference and the inverse);
 - ``cosim/_pad_kernels.py``: :class:`cosim.pad_kernels.GelForces`, ``PadPressures`` and the
   gel law's lookup ``UniformPairTable``: the gel law on the pad joints, the pads' pressure read;
 - ``cosim/_period.py``: :class:`cosim.period.PeriodPhysics`, a control period's substeps (the
@@ -66,6 +69,7 @@ KERNELS = (
     "piezotip.sensor._sampler",
     "piezotip.sensor._estimator",
     "piezotip.sensor._inference",
+    "piezotip.sensor._channel",
     "piezotip.cosim._pad_kernels",
     "piezotip.cosim._period",
     "piezotip.cosim._rows",

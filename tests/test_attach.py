@@ -171,6 +171,8 @@ def flag(setting: str) -> str:
         ({"sites": ["pressed", "pressed"]}, scene_xml(), r"\['pressed'\] repeated"),
         ({"bodies": ["pressed_finger"]}, scene_xml(), "give two or more bodies"),
         ({}, scene_xml(), "give the fingertips' sites"),
+        ({"sites": ["pressed"], "pad": "foam"}, scene_xml(), "unknown pad 'foam'; valid: gel, touch"),
+        ({"sites": ["pressed"], "pad": "touch"}, scene_xml(option=flag('contact="disable"')), "disables 'contact'"),
     ],
 )
 def test_bad_input_is_a_value_error_naming_it(kwargs, xml, match):
@@ -322,6 +324,39 @@ def test_pads_on_bodies_face_each_other_and_read_the_weight():
     assert r["lower"].true_pressure_pa == pytest.approx(PRESSURE_PA, rel=1e-6)
     assert r["lower"].status == "ok" and abs(r["lower"].estimate_pa - PRESSURE_PA) <= 3 * r["lower"].sigma_pa
     assert r["upper"].status == "below_detection"
+
+
+def test_touch_pads_on_bodies_read_the_whole_face_and_leave_the_model_as_it_was():
+    """``pad="touch"`` on bodies: each zone is the body's whole face towards the other (a 30 mm
+    box's corners carry a resting plate), the plate's weight over that face presses the element;
+    no body, geom or joint is added, and a spring-less model (a touch pad needs no spring) is taken."""
+    plate_z = FINGER_TOP_M + 0.005
+    xml = f"""<mujoco><option><flag spring="disable"/></option><worldbody>
+      <body name="lower" pos="0 0 0.1"><geom type="box" size="0.015 0.015 0.01"/></body>
+      <body name="upper" pos="0 0 0.3"><geom type="box" size="0.015 0.015 0.01"/></body>
+      <body name="plate" pos="0 0 {plate_z}">
+        <joint name="press" type="slide" axis="0 0 1" damping="{_dashpot_n_s_m():.6g}"/>
+        <geom type="box" size="0.02 0.02 0.005" mass="{PLATE_KG}"/>
+      </body>
+    </worldbody></mujoco>"""
+    spec = mujoco.MjSpec.from_string(xml)
+    tips = attach(spec, bodies=["lower", "upper"], pad="touch")
+    assert [(p.kind, p.strips, p.area_m2) for p in tips.pads] == [("touch", (), pytest.approx(0.03 * 0.03))] * 2
+    model = spec.compile()
+    bare = mujoco.MjModel.from_xml_string(xml)
+    assert (model.nbody, model.ngeom, model.njnt, model.nsite) == (bare.nbody, bare.ngeom, bare.njnt, bare.nsite + 2)
+    data = mujoco.MjData(model)
+    sim = tips.bind(model, data)
+    mujoco.mj_forward(model, data)
+    zone = data.site_xpos[model.site(f"{PREFIX}lower/zone").id]
+    assert zone[2] == pytest.approx(FINGER_TOP_M, abs=1e-12)  # on the lower body's top face
+    run(sim, round(1.0 / sim.period_s))
+    r = sim.readings()
+    face_pressure_pa = PLATE_KG * G / 0.03**2
+    assert sim.pad_state("lower").normal_force_n == pytest.approx(PLATE_KG * G, rel=1e-6)
+    assert r["lower"].true_pressure_pa == pytest.approx(face_pressure_pa, rel=1e-6)
+    assert r["lower"].status == "ok" and abs(r["lower"].estimate_pa - face_pressure_pa) <= 3 * r["lower"].sigma_pa
+    assert r["upper"].status == "below_detection" and sim.pad_state("upper").normal_force_n == 0.0
 
 
 def test_attach_is_exported():

@@ -39,6 +39,7 @@ from piezotip.cosim.control import interface, selector
 from piezotip.cosim.pad_bridge import _GelTable
 from piezotip.cosim.pad_geometry import PadGeometry
 from piezotip.sensor import Fingertip, GelModel, SensorElement, compiled, estimator, inference, resonator, sampler
+from piezotip.sensor._channel import ChannelCore
 from piezotip.sensor.channel import SensorChannel
 from piezotip.sensor.compiled import PURE_PYTHON, is_compiled, source_module
 from piezotip.sensor.estimator import _TABLE_P, Estimate, foundation_table
@@ -189,6 +190,60 @@ def drive_inference(kernel, perturb: bool = False) -> list:
                     inf = copy.deepcopy(inf)
             out.append((inf.tau0, inf.sigma, inf.w_target))
     return out
+
+
+def _channel_core(kernel, ch: SensorChannel, perturb: bool):
+    """``kernel``'s ChannelCore for the channel ``ch`` (its samplers, inverses and state), put
+    in place of its own: ``ch``'s methods then run through it (the noise from generator 11)."""
+    tau0 = ch._tau0 * (ULP if perturb else 1.0)  # (perturbed: the inference's tau0 one ulp up)
+    args = (ch._samplers, ch._inverse, ch._sigma, ch._low_amplitude, tau0, ch._saturation_s, ch.dynamics)
+    core = kernel.ChannelCore(*args, ch.mode, ch.noise, np.random.default_rng(11))
+    ch._core = ch._fast_core = core
+    ch._bind_fast_path()
+    return core
+
+
+def drive_channel(kernel, perturb: bool = False) -> list:
+    """Readings and estimates of channels run through ``kernel``'s core: envelope and steady
+    dynamics, one cell and three, with noise and without; a settled start, loads on and off,
+    held, stepping and past the mode's range, mode switches (ring-ups from rest), a reading
+    estimated twice, one of a mode no longer driven, periods of three lengths, a deep copy and
+    a pickled copy made mid-run that go on in the original's place."""
+    out = []
+    tip = Fingertip(element=SensorElement().with_quality_factor(70), coverage=(6.5e-3, 7.5e-3))
+    for dynamics, cells, noise in (("envelope", 1, True), ("envelope", 3, False), ("steady", 1, True), ("envelope", 1, False)):
+        ch = SensorChannel(tip, edges_m=np.linspace(6.5e-3, 7.5e-3, cells + 1), dynamics=dynamics, noise=noise)
+        core = _channel_core(kernel, ch, perturb)
+        rng = np.random.default_rng(cells)
+        stale = None
+        for k in range(2400):
+            if k in (500, 1300, 1900):
+                stale = core.update([0.0] * cells, 0.005)  # a reading of the mode before the switch
+                ch.select_mode((2, 4, 1)[(500, 1300, 1900).index(k)])
+            segment = (k // 150) % 6
+            p = (0.0, 800.0, 3e4, 0.0, 2e6, 150.0)[segment] * (1.0 + 1e-3 * rng.standard_normal())
+            dt = (0.005, 0.004, 0.001)[k % 3]
+            if k % 2:
+                reading, estimate = core.sample([p * (1.0 + 0.2 * i) for i in range(cells)], dt)
+            else:
+                reading = ch.update_trusted([p * (1.0 + 0.2 * i) for i in range(cells)], dt)
+                estimate = ch.estimate(reading)
+            out.append((reading, estimate, ch.envelope, ch.time_in_mode_s, ch._clock_s, ch._low_since_s))
+            if k % 97 == 0:
+                out.append((ch.estimate(reading) is estimate or dynamics == "steady", len(ch._noise)))
+            if stale is not None:
+                out.append(ch.estimate(stale))
+                stale = None
+            if k in (700, 1600):  # (the source run as Python is not pickled: its class has no importable name)
+                ch = copy.deepcopy(ch) if k == 700 else pickle.loads(pickle.dumps(ch)) if kernel is _channel_kernel() else ch
+                core = ch._core
+        out.append((ch.evaluations, ch.mode, ch._inference_mode, ch._estimated_at, ch._dt_s, ch._seed_a))
+    return out
+
+
+def _channel_kernel():
+    """The channel kernel as the channels import it (what a pickled core is loaded as)."""
+    return importlib.import_module("piezotip.sensor._channel")
 
 
 def _gel_table() -> tuple:
@@ -422,6 +477,7 @@ DRIVERS = {
     "piezotip.sensor._sampler": drive_sampler,
     "piezotip.sensor._estimator": drive_estimator,
     "piezotip.sensor._inference": drive_inference,
+    "piezotip.sensor._channel": drive_channel,
     "piezotip.cosim._pad_kernels": drive_pad_kernels,
     "piezotip.cosim._period": drive_period,
     "piezotip.cosim._rows": drive_rows,
@@ -442,6 +498,7 @@ def test_every_kernel_is_built_and_runs():
     assert sampler.SAMPLER_COMPILED and estimator.INVERSE_COMPILED and inference.COMPILED
     classes = [sampler.ModeSampler, estimator.InverseCore, inference.SteadyInference, rows.RowBuilder, selector.ModeSelector]
     classes += [pad_kernels.GelForces, pad_kernels.PadPressures, pad_kernels.UniformPairTable, selector.TouchDetector, period.PeriodPhysics]
+    classes += [ChannelCore]
     heap = [cls.__qualname__ for cls in classes if cls.__flags__ & (1 << 9)]  # Py_TPFLAGS_HEAPTYPE: a Python class
     assert not heap, f"compiled without their .pxd (Python classes, no C types): {heap}"
     assert pad_kernels.PAD_KERNELS_COMPILED and rows.ROWS_COMPILED and selector.SELECTOR_COMPILED and period.PERIOD_COMPILED
@@ -450,10 +507,11 @@ def test_every_kernel_is_built_and_runs():
 
     sim = CoSimulation(scenarios.get("grasp"))  # the loop runs them
     kernels = [sim.bridge._gel_forces, sim._pressure_reader, sim._row_builder, sim._period, *sim.channels.values()]
-    kernels += [*next(iter(sim.channels.values()))._samplers.values()]
+    kernels += [*next(iter(sim.channels.values()))._samplers.values(), *(ch._core for ch in sim.channels.values())]
     kernels += [*sim.controller.selectors.values(), *sim.controller.touch.values()]
     assert all(is_compiled(sys.modules[type(k).__module__]) for k in kernels if type(k).__module__ in compiled.KERNELS)
     expected = {"piezotip.cosim._pad_kernels", "piezotip.cosim._period", "piezotip.cosim._rows", "piezotip.sensor._sampler"}
+    expected |= {"piezotip.sensor._channel"}
     assert {type(k).__module__ for k in kernels} >= expected
 
 
@@ -529,6 +587,11 @@ def test_pickled_kernels_go_on_as_their_originals():
     assert exact(pickle.loads(pickle.dumps(core)).inferred(0.99, 1.5)) == exact(core.inferred(0.99, 1.5))
     table = pad_kernels.UniformPairTable(*_gel_table())
     assert pickle.loads(pickle.dumps(table)).at(1e-4) == table.at(1e-4)
+    ch = SensorChannel(Fingertip(), rng=np.random.default_rng(2))
+    for p in (0.0, 500.0, 500.0):
+        ch.estimate(ch.update_trusted([p], 0.005))
+    twin = pickle.loads(pickle.dumps(ch._core))
+    assert [exact(twin.sample([700.0], 0.005)) for _ in range(50)] == [exact(ch._core.sample([700.0], 0.005)) for _ in range(50)]
 
 
 def test_the_pad_kernels_check_their_input_and_come_unbound():

@@ -172,3 +172,12 @@ def test_loaded_fingertips_are_driven_past_mode_1(written):
     for j in _holding(data):
         if data["true_pressure_pa"][-1, j] > up_pa:
             assert data["mode"][-1, j] > 1, data["fingertips"][j]
+
+
+def test_the_bench_times_the_hand_bare_with_gel_pads_and_with_touch_pads(capsys):
+    """``--bench``: the three variants timed side by side; the touch pads add no geometry, so
+    the hand with them steps as the bare hand does (its pads' sites only) plus the readout."""
+    times = skin.bench(skin.hand_assets(), steps=20, repeats=1)
+    assert set(times) == {"bare", "gel", "touch"} and all(t > 0 for t in times.values())
+    assert skin.main(["--bench"]) == 0
+    assert "touch" in capsys.readouterr().out

@@ -16,15 +16,16 @@ ROWS = COLS = 4
 PAD_AREA_M2 = (2 * PAD_HALF_M) ** 2
 
 
-@pytest.fixture(scope="module", params=[False, True], ids=["house-pads", "element-sized-pads"])
+@pytest.fixture(scope="module", params=["house", "lean", "touch"], ids=["house-pads", "element-sized-pads", "touch-pads"])
 def skin(request):
-    spec = mujoco.MjSpec.from_string(skin_xml(ROWS, COLS, lean=request.param))
+    lean = request.param == "lean"
+    spec = mujoco.MjSpec.from_string(skin_xml(ROWS, COLS, lean=lean))
     names = [f"tip{i}_{j}" for i in range(ROWS) for j in range(COLS)]
-    tips = attach(spec, sites=names)
+    tips = attach(spec, sites=names, pad="touch" if request.param == "touch" else "gel")
     model = spec.compile()
     data = mujoco.MjData(model)
     sim = tips.bind(model, data)
-    if request.param:  # the box's 13 kPa on an element-sized pad saturates the lowest mode: the highest reads it
+    if lean:  # the box's 13 kPa on an element-sized pad saturates the lowest mode: the highest reads it
         for n in names:
             sim.set_mode(n, max(tips.config.sensor.modes))
     readings = []
@@ -59,13 +60,14 @@ def test_loaded_pads_read_within_three_sigma_and_the_others_below_detection(skin
 
 def test_the_skin_bench_reports_ratios_over_the_bare_model():
     report = skin_report(rows=2, cols=2, steps=50, repeats=1)
-    variants = {"bare", "rigid", "touch", "piezotip", "piezotip_mechanics", "piezotip_lean"}
+    variants = {"bare", "rigid", "touch", "piezotip", "piezotip_mechanics", "piezotip_lean", "piezotip_touch"}
     assert report["pads"] == 4 and set(report["step_us"]) == variants
     assert report["ratio_over_bare"]["bare"] == 1.0 and report["ratio_over_rigid"]["rigid"] == 1.0
     assert report["contacts"]["piezotip"] > report["contacts"]["bare"]  # the box rests on the pads' strips
     # A lean pad is one strip: a third of the 20 x 20 mm pad's contacts under the same box.
     assert 3 * report["contacts"]["piezotip_lean"] == report["contacts"]["piezotip"]
     assert report["contacts"]["rigid"] == report["contacts"]["piezotip_lean"]
+    assert report["contacts"]["piezotip_touch"] == report["contacts"]["bare"]  # no pad geometry: the box on the palm
     assert "per pad over bare" in format_skin_report(report)
 
 
@@ -82,3 +84,26 @@ def test_the_bench_variants_run_what_they_say():
     assert hooks["bare"] == hooks["rigid"] == hooks["touch"] == []
     lean, full = variants["piezotip_lean"][0], variants["piezotip"][0]
     assert full.njnt - 1 == 3 * (lean.njnt - 1)  # the box's freejoint, and one strip a pad against three
+
+
+def test_a_touch_skin_leaves_the_model_s_physics_bit_for_bit_as_it_was():
+    """``pad="touch"`` adds sensors only: the model with its 16 fingertips steps exactly as the
+    model without them (the box's whole trajectory), while its fingertips read the box."""
+    spec = mujoco.MjSpec.from_string(skin_xml(ROWS, COLS))
+    names = [f"tip{i}_{j}" for i in range(ROWS) for j in range(COLS)]
+    tips = attach(spec, sites=names, pad="touch")
+    model = spec.compile()
+    data = mujoco.MjData(model)
+    tips.bind(model, data)
+    bare = mujoco.MjModel.from_xml_string(skin_xml(ROWS, COLS))
+    bare_data = mujoco.MjData(bare)
+    assert (model.nbody, model.ngeom, model.njnt) == (bare.nbody, bare.ngeom, bare.njnt)
+    for _ in range(300):
+        mujoco.mj_step(model, data)
+        mujoco.mj_step(bare, bare_data)
+        assert np.array_equal(data.qpos, bare_data.qpos) and np.array_equal(data.qvel, bare_data.qvel)
+    # MuJoCo's own touch in sensordata: the box's weight, shared by the four pads under it.
+    touch = [data.sensor(sensor_name(n, "touch_n")).data[0] for n in names]
+    assert sum(touch) == pytest.approx(BOX_KG * 9.81, rel=1e-6)
+    # the truth the readout was given at its last period (a step or so ago; the box is at rest)
+    assert data.sensor(sensor_name("tip0_0", "true_pressure_pa")).data[0] == pytest.approx(touch[0] / PAD_AREA_M2, rel=1e-6)
