@@ -1,0 +1,95 @@
+"""The golden record: a hash of every recorded column of every scenario, to hold a refactor to.
+
+    python -m benchmarks.golden out/golden-before.json            # before the change
+    python -m benchmarks.golden out/golden-after.json             # after it
+    python -m benchmarks.golden --compare out/golden-before.json out/golden-after.json
+
+Runs every registered scenario at the three presets under its own controller, the default grasp
+under each built-in controller, and the default grasp on each third-party gripper whose package
+is installed (:func:`analysis.gripper_tables.grippers`; the fast preset), and writes, per run,
+the SHA-256 of each recorded column's bytes and the referee's outcome (CONTRIBUTING.md,
+"Refactoring: the golden record").  ``--compare`` prints every run and column that differs and
+exits 1 if any does (a run only one file has counts as a difference).  Progress on stderr.
+"""
+
+from __future__ import annotations
+
+import argparse
+import hashlib
+import json
+import sys
+from pathlib import Path
+
+import numpy as np
+
+#: The presets every scenario runs at.
+PRESETS = ("fast", "balanced", "accurate")
+
+
+def cases(quick: bool = False) -> list[tuple[str, str, dict]]:
+    """(scenario, preset, overrides) of every run; ``quick``: the fast preset only."""
+    import piezotip
+    from piezotip.analysis.gripper_tables import grippers
+
+    presets = PRESETS[:1] if quick else PRESETS
+    out = [(name, preset, {}) for name in piezotip.scenario_names() for preset in presets]
+    out += [("grasp", preset, {"controller.kind": kind}) for kind in piezotip.controllers.names() for preset in presets]
+    for keys in grippers().values():
+        out += [("grasp", "fast", {**keys, "controller.kind": kind}) for kind in ("gentle", "multimode")]
+    return out
+
+
+def record_hashes(result) -> dict[str, str]:
+    """Each recorded column's SHA-256 (its bytes, C order) and the outcome."""
+    hashes = {column: hashlib.sha256(np.ascontiguousarray(result.data[column]).tobytes()).hexdigest() for column in sorted(result.data)}
+    return hashes | {"outcome": result.outcome}
+
+
+def golden(quick: bool = False) -> dict[str, dict[str, str]]:
+    """Every case's hashes, keyed by ``"scenario preset {overrides as sorted JSON}"``."""
+    import piezotip
+
+    runs = {}
+    todo = cases(quick)
+    for k, (name, preset, overrides) in enumerate(todo, 1):
+        key = f"{name} {preset} {json.dumps(overrides, sort_keys=True)}"
+        print(f"[{k}/{len(todo)}] {key}", file=sys.stderr, flush=True)
+        runs[key] = record_hashes(piezotip.run(name, overrides=overrides, preset=preset))
+    return runs
+
+
+def differences(before: dict, after: dict) -> list[str]:
+    """Every run and column that differs between two golden files (a run in one only, too)."""
+    out = []
+    for key in sorted(set(before) | set(after)):
+        if key not in before or key not in after:
+            out.append(f"{key}: only {'after' if key not in before else 'before'}")
+            continue
+        changed = sorted(c for c in set(before[key]) | set(after[key]) if before[key].get(c) != after[key].get(c))
+        if changed:
+            out.append(f"{key}: {len(changed)} columns differ ({', '.join(changed[:6])}{', ...' if len(changed) > 6 else ''})")
+    return out
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("out", type=Path, nargs="?", help="where to write the hashes (JSON)")
+    parser.add_argument("--quick", action="store_true", help="the fast preset only")
+    parser.add_argument("--compare", nargs=2, type=Path, metavar=("BEFORE", "AFTER"), help="compare two golden files")
+    args = parser.parse_args(argv)
+    if args.compare:
+        before, after = (json.loads(p.read_text()) for p in args.compare)
+        diffs = differences(before, after)
+        print("\n".join(diffs) if diffs else f"identical: {len(before)} runs")
+        return 1 if diffs else 0
+    if args.out is None:
+        parser.error("give the file to write (or --compare BEFORE AFTER)")
+    runs = golden(args.quick)
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    args.out.write_text(json.dumps(runs, indent=1, sort_keys=True))
+    print(f"wrote {len(runs)} runs to {args.out}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
