@@ -39,9 +39,21 @@ def cases(quick: bool = False) -> list[tuple[str, str, dict]]:
     return out
 
 
+#: The summary's keys that say how and when a run was made, not what it did.
+VOLATILE_SUMMARY_KEYS = ("wall_time_s", "realtime_factor", "files", "versions")
+
+
+def _sha(text: bytes) -> str:
+    return hashlib.sha256(text).hexdigest()
+
+
 def record_hashes(result) -> dict[str, str]:
-    """Each recorded column's SHA-256 (its bytes, C order) and the outcome."""
-    hashes = {column: hashlib.sha256(np.ascontiguousarray(result.data[column]).tobytes()).hexdigest() for column in sorted(result.data)}
+    """Each recorded column's SHA-256 (its bytes, C order), the events', the summary's (less
+    :data:`VOLATILE_SUMMARY_KEYS`, as sorted JSON) and the outcome."""
+    hashes = {column: _sha(np.ascontiguousarray(result.data[column]).tobytes()) for column in sorted(result.data)}
+    summary = {k: v for k, v in result.summary.items() if k not in VOLATILE_SUMMARY_KEYS}
+    hashes["events"] = _sha(json.dumps([dict(e) for e in result.events], sort_keys=True, default=repr).encode())
+    hashes["summary"] = _sha(json.dumps(summary, sort_keys=True, default=repr).encode())
     return hashes | {"outcome": result.outcome}
 
 
