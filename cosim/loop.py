@@ -76,10 +76,10 @@ def _nominal_fingertip(config: ScenarioConfig) -> Fingertip:
 def make_controller(config: ScenarioConfig, robot: RobotLimits, fingertip: Fingertip) -> Controller:
     """The scenario's controller: the class registered as its ``controller.kind``
     (:mod:`piezotip.controllers`), built from the scenario (the multimode ones first run the
-    element's self-test)."""
-    from piezotip import controllers
+    element's self-test); a ``MODULE:CLASS`` kind is imported here, in whichever process runs it."""
+    from .control import registry
 
-    return controllers.get(config.controller.kind).controller.from_scenario(config, robot, fingertip)
+    return registry.get(config.controller.kind).controller.from_scenario(config, robot, fingertip)
 
 
 #: After the controller finishes, the recording goes on at least this long, s, and until the
@@ -148,6 +148,105 @@ class RunResult:
     interrupted: bool = False
 
 
+class HouseDrive:
+    """The house gripper's fingers: one position servo on their opening (``fingers_actuator``),
+    its force range the grip's limit.  The stages of :class:`CoSimulation` that touch the fingers
+    run through a drive object (this, or :class:`MountedDrive`), each given the simulation: its
+    per-step views and state are the simulation's (:meth:`CoSimulation._prepare_step`); a drive
+    holds nothing of its own, so a copied simulation's drive is its copy's."""
+
+    def physics(self, sim: CoSimulation) -> None:
+        """One control period: the lift's and fingers' set-points interpolated over its substeps."""
+        # The servos interpolate their set-points over the period, as real servos do between a
+        # controller's set-points: a lift target that jumped once per period would make the
+        # servo's force ripple by kp v T (10 N at 0.1 m/s) and hide the load it carries, and
+        # fingers moved in jerks press their own gel on the pascal-sensitive element.  With
+        # gel_update=period the gel's law is linearized once per control period: the bridge's
+        # tangent stiffness and offset force make MuJoCo apply -A P(q0) - A P'(q0) (q - q0) at
+        # every substep (implicitly), no gel law in Python between.  MuJoCo's sensors (the
+        # referee's ground truth, read by _record alone) are computed in the period's last
+        # substep only: they never act on the dynamics.  For an object with a crush limit they
+        # run in every substep, for the fingers' peak force (PEAK_COLUMNS).  (cosim/_period.py)
+        stable = sim._period.run(sim._lift_from, sim._lift_to, sim._fingers_from, sim._fingers_to)
+        sim._after_period(stable)
+
+    def observe(self, sim: CoSimulation, signals: dict[str, PadSignal]) -> Observation:
+        """The observation: the opening from the two finger joints, the grip the servo's force."""
+        qpos, force = sim._qpos, sim._actuator_force
+        return make_observation(
+            time_s=sim.time_s,
+            pads=signals,
+            lift_pos_m=qpos[sim._lift_q],
+            opening_m=qpos[sim._finger_q[0]] + qpos[sim._finger_q[1]],
+            lift_force_n=force[sim._lift_act],
+            grip_force_n=-force[sim._finger_act],
+            lift_vel_m_s=sim._qvel[sim._lift_dof_i],
+        )
+
+    def actuate(self, sim: CoSimulation, command: Command) -> None:
+        """The lift's and the opening's targets for the next period, the grip's limit the servo's force range."""
+        sim._lift_to = command.lift_m  # both reached over the next period (physics)
+        sim._fingers_to = command.opening_m
+        limit = min(max(command.grip_force_limit_n, 0.0), sim._finger_limit)
+        forcerange = sim._forcerange
+        forcerange[sim._finger_act, 0] = -limit
+        forcerange[sim._finger_act, 1] = limit
+
+    def model_settings(self, sim: CoSimulation) -> tuple[np.ndarray, np.ndarray, int]:
+        """The pad joints' stiffness, the finger servo's force range and the disable flags, copied."""
+        m = sim.model
+        return m.jnt_stiffness[sim.bridge.joint_ids].copy(), m.actuator_forcerange[sim._finger_act].copy(), int(m.opt.disableflags)
+
+    def apply_model_settings(self, sim: CoSimulation, settings: tuple[np.ndarray, np.ndarray, int]) -> None:
+        m = sim.model
+        stiffness, forcerange, flags = settings
+        m.jnt_stiffness[sim.bridge.joint_ids] = stiffness
+        m.actuator_forcerange[sim._finger_act] = forcerange
+        m.opt.disableflags = flags
+
+
+class MountedDrive:
+    """A mounted gripper's fingers (``gripper.mjcf``; :class:`cosim.gripper_mount.MountedGripper`'s
+    ``drive``): its actuators' commands for the opening target, their force limits for the grip
+    (each within its rating), the opening and the grip read through its drive."""
+
+    def physics(self, sim: CoSimulation) -> None:
+        """One period, each actuator's command interpolated from the drive's commands for the last
+        opening target to the new one's."""
+        stable = sim._period.run_drive(sim._lift_from, sim._lift_to, sim._fingers_from, sim._fingers_to)
+        sim._after_period(stable)
+
+    def observe(self, sim: CoSimulation, signals: dict[str, PadSignal]) -> Observation:
+        d, drive = sim.data, sim.mounted.drive
+        return make_observation(
+            time_s=sim.time_s,
+            pads=signals,
+            lift_pos_m=float(d.qpos[sim._lift_qpos]),
+            opening_m=drive.opening_m(d),
+            lift_force_n=float(d.actuator_force[sim._lift_act]),
+            grip_force_n=drive.grip_force_n(d),
+            lift_vel_m_s=float(d.qvel[sim._lift_dof]),
+        )
+
+    def actuate(self, sim: CoSimulation, command: Command) -> None:
+        drive = sim.mounted.drive
+        sim._lift_to = command.lift_m
+        sim._fingers_to = drive.ctrl_for(command.opening_m)
+        limit = min(max(command.grip_force_limit_n, 0.0), sim._finger_limit)
+        sim.model.actuator_forcerange[drive.actuators] = np.column_stack(drive.force_limits(limit, drive.opening_m(sim.data)))
+
+    def model_settings(self, sim: CoSimulation) -> tuple[np.ndarray, np.ndarray, int]:
+        """As the house's, with every finger actuator's force range."""
+        m, actuators = sim.model, sim.mounted.drive.actuators
+        return m.jnt_stiffness[sim.bridge.joint_ids].copy(), m.actuator_forcerange[actuators].copy(), int(m.opt.disableflags)
+
+    def apply_model_settings(self, sim: CoSimulation, settings: tuple[np.ndarray, np.ndarray, int]) -> None:
+        stiffness, forcerange, flags = settings
+        sim.model.jnt_stiffness[sim.bridge.joint_ids] = stiffness
+        sim.model.actuator_forcerange[sim.mounted.drive.actuators] = forcerange
+        sim.model.opt.disableflags = flags
+
+
 class CoSimulation:
     """One scenario, stepped at the control period with physics substeps.
 
@@ -208,7 +307,7 @@ class CoSimulation:
             self._finger_qpos = [m.joint(f"{s}_finger_joint").qposadr[0] for s in ("left", "right")]
             self._finger_act = m.actuator("fingers_actuator").id
         else:
-            self._finger_qpos = []  # the opening is the drive's (_observe_mounted)
+            self._finger_qpos = []  # the opening is the mounted drive's (MountedDrive.observe)
         self.time_s = 0.0
         self.steps = 0
         self._finger_limit = self.robot.finger_force_limit_n  # the model's, before _actuate rewrites its forcerange
@@ -239,12 +338,9 @@ class CoSimulation:
             weight_n = float(m.body_mass[self._object_body]) * gravity_m_s2(m)  # what extra_load_n None stands for
             xfrc = self.data.xfrc_applied[self._object_body]
             self.disturbance = LoadDisturbance(config.disturb.load_n(weight_n), config.disturb.ramp_s, config.controller.hold_s, xfrc)
+        # The fingers' drive: the house's one finger servo, or the mounted gripper's actuators.
+        self.drive: HouseDrive | MountedDrive = HouseDrive() if self.mounted is None else MountedDrive()
         self._prepare_step()
-        if self.mounted is not None:
-            # The mounted gripper's drive in place of the house's one finger servo, on this
-            # instance (as wrap_stages puts its instruments): the default never takes this branch.
-            for name in ("_physics", "_observe", "_actuate", "model_settings", "apply_model_settings"):
-                setattr(self, name, getattr(self, f"{name}_mounted"))
         if self.disturbance is not None:
             self._actuate_undisturbed, self._actuate = self._actuate, self._actuate_disturbed
 
@@ -396,19 +492,8 @@ class CoSimulation:
         return dict(zip(self.columns, self.advance(), strict=True))
 
     def _physics(self) -> None:
-        # The servos interpolate their set-points over the period, as real servos do between a
-        # controller's set-points: a lift target that jumped once per period would make the
-        # servo's force ripple by kp v T (10 N at 0.1 m/s) and hide the load it carries, and
-        # fingers moved in jerks press their own gel on the pascal-sensitive element.  With
-        # gel_update=period the gel's law is linearized once per control period: the bridge's
-        # tangent stiffness and offset force make MuJoCo apply -A P(q0) - A P'(q0) (q - q0) at
-        # every substep (implicitly), no gel law in Python between.  MuJoCo's sensors (the
-        # referee's ground truth, read by _record alone) are computed in the period's last
-        # substep only: they never act on the dynamics.  For an object with a crush limit they
-        # run in every substep, for the fingers' peak force (PEAK_COLUMNS).  (cosim/_period.py)
-        period = self._period
-        stable = period.run(self._lift_from, self._lift_to, self._fingers_from, self._fingers_to)
-        self._after_period(stable)
+        """One control period's physics through the fingers' drive (:meth:`HouseDrive.physics`)."""
+        self.drive.physics(self)
 
     def _after_period(self, stable: bool) -> None:
         if self._track_peaks:
@@ -445,24 +530,14 @@ class CoSimulation:
         return dict(zip(self.pads, map(make_pad_signal, readings, map(self._estimate, self._channel_list, readings)), strict=True))
 
     def _observe(self, signals: dict[str, PadSignal]) -> Observation:
-        qpos, force = self._qpos, self._actuator_force
-        return make_observation(
-            time_s=self.time_s,
-            pads=signals,
-            lift_pos_m=qpos[self._lift_q],
-            opening_m=qpos[self._finger_q[0]] + qpos[self._finger_q[1]],
-            lift_force_n=force[self._lift_act],
-            grip_force_n=-force[self._finger_act],
-            lift_vel_m_s=self._qvel[self._lift_dof_i],
-        )
+        """What the controller sees: the readout's signals and the robot's own joints, read
+        through the fingers' drive (:meth:`HouseDrive.observe`)."""
+        return self.drive.observe(self, signals)
 
     def _actuate(self, command: Command) -> None:
-        self._lift_to = command.lift_m  # both reached over the next period (_physics)
-        self._fingers_to = command.opening_m
-        limit = min(max(command.grip_force_limit_n, 0.0), self._finger_limit)
-        forcerange = self._forcerange
-        forcerange[self._finger_act, 0] = -limit
-        forcerange[self._finger_act, 1] = limit
+        """``command`` to the lift, through the fingers' drive (:meth:`HouseDrive.actuate`), and
+        its modes to the channels."""
+        self.drive.actuate(self, command)
         for pad, mode in command.modes.items():
             self.channels[pad].select_mode(mode)
 
@@ -489,50 +564,6 @@ class CoSimulation:
     def _record(self, obs: Observation, command: Command, profiles: list[list[float]], cells: list[list[float]]) -> list[float]:
         """The row's values in :attr:`columns` order (all Python floats: cosim/rows.py)."""
         return self._row_builder.row(self.time_s, obs, command, profiles, cells, self._finger_peaks)
-
-    # -- a mounted gripper's drive (gripper.mjcf): the house's one finger servo replaced ----------
-
-    def _physics_mounted(self) -> None:
-        """:meth:`_physics` with the mounted gripper's actuators: each one's command interpolated
-        over the period from the drive's commands for the last opening target to the new one's."""
-        stable = self._period.run_drive(self._lift_from, self._lift_to, self._fingers_from, self._fingers_to)
-        self._after_period(stable)
-
-    def _observe_mounted(self, signals: dict[str, PadSignal]) -> Observation:
-        """:meth:`_observe` with the opening and the grip read from the mounted gripper's drive."""
-        d, drive = self.data, self.mounted.drive
-        return make_observation(
-            time_s=self.time_s,
-            pads=signals,
-            lift_pos_m=float(d.qpos[self._lift_qpos]),
-            opening_m=drive.opening_m(d),
-            lift_force_n=float(d.actuator_force[self._lift_act]),
-            grip_force_n=drive.grip_force_n(d),
-            lift_vel_m_s=float(d.qvel[self._lift_dof]),
-        )
-
-    def _actuate_mounted(self, command: Command) -> None:
-        """:meth:`_actuate` through the mounted gripper's drive: its actuators' commands for the
-        opening target, their force limits for the grip (each within its rating)."""
-        drive = self.mounted.drive
-        self._lift_to = command.lift_m
-        self._fingers_to = drive.ctrl_for(command.opening_m)
-        limit = min(max(command.grip_force_limit_n, 0.0), self._finger_limit)
-        self.model.actuator_forcerange[drive.actuators] = np.column_stack(drive.force_limits(limit, drive.opening_m(self.data)))
-        for pad, mode in command.modes.items():
-            self.channels[pad].select_mode(mode)
-
-    def model_settings_mounted(self) -> tuple[np.ndarray, np.ndarray, int]:
-        """:meth:`model_settings` with every finger actuator's force range."""
-        m, actuators = self.model, self.mounted.drive.actuators
-        return m.jnt_stiffness[self.bridge.joint_ids].copy(), m.actuator_forcerange[actuators].copy(), int(m.opt.disableflags)
-
-    def apply_model_settings_mounted(self, settings: tuple[np.ndarray, np.ndarray, int]) -> None:
-        """:meth:`apply_model_settings` with every finger actuator's force range."""
-        stiffness, forcerange, flags = settings
-        self.model.jnt_stiffness[self.bridge.joint_ids] = stiffness
-        self.model.actuator_forcerange[self.mounted.drive.actuators] = forcerange
-        self.model.opt.disableflags = flags
 
     # -- instruments (run_sim.py bench): measured without patching ---------------------------
 
@@ -563,19 +594,13 @@ class CoSimulation:
 
     def model_settings(self) -> tuple[np.ndarray, np.ndarray, int]:
         """What the loop writes into the model as it runs, copied: the pad joints' stiffness
-        (the gel's tangent), the fingers' force range and the disable flags.  With the
+        (the gel's tangent), the fingers' force ranges and the disable flags.  With the
         integration state, what a physics step of this simulation starts from."""
-        m = self.model
-        joints = self.bridge.joint_ids
-        return m.jnt_stiffness[joints].copy(), m.actuator_forcerange[self._finger_act].copy(), int(m.opt.disableflags)
+        return self.drive.model_settings(self)
 
     def apply_model_settings(self, settings: tuple[np.ndarray, np.ndarray, int]) -> None:
         """Write :meth:`model_settings`' values back into the model."""
-        m = self.model
-        stiffness, forcerange, flags = settings
-        m.jnt_stiffness[self.bridge.joint_ids] = stiffness
-        m.actuator_forcerange[self._finger_act] = forcerange
-        m.opt.disableflags = flags
+        self.drive.apply_model_settings(self, settings)
 
     # -- a whole run ---------------------------------------------------------------------
 
