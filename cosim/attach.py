@@ -40,10 +40,9 @@ import numpy as np
 from piezotip import scenarios
 from piezotip.scenarios.config import INTEGRATORS, PhysicsConfig, ScenarioConfig, SensorConfig, valid_keys
 from piezotip.sensor.channel import SensorChannel
-from piezotip.sensor.unit_channel import UnitChannel
 
 from . import mjhooks
-from .loop import SimulationDiverged, coverage_cells, coverage_weights, make_fingertip, make_unit
+from .loop import SimulationDiverged, coverage_cells, coverage_weights, make_channels, make_fingertip, make_unit
 from .pad_bridge import PadBridge, PadReading
 from .pad_geometry import PadGeometry
 from .pad_model import COMPLIANT_PAD_SOLIMP, HARD_PAD_SOLIMP, PadPlacement, _remap_keys, add_pad_strips, copy_pad_class, pad_time_constant_s
@@ -1013,10 +1012,8 @@ class _FingertipHook:
     def _start(self) -> None:
         """The readout as at bind: fresh channels (noise from ``sensor.seed``), no reading yet."""
         config, fingertip = self.tips.config, self.tips.fingertip
-        rng = np.random.default_rng(config.sensor.seed)
-        self.channels: dict[str, SensorChannel] = {}
-        for name, (edges, _, _) in self._layouts.items():
-            self.channels[name] = make_channel(config, fingertip, self._unit, edges, np.random.default_rng(rng.integers(2**63)))
+        edges = {name: layout[0] for name, layout in self._layouts.items()}
+        self.channels: dict[str, SensorChannel] = make_channels(config, fingertip, self._unit, edges)
         self._readings: dict[str, TipReading] | None = None
         self._samples: list[tuple | None] = [None] * len(self.channels)
         # Per fingertip, in order: its channel's reading and estimate (one call), its pad's
@@ -1234,23 +1231,6 @@ def coverage_layout(fingertip, unit, geometry: PadGeometry, load_spread: str) ->
     depth = fingertip.gel.params.thickness_m if load_spread == "layer" else 0.0
     weights = coverage_weights(geometry, length, edges, depth)
     return edges, weights, (np.diff(edges) / (edges[-1] - edges[0])).tolist()
-
-
-def make_channel(config: ScenarioConfig, fingertip, unit, edges_m: np.ndarray, rng: np.random.Generator) -> SensorChannel:
-    """One fingertip's sensor channel (the unit's own when it is not the nominal design),
-    driven from the start in its lowest (most sensitive) mode, steady and settled."""
-    s = config.sensor
-    options = {
-        "edges_m": edges_m,
-        "dynamics": s.dynamics,
-        "mode": min(s.modes),
-        "noise": s.noise,
-        "exact": s.exact_gel or s.gel_layer == "dynamic",  # tables need k_e > 0
-        "carrier_samples_per_cycle": s.carrier_samples_per_cycle,
-    }
-    if unit is None:
-        return SensorChannel(fingertip, rng=rng, **options)
-    return UnitChannel(fingertip, unit, rng=rng, **options)
 
 
 def touch_layout(fingertip, unit) -> tuple[np.ndarray, list, list[float]]:

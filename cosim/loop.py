@@ -14,7 +14,7 @@ from __future__ import annotations
 import functools
 import math
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -58,6 +58,30 @@ def make_unit(config: ScenarioConfig) -> SensorUnit | None:
     if unit.is_nominal and unit.level == "none":
         return None
     return sensor_unit(unit, _nominal_fingertip(config))
+
+
+def make_channels(
+    config: ScenarioConfig, fingertip: Fingertip, unit: SensorUnit | None, edges_m: Mapping[str, np.ndarray]
+) -> dict[str, SensorChannel]:
+    """One sensor channel per pad of ``edges_m`` (pad name -> its coverage cells' edges along the
+    element, m), in its order: the unit's own (:class:`UnitChannel`) when ``unit`` is not the
+    nominal design, driven from the start (steady, settled) in the controller's most sensitive
+    mode, each with its own noise from ``sensor.seed`` (the pads' seeds drawn in order).  The
+    one factory of the house loop and of :func:`cosim.attach.attach`'s fingertips."""
+    s = config.sensor
+    options = {
+        "dynamics": s.dynamics,
+        "mode": min(config.controller.modes),
+        "noise": s.noise,
+        "exact": s.exact_gel or s.gel_layer == "dynamic",  # tables need k_e > 0
+        "carrier_samples_per_cycle": s.carrier_samples_per_cycle,
+    }
+    kind, units = (SensorChannel, ()) if unit is None else (UnitChannel, (unit,))
+    rng = np.random.default_rng(s.seed)
+    return {
+        pad: kind(fingertip, *units, edges_m=edges, rng=np.random.default_rng(rng.integers(2**63)), **options)
+        for pad, edges in edges_m.items()
+    }
 
 
 def _nominal_fingertip(config: ScenarioConfig) -> Fingertip:
@@ -283,22 +307,9 @@ class CoSimulation:
         depth = self.fingertip.gel.params.thickness_m if config.sensor.load_spread == "layer" else 0.0
         self._cell_weights = coverage_weights(self.bridge.geometry, length, edges, depth)
         self._cell_fractions = (np.diff(edges) / (edges[-1] - edges[0])).tolist()  # of the coverage's length
-        rng = np.random.default_rng(config.sensor.seed)
         self.pads = tuple(f"{p}_pad" for p in config.sensor.pads)
         self._pad_rows = [PAD_NAMES.index(p) for p in self.pads]
-        channel_options = {
-            "edges_m": edges,
-            "dynamics": config.sensor.dynamics,
-            # The drive starts (steady, settled) in the controller's most sensitive mode.
-            "mode": min(config.controller.modes),
-            "noise": config.sensor.noise,
-            "exact": config.sensor.exact_gel or config.sensor.gel_layer == "dynamic",  # tables need k_e > 0
-            "carrier_samples_per_cycle": config.sensor.carrier_samples_per_cycle,
-        }
-        kind, unit = (SensorChannel, ()) if self.unit is None else (UnitChannel, (self.unit,))
-        self.channels: dict[str, SensorChannel] = {
-            pad: kind(self.fingertip, *unit, rng=np.random.default_rng(rng.integers(2**63)), **channel_options) for pad in self.pads
-        }
+        self.channels: dict[str, SensorChannel] = make_channels(config, self.fingertip, self.unit, {pad: edges for pad in self.pads})
         self.controller = make_controller(config, self.robot, self.fingertip)
         m = self.model
         self._lift_qpos = m.joint("lift_joint").qposadr[0]
