@@ -8,7 +8,7 @@ wrote it (cosim/gripper_mount.py, docs/grippers.md).
   through each other or the joints through their limits (before: "zero-size array to reduction
   operation", the fingers touching at the first sample).
 - A ``general`` actuator the drive cannot use is refused before anything runs, naming it and
-  the reason (:func:`cosim.gripper_mount._drive_kind`); the command line exits 2.
+  the reason (:func:`cosim.gripper_parts._drive_kind`); the command line exits 2.
 - Menagerie's way of driving a hand (one 0-255 ``general`` servo on a fixed tendon of both
   fingers, a joint equality mirroring them, closed at ``qpos0``), and a filtered servo.
 

@@ -404,7 +404,7 @@ def test_the_controller_knows_the_pads_height_along_the_linkages_arc(tmp_path):
 
 
 def test_the_lifts_coupling_to_the_opening_is_the_fingers_mass_times_their_rise(tmp_path):
-    """cosim.gripper_mount.opening_inertia_kg's coupling, e_lift^T M v from mj_fullM, is the
+    """cosim.gripper_drive.opening_inertia_kg's coupling, e_lift^T M v from mj_fullM, is the
     cross term of the kinetic energy: the lift's row of M moves every body up one for one, so it is
     d (sum_b m_b z_b) / d opening, the finite difference of the lift body's subtree centre of mass
     along the free closing.  Slides across the lift have none."""

@@ -127,7 +127,7 @@ class RobotLimits:
         so pads that squeeze an object move it, or the lift, with them.  Empty where they do
         not (slides; the house gripper).
     lift_coupling_kg : (openings, couplings), kg: the fingers' inertia coupling the lift to the
-        opening, c = e_lift^T M v (cosim.gripper_mount.opening_inertia_kg): a lift accelerating
+        opening, c = e_lift^T M v (cosim.gripper_drive.opening_inertia_kg): a lift accelerating
         at a pushes the fingers open with -c a, N on the opening.  Empty where it is 0 (slides).
     """
 
