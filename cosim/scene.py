@@ -16,6 +16,7 @@ import mujoco
 import numpy as np
 
 from piezotip.scenarios.config import RATED_MASS_KG, ObjectConfig, ScenarioConfig
+from piezotip.scenarios.shapes import EGG_ASPECT, get_shape  # noqa: F401  (EGG_ASPECT: importable here, as it was)
 from piezotip.sensor.gel import GelParams
 
 from .control.interface import RobotLimits
@@ -32,8 +33,6 @@ FINGER_BELOW_PAD_CENTRE_M = 0.012
 TABLE_CLEARANCE_M = 0.002
 #: Opening between the unloaded pad surfaces at home, m (the fingers' stroke is 0-100 mm).
 HOME_OPENING_M = 0.09
-#: Egg proportions: the long axis (along y, the egg lies on its side) over the short one.
-EGG_ASPECT = 57.0 / 43.0
 
 _INTEGRATORS = {
     "Euler": mujoco.mjtIntegrator.mjINT_EULER,
@@ -54,15 +53,11 @@ class ObjectShape:
 
 
 def object_shape(obj: ObjectConfig) -> ObjectShape:
-    """Geom type and half-sizes for ``obj``; ``size_m`` is always the width between the fingers."""
-    r = 0.5 * obj.size_m
-    if obj.shape == "box":  # a cube
-        return ObjectShape(mujoco.mjtGeom.mjGEOM_BOX, (r, r, r), r)
-    if obj.shape == "cylinder":  # upright, 1.2 diameters tall
-        return ObjectShape(mujoco.mjtGeom.mjGEOM_CYLINDER, (r, 1.2 * r, 0.0), 1.2 * r)
-    if obj.shape == "sphere":
-        return ObjectShape(mujoco.mjtGeom.mjGEOM_SPHERE, (r, 0.0, 0.0), r)
-    return ObjectShape(mujoco.mjtGeom.mjGEOM_ELLIPSOID, (r, EGG_ASPECT * r, r), r)
+    """Geom type and half-sizes for ``obj``, as its registered shape builds them
+    (:mod:`scenarios.shapes`); ``size_m`` is always the width between the fingers."""
+    geom = get_shape(obj.shape).geom(obj.size_m)
+    geom_type = getattr(mujoco.mjtGeom, f"mjGEOM_{geom.geom_type.upper()}")  # a pybind11 enum: no mjtGeom[...]
+    return ObjectShape(geom_type, geom.size, geom.rest_height_m)
 
 
 def grasp_height_m(obj: ObjectConfig) -> float:
@@ -181,7 +176,7 @@ def robot_limits(
 
     ``fingers``: a mounted gripper's finger fields of :class:`RobotLimits` by name (force limit,
     damping, dry friction, mass and joints' damping, on the opening), from its drive
-    (cosim.gripper_mount.GripperDrive); None reads the house gripper's (no friction: its finger
+    (cosim.gripper_drive.GripperDrive); None reads the house gripper's (no friction: its finger
     joints have none).  ``pad_rise_m``, ``lift_coupling_kg``: :class:`RobotLimits`' (none on the
     house gripper: its fingers slide across the lift)."""
     lift = model.actuator("lift_actuator")

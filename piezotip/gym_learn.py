@@ -27,6 +27,7 @@ from piezotip.cosim.rows import READOUT_STATUSES as STATUS_CODES  # the readout'
 from piezotip.gym_env import GraspEnv, _with_blind_controller, real_numbers, shown
 from piezotip.gym_flat import PlacedReleasedGate
 from piezotip.scenarios.config import OBJECT_SHAPES, RATED_MASS_KG, ObjectConfig
+from piezotip.scenarios.shapes import shape_names
 
 #: The potentials of progress, in the order the reward lists them (:class:`LearnReward`).
 PROGRESS = ("touch", "carry", "lift", "hold", "place")
@@ -177,7 +178,8 @@ class ObjectDraw:
 
     Attributes
     ----------
-    shapes : drawn uniformly: every shape the scene builds (scenarios.config.OBJECT_SHAPES).
+    shapes : drawn uniformly: by default every shape the scene builds (scenarios.config.OBJECT_SHAPES,
+        the registry's, scenarios/shapes.py); any registered shapes.
     friction : (low, high), uniform: 0.3 (glass on the pads' silicone) to 1.2 (rubber), the
         object catalogue's span.
     mass_kg : (low, high), kg, log-uniform: the gripper's rated 1 g to 10 kg, the top cut where
@@ -213,8 +215,8 @@ class ObjectDraw:
 
     def validate(self, finger_force_limit_n: float, gravity_m_s2: float) -> ObjectDraw:
         """Check the shapes are known and every range's ends make objects the gripper can hold."""
-        if not self.shapes or any(s not in OBJECT_SHAPES for s in self.shapes):
-            raise ValueError(f"ObjectDraw.shapes must be some of {OBJECT_SHAPES}, got {self.shapes!r}")
+        if not self.shapes or any(s not in shape_names() for s in self.shapes):
+            raise ValueError(f"ObjectDraw.shapes must be some of {shape_names()}, got {self.shapes!r}")
         for name in ("friction", "mass_kg", "size_m"):
             pair = getattr(self, name)
             if len(pair) != 2 or not (0 < pair[0] <= pair[1]):

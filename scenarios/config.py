@@ -29,7 +29,10 @@ from contextlib import contextmanager
 from contextvars import ContextVar
 from dataclasses import dataclass, field
 
-OBJECT_SHAPES = ("box", "cylinder", "sphere", "egg")
+from .shapes import shape_names
+
+#: The object shapes, in registration order: the registry's (scenarios/shapes.py, where a shape is added).
+OBJECT_SHAPES = shape_names()
 INTEGRATORS = ("discrete", "implicitfast", "implicit", "Euler", "RK4")
 #: The pad contacts (cosim.pad_model.apply_pad_contact; models/README.md, "Sliding pads").
 PAD_CONTACTS = ("auto", "compliant", "hard")
@@ -105,8 +108,9 @@ class ObjectConfig(_CheckedOnConstruction):
 
     Attributes
     ----------
-    shape : "box" (a cube), "cylinder" (upright, 1.2 diameters tall), "sphere" or "egg" (an
-        ellipsoid lying on its side, long axis across the fingers' closing direction).
+    shape : a registered shape (:mod:`scenarios.shapes`, which builds its geom): "box" (a cube),
+        "cylinder" (upright, 1.2 diameters tall), "sphere" or "egg" (an ellipsoid lying on its
+        side, long axis across the fingers' closing direction).
     mass_kg : mass, kg.
     size_m : width across the fingers (box edge, cylinder or sphere diameter, egg's short
         diameter), m.
@@ -122,7 +126,7 @@ class ObjectConfig(_CheckedOnConstruction):
     crush_force_n: float | None = None
 
     def validate(self) -> None:
-        _one_of("object.shape", self.shape, OBJECT_SHAPES)
+        _one_of("object.shape", self.shape, shape_names())  # the registry's now, not only at import
         _positive("object.mass_kg", self.mass_kg)
         _positive("object.size_m", self.size_m)
         if not 0.012 <= self.size_m <= 0.085:
