@@ -346,7 +346,8 @@ class ControllerConfig:
     Attributes
     ----------
     kind : the registered controller's name (``piezotip.controllers.names()``: "multimode",
-        "gentle", "scripted" and any registered by the user's own script).
+        "gentle", "scripted", the ``piezotip.controllers`` entry points' and any registered by the
+        user's own script), or ``MODULE:CLASS``, a controller class imported where it runs.
     modes : the modes the controller may drive (a subset of sensor.modes); ``[1]`` alone
         makes a single-mode baseline of a multimode controller.
     lift_height_m : how far to lift the object, m (the referee judges the lift against it).
@@ -1115,13 +1116,19 @@ def apply_override(config, key: str, value, full_key: str | None = None):
 
 
 def controller_registration(kind: str):
-    """The registration (:class:`piezotip.controllers.Registration`) of controller ``kind``, or a
-    ValueError naming ``controller.kind`` and the registered controllers."""
-    from piezotip import controllers
+    """The registration (:class:`piezotip.controllers.Registration`) of controller ``kind`` (a
+    registered name, or ``MODULE:CLASS``: a controller class to import), or a ValueError naming
+    ``controller.kind`` and the registered controllers."""
+    from piezotip.cosim.control import registry
 
-    if kind not in controllers.names():
-        raise ValueError(f"controller.kind must be one of {', '.join(controllers.names())}; got {_short(kind)}")
-    return controllers.get(kind)
+    if isinstance(kind, str) and ":" in kind:
+        return registry.get(kind)  # imported and resolved (its errors name controller.kind)
+    if kind not in registry.names():
+        raise ValueError(
+            f"controller.kind must be one of {', '.join(registry.names())}, or MODULE:CLASS (a controller class to import); "
+            f"got {_short(kind)}"
+        )
+    return registry.get(kind)
 
 
 #: The key that chooses the controller, and so which ``controller.*`` keys there are.

@@ -9,9 +9,11 @@
 - :mod:`.multimode`: :class:`MultimodeGrasp`, the fingertip-driven controller.
 - :mod:`.gentle`: :class:`GentleGrasp`, the multimode controller finding the grip that holds
   with a friction probe instead of assuming the friction.
+- :mod:`.registry`: the controller registry (public name :mod:`piezotip.controllers`).
 
-Each controller registers itself (:func:`piezotip.controllers.register`) with its config class
-(scenarios/config.py) under its ``controller.kind``: importing this package registers them.
+Each controller registers itself (:func:`.registry.register`, :func:`piezotip.controllers.register`)
+with its config class (scenarios/config.py) under its ``controller.kind``: importing this package
+registers them.
 """
 
 from ._control import make_command, make_observation, make_pad_signal

@@ -54,7 +54,6 @@ from __future__ import annotations
 
 import math
 
-from piezotip.controllers import register
 from piezotip.scenarios.config import GentleConfig, ScenarioConfig
 from piezotip.sensor import Fingertip
 
@@ -62,6 +61,7 @@ from .interface import Observation, RobotLimits, pad_names
 from .lift import grip_for_load_n, load_is_steady, ratchet_grip_n
 from .multimode import MultimodeGrasp, element_self_test
 from .phases import Phase
+from .registry import register
 
 #: How close the fingers' own closing speed must come to the pace for them to be at it, -: 10 %.
 PACE_TOLERANCE = 0.1

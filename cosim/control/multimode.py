@@ -57,7 +57,6 @@ from operator import attrgetter
 
 import numpy as np
 
-from piezotip.controllers import register
 from piezotip.scenarios.config import MultimodeConfig, ScenarioConfig
 from piezotip.sensor import Fingertip
 from piezotip.sensor.cache import disk_cached
@@ -66,6 +65,7 @@ from ._control import make_command
 from .interface import Command, Event, Observation, RobotLimits, Why, pad_names
 from .lift import LiftPlan, grip_for_load_n, load_is_steady, ratchet_grip_n
 from .phases import FINISHED, Phase
+from .registry import register
 from .selector import ModeSelector, TouchDetector
 
 

@@ -2,12 +2,12 @@
 
 from __future__ import annotations
 
-from piezotip.controllers import register
 from piezotip.scenarios.config import ScenarioConfig, ScriptedConfig
 from piezotip.sensor import Fingertip
 
 from .interface import Command, Event, Observation, RobotLimits, pad_names
 from .phases import Phase
+from .registry import register
 
 
 @register("scripted", config=ScriptedConfig)
