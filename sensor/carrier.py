@@ -59,9 +59,14 @@ class CarrierResonator:
         self.v = 0.0
         self.phase_time_s = 0.0  # time within the drive's cycle (kept < one period)
 
-    def start_steady(self) -> None:
-        """Put the resonator in its unloaded steady state (the instrument has been running)."""
-        a_p = self.force / (1j * self.omega * self.c)
+    def start_steady(self, detuning_n_m2: float = 0.0) -> None:
+        """Put the resonator in its unloaded steady state (the instrument has been running).
+
+        The forced response a_p = F / (K_d + j omega c) (eq. 10 unloaded), where the drive is
+        detuned from the resonance by the stiffness K_d = rho A (omega_r^2 - omega^2), N/m^2 (a
+        physical unit's, :meth:`sensor.unit_channel.UnitChannel._u_detuning`; 0 at resonance).
+        """
+        a_p = self.force / (detuning_n_m2 + 1j * self.omega * self.c)
         self.q, self.v = self._particular(a_p, self.phase_time_s)
 
     def _particular(self, a_p: complex, t: float) -> tuple[float, float]:

@@ -49,7 +49,7 @@ from .equations import normalized_response
 from .estimator import _SATURATED, _SETTLING, Estimate, ModeInverse, mode_tables
 from .fingertip import Fingertip
 from .inference import MAX_GAIN, SteadyInference
-from .resonator import _SETTLE_TAUS, DYNAMICS, Reading, _rate, _reading, _step
+from .resonator import Reading, _dynamics, _rate, _reading
 from .sampler import ModeSampler
 
 #: A mode is known to be saturated, while its inference cannot tell, once every reading for
@@ -99,7 +99,9 @@ class SensorChannel:
     edges_m : cell edges along the element (m) of the pressure profile the pad supplies;
         default one cell over the gel coverage (a uniform pressure).
     dynamics : "steady", "envelope" (first-order complex envelope, exact per step) or
-        "carrier" (the reference: the modal equation through every drive cycle, demodulated).
+        "carrier" (the reference: the modal equation through every drive cycle, demodulated):
+        a name in :data:`sensor.resonator.DYNAMICS`, whose object (:class:`sensor.resonator.Dynamics`,
+        the channel's ``_resonator``) does what differs between them.
     mode : the initial drive mode.
     noise : whether readings carry noise.
     rng : noise generator.
@@ -141,8 +143,7 @@ class SensorChannel:
         exact: bool = False,
         carrier_samples_per_cycle: int = 16,
     ) -> None:
-        if dynamics not in DYNAMICS:
-            raise ValueError(f"unknown sensor dynamics {dynamics!r}; valid: {', '.join(DYNAMICS)}")
+        self._resonator = resonator = _dynamics(dynamics)
         self.tip = fingertip
         self.dynamics = dynamics
         self.exact = exact
@@ -166,14 +167,17 @@ class SensorChannel:
             for m in used
         }
         self._rho_a_f, self._c_f = float(self._rho_a), float(self._c)
-        # A table-driven reading with steady or envelope dynamics is one sampler call (the
-        # carrier and the exact gel keep their own paths below).
+        # A table-driven reading of sampled dynamics (steady, envelope) is one sampler call, its
+        # envelope lagging unless the reading is the steady one (the carrier and the exact gel
+        # keep their own paths below).
         self._samplers = (
             {
-                m: ModeSampler(m, *self._fast[m][:2], self._c_f, self._rho_a_f, self._tables[m], self._fast[m][3], dynamics == "envelope")
+                m: ModeSampler(
+                    m, *self._fast[m][:2], self._c_f, self._rho_a_f, self._tables[m], self._fast[m][3], not resonator.steady_reading
+                )
                 for m in used
             }
-            if not exact and dynamics != "carrier"
+            if not exact and resonator.sampled
             else {}
         )
         self._tau0 = 2.0 * self._rho_a_f / self._c_f  # unloaded envelope time constant, s
@@ -200,9 +204,7 @@ class SensorChannel:
         self._bind_fast_path()
         self._carrier_spc = int(carrier_samples_per_cycle)
         self._carrier: CarrierResonator | None = None
-        if dynamics == "carrier":
-            self._carrier = self._new_carrier(self.mode)
-            self._carrier.start_steady()
+        resonator.start(self)
 
     def _bind_fast_path(self) -> None:
         """A SensorChannel (not a subclass, which may override or re-zero) whose readings are its
@@ -264,10 +266,7 @@ class SensorChannel:
             self._inference_mode = mode
             self._estimated_at = math.nan
             self._low_since_s = None
-            if self.dynamics == "envelope":
-                self.envelope = 0j
-            elif self.dynamics == "carrier":
-                self._carrier = self._new_carrier(mode)  # the new mode starts from rest
+            self._resonator.switch(self, mode)  # the new mode starts from rest
 
     def _foundation(self, pressure_cells_pa: np.ndarray, mode: int) -> tuple[np.ndarray, np.ndarray]:
         self.evaluations += 1
@@ -295,19 +294,11 @@ class SensorChannel:
 
     def _resonate(self, steady: complex, rate: complex, kappa: float, gamma: float, dt_s: float) -> tuple[complex, bool, float]:
         """Advance the resonator one sample under the load (kappa, gamma): (envelope, settled,
-        tau_s) for the channel's dynamics (steady, envelope or carrier; sensor/resonator.py)."""
+        tau_s) for the channel's dynamics (:meth:`sensor.resonator.Dynamics.advance`)."""
         self.time_in_mode_s += dt_s
         self._clock_s += dt_s
         self._dt_s = dt_s
-        tau = 1.0 / rate.real
-        if self.dynamics == "envelope":
-            self.envelope = envelope = _step(self.envelope, steady, dt_s, rate)
-            return envelope, self.time_in_mode_s >= tau * _SETTLE_TAUS, tau
-        if self.dynamics == "carrier":
-            self.envelope = envelope = self._carrier.step(kappa, gamma, dt_s)
-            return envelope, self.time_in_mode_s >= tau * _SETTLE_TAUS, tau
-        self.envelope = steady
-        return steady, True, tau
+        return self._resonator.advance(self, steady, rate, kappa, gamma, dt_s)
 
     def update_trusted(self, pressure_cells_pa: Sequence[float], dt_s: float) -> Reading:
         """:meth:`update` without checking the profile: the co-simulation's per-step path.
@@ -362,7 +353,7 @@ class SensorChannel:
         if core is not None and not self._tracking:  # the core's path (ChannelCore.estimate)
             return core.estimate(reading)
         inverse = self._inverse[reading.mode]
-        if self.dynamics == "steady":
+        if self._resonator.steady_reading:
             if self._tracking:
                 est = inverse(reading.v1)
                 self._track(self._clock_s, est, reading.iq)

@@ -130,10 +130,11 @@ class Fingertip:
     def output_slope(self, pressure_pa, mode: int = 1) -> np.ndarray:
         """dV_1/dP, 1/Pa (negative): -(S_k dk_e/dP + S_c dc_e/dP), eqs. 20, 21 and the gel's slope.
 
-        For the dynamic layer (k_e of either sign) the chain rule is taken on eq. 19 directly:
+        For a layer whose k_e takes either sign (the dynamic layer's: :attr:`sensor.gel.GelLayer.signed_stiffness`)
+        the chain rule is taken on eq. 19 directly:
         dV/dP = -V (kappa kappa' + omega^2 (gamma + c) gamma') / h^2, h = hypot(kappa, omega (gamma + c)).
         """
-        if self.gel.layer == "dynamic":
+        if self.gel.law.signed_stiffness:
             kappa, gamma = self.modal_load(pressure_pa, mode)
             dk, dc = self.gel.foundation_slope(pressure_pa, self.freq_hz(mode))
             b_ratio = self.element.params.width_m * self.element.coverage_ratio(mode, self.coverage)

@@ -135,8 +135,6 @@ class GelParams:
         return float(gent_pressure_pa(1.0 - self.max_valid_strain, self))
 
 
-LAYERS = ("winkler", "dynamic")
-
 #: Arrays of up to this many pressures are checked and inverted element by element in Python
 #: floats: below it numpy's per-call overhead costs more than the arithmetic (measured: the
 #: inversion of 40 pressures takes 44 us in floats, 53 us vectorized; of 5, 7 us against 55 us).
@@ -567,6 +565,108 @@ def layer_dynamic_stiffness(stretch, freq_hz: float, gel: GelParams, ratio: comp
     return modulus * k * (1j * (1 + inv) / (1 - inv))
 
 
+# ---------------------------------------------------------------------------------------
+# The layer laws, one object each (GelModel.layer names one): a new one is added here.
+# ---------------------------------------------------------------------------------------
+
+
+class GelLayer:
+    """How the contacted gel column loads the element: its foundation law (k_e, c_e) and slope.
+
+    Stateless (one shared instance per law, in ``GEL_LAYERS``, named by :attr:`GelModel.layer`).
+
+    Attributes
+    ----------
+    name : the law's name (``GelModel.layer``, ``sensor.gel_layer`` of a scenario).
+    signed_stiffness : k_e may be negative (mass-like, above the layer's resonance): eq. 19
+        is differentiated directly, not through the sensitivities of eqs. 20 and 21
+        (:meth:`sensor.fingertip.Fingertip.output_slope`), and no table of k_e > 0 holds it
+        (:class:`sensor.estimator.FoundationTable`).
+    """
+
+    __slots__ = ()
+    name = ""
+    signed_stiffness = False
+
+    def __reduce__(self) -> tuple:
+        # One instance per law: a pickled or copied model shares it (found by its name).
+        return gel_layer, (self.name,)
+
+    def __repr__(self) -> str:
+        return f"<{self.name} gel layer>"
+
+    def foundation(self, pressure_pa: np.ndarray, stretch: np.ndarray, freq_hz: float, gel: GelParams, ratio: complex):
+        """(k_e N/m^3, c_e N s/m^3) at checked pressures (Pa), their stretch lambda, the drive
+        ``freq_hz`` (Hz) and the modulus ratio R there (:meth:`GelModel.foundation`)."""
+        raise NotImplementedError
+
+    def foundation_slope(self, model: GelModel, pressure_pa: np.ndarray, freq_hz: float):
+        """(dk_e/dP in 1/m, dc_e/dP in s/m) of ``model`` at checked pressures (Pa) and
+        ``freq_hz`` (Hz) (:meth:`GelModel.foundation_slope`)."""
+        raise NotImplementedError
+
+
+class WinklerLayer(GelLayer):
+    """Parts 1-4: k_e = phi K Re R(omega), c_e = phi K Im R(omega) / omega, with K the Winkler
+    stiffness (the column's low-frequency limit, part 3); k_e >= 0 everywhere."""
+
+    __slots__ = ()
+    name = "winkler"
+
+    def foundation(self, pressure_pa: np.ndarray, stretch: np.ndarray, freq_hz: float, gel: GelParams, ratio: complex):
+        # GelState.stiffness_n_m3, without the rest of the state
+        stiffness = contact_fraction(pressure_pa, gel) * winkler_stiffness_n_m3(stretch, gel)
+        return stiffness * ratio.real, stiffness * ratio.imag / (2 * math.pi * freq_hz)
+
+    def foundation_slope(self, model: GelModel, pressure_pa: np.ndarray, freq_hz: float):
+        """Chain rule on k_e = phi(P) K(lambda(P)) Re R:  d(phi K)/dP = phi' K + phi K',
+        K' = dK/dP = P''(lambda) / (h0 T(lambda)) with T = -dP/dlambda."""
+        gel = model.params
+        lam = _stretch_checked(pressure_pa, gel)
+        tangent = gent_tangent_pa(lam, gel)
+        stiffness = tangent / gel.thickness_m
+        stiffness_slope = gent_curvature_pa(lam, gel) / (gel.thickness_m * tangent)
+        slope = contact_fraction_slope(pressure_pa, gel) * stiffness + contact_fraction(pressure_pa, gel) * stiffness_slope
+        ratio = model._ratio(freq_hz)
+        return slope * ratio.real, slope * ratio.imag / (2 * math.pi * freq_hz)
+
+
+class DynamicLayer(GelLayer):
+    """Part 5: k_e + j omega c_e = phi Z, Z the column's dynamic stiffness
+    (:func:`layer_dynamic_stiffness`); k_e turns negative, mass-like, above the layer's
+    resonance (c_e >= 0 always)."""
+
+    __slots__ = ()
+    name = "dynamic"
+    signed_stiffness = True
+
+    def foundation(self, pressure_pa: np.ndarray, stretch: np.ndarray, freq_hz: float, gel: GelParams, ratio: complex):
+        z = contact_fraction(pressure_pa, gel) * layer_dynamic_stiffness(stretch, freq_hz, gel, ratio)
+        return z.real, z.imag / (2 * math.pi * freq_hz)
+
+    def foundation_slope(self, model: GelModel, pressure_pa: np.ndarray, freq_hz: float):
+        """Central difference of :meth:`GelModel.foundation`, relative step 1e-6 (1e-9 Pa near 0)."""
+        p, f = pressure_pa, freq_hz
+        h = np.maximum(1e-6 * p, 1e-9)
+        (k1, c1), (k0, c0) = model.foundation(p + h, f), model.foundation(np.maximum(p - h, 0.0), f)
+        width = p + h - np.maximum(p - h, 0.0)
+        return (k1 - k0) / width, (c1 - c0) / width
+
+
+#: The gel layer laws by name (:attr:`GelModel.layer`): a new one is added here.
+GEL_LAYERS: dict[str, GelLayer] = {law.name: law for law in (WinklerLayer(), DynamicLayer())}
+#: Their names, in order.
+LAYERS = tuple(GEL_LAYERS)
+
+
+def gel_layer(name: str) -> GelLayer:
+    """The gel layer law named ``name`` (a ValueError naming the valid ones otherwise)."""
+    try:
+        return GEL_LAYERS[name]
+    except (KeyError, TypeError):
+        raise ValueError(f"unknown gel layer model {name!r}; valid: {', '.join(LAYERS)}") from None
+
+
 @dataclass(frozen=True)
 class GelState:
     """What the gel is doing at one pressure: the foundation and the model's own limits.
@@ -603,7 +703,8 @@ class GelModel:
         frequency dependence does not pay for the Prony series per mode.
     reference_freq_hz : the frequency used when ``frequency_dependent`` is False, Hz.
     layer : "winkler" (parts 1-4, the default) or "dynamic" (part 5: the column's dynamic
-        stiffness instead of its low-frequency limit; k_e may then be negative, mass-like).
+        stiffness instead of its low-frequency limit; k_e may then be negative, mass-like):
+        a name in :data:`GEL_LAYERS`, whose law (:attr:`law`) does what differs between them.
     """
 
     params: GelParams = field(default_factory=GelParams)
@@ -613,8 +714,12 @@ class GelModel:
 
     def __post_init__(self) -> None:
         _check_freq(self.reference_freq_hz, "reference_freq_hz")
-        if self.layer not in LAYERS:
-            raise ValueError(f"unknown gel layer model {self.layer!r}; valid: {', '.join(LAYERS)}")
+        gel_layer(self.layer)  # a ValueError if it names no law
+
+    @property
+    def law(self) -> GelLayer:
+        """The layer's law (:class:`GelLayer`), named by :attr:`layer`."""
+        return GEL_LAYERS[self.layer]
 
     def state(self, pressure_pa) -> GelState:
         """The gel's :class:`GelState` at pressures ``pressure_pa`` (Pa, arrays allowed)."""
@@ -648,41 +753,25 @@ class GelModel:
 
         k_e = phi K Re R(omega), c_e = phi K Im R(omega) / omega  (module docstring, parts 1-4).
         Both are zero at zero pressure and, for the Winkler layer, non-negative everywhere
-        (the dynamic layer's k_e turns negative above the layer's resonance; c_e >= 0 always).
+        (the dynamic layer's k_e turns negative above the layer's resonance; c_e >= 0 always):
+        the layer's law (:meth:`GelLayer.foundation`).
         """
         f = _check_freq(freq_hz)
         ratio = self._ratio(f)
         gel = self.params
         p = check_pressure(pressure_pa)
-        lam = _stretch_checked(p, gel)
-        if self.layer == "dynamic":
-            z = contact_fraction(p, gel) * layer_dynamic_stiffness(lam, f, gel, ratio)
-            return z.real, z.imag / (2 * math.pi * f)
-        # GelState.stiffness_n_m3, without the rest of the state
-        stiffness = contact_fraction(p, gel) * winkler_stiffness_n_m3(lam, gel)
-        return stiffness * ratio.real, stiffness * ratio.imag / (2 * math.pi * f)
+        return GEL_LAYERS[self.layer].foundation(p, _stretch_checked(p, gel), f, gel, ratio)
 
     def foundation_slope(self, pressure_pa, freq_hz) -> tuple[np.ndarray, np.ndarray]:
         """(dk_e/dP in 1/m, dc_e/dP in s/m) at ``pressure_pa`` (Pa) and ``freq_hz`` (Hz).
 
-        Chain rule on k_e = phi(P) K(lambda(P)) Re R:  d(phi K)/dP = phi' K + phi K',
-        K' = dK/dP = P''(lambda) / (h0 T(lambda)) with T = -dP/dlambda.
+        Winkler layer: the chain rule on k_e = phi(P) K(lambda(P)) Re R:  d(phi K)/dP =
+        phi' K + phi K', K' = dK/dP = P''(lambda) / (h0 T(lambda)) with T = -dP/dlambda.
+        Dynamic layer: a central difference, relative step 1e-6 (1e-9 Pa near 0).  The layer's
+        law (:meth:`GelLayer.foundation_slope`).
         """
         f = _check_freq(freq_hz)
-        gel = self.params
-        p = check_pressure(pressure_pa)
-        if self.layer == "dynamic":  # central difference, relative step 1e-6 (1e-9 Pa near 0)
-            h = np.maximum(1e-6 * p, 1e-9)
-            (k1, c1), (k0, c0) = self.foundation(p + h, f), self.foundation(np.maximum(p - h, 0.0), f)
-            width = p + h - np.maximum(p - h, 0.0)
-            return (k1 - k0) / width, (c1 - c0) / width
-        lam = _stretch_checked(p, gel)
-        tangent = gent_tangent_pa(lam, gel)
-        stiffness = tangent / gel.thickness_m
-        stiffness_slope = gent_curvature_pa(lam, gel) / (gel.thickness_m * tangent)
-        slope = contact_fraction_slope(p, gel) * stiffness + contact_fraction(p, gel) * stiffness_slope
-        ratio = self._ratio(f)
-        return slope * ratio.real, slope * ratio.imag / (2 * math.pi * f)
+        return GEL_LAYERS[self.layer].foundation_slope(self, check_pressure(pressure_pa), f)
 
     def pressure_from_indentation(self, indentation_m) -> np.ndarray:
         """Quasi-static pressure (Pa) that compresses the gel by ``indentation_m`` (m).

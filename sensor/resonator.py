@@ -11,6 +11,10 @@ dynamics, one per fidelity (``DYNAMICS``):
 - "carrier": the reference, the modal equation through every drive cycle and a lock-in
   (:class:`sensor.carrier.CarrierResonator`).
 
+Each dynamics is an object (:class:`Dynamics`: ``DYNAMICS`` maps its name to it), so a new one
+is added here, in one place: what a switch of mode does to the resonator's state, one sample's
+advance, whether its reading is the steady one, whether the table-driven sampler runs it.
+
 Each formula is written twice where it must be: for numpy arrays (the documented functions,
 used by the analyses and the tests) and for Python floats and complex numbers (``_steady``,
 ``_rate``, ``_step``: a sample is scalar work, and numpy's per-call overhead on 0-d arrays
@@ -32,13 +36,13 @@ from .equations import normalized_response
 __all__ = [
     "DYNAMICS",
     "SETTLE_FRACTION",
+    "Dynamics",
     "Reading",
     "envelope_rate",
     "envelope_step",
     "steady_envelope",
 ]
 
-DYNAMICS = ("steady", "envelope", "carrier")
 #: A reading is "settled" once the transient has decayed below this fraction.
 SETTLE_FRACTION = 1e-3
 #: Settling takes this many time constants: ln(1 / SETTLE_FRACTION).
@@ -142,3 +146,123 @@ class Reading:
 #: ``Reading(...)`` for the per-step path (positional, every field): its slots set through
 #: their descriptors, without the constructor's object.__setattr__ per field (sensor.compiled).
 _reading = record_maker(Reading)
+
+
+# ---------------------------------------------------------------------------------------
+# The dynamics, one object each: what a channel (sensor.channel.SensorChannel) asks of them.
+# ---------------------------------------------------------------------------------------
+
+
+class Dynamics:
+    """One resonator dynamics: what a :class:`sensor.channel.SensorChannel` does by it.
+
+    Stateless (one shared instance per dynamics, in ``DYNAMICS``): the resonator's state is the
+    channel's (its ``envelope``, held by its core, and its ``_carrier``), which the methods take.
+
+    Attributes
+    ----------
+    name : the dynamics' name (``SensorChannel.dynamics``, ``sensor.dynamics`` of a scenario).
+    steady_reading : a reading is the steady one (no lag): the readout inverts it directly, and
+        a re-zeroing readout averages the readings themselves (:meth:`UnitChannel._track`).
+    sampled : a table-driven channel's samples are :class:`sensor.sampler.ModeSampler` calls
+        through its :class:`ChannelCore` (the per-step fast path); else the channel's own path.
+    """
+
+    __slots__ = ()
+    name = ""
+    steady_reading = False
+    sampled = False
+
+    def __reduce__(self) -> tuple:
+        # One instance per dynamics: a pickled or copied channel shares it (found by its name).
+        return _dynamics, (self.name,)
+
+    def __repr__(self) -> str:
+        return f"<{self.name} dynamics>"
+
+    def start(self, channel, detuning_n_m2: float = 0.0) -> None:
+        """Put ``channel``'s resonator where a running, unloaded instrument has it: settled in
+        its driven mode, with the drive detuned from the resonance by the stiffness
+        ``detuning_n_m2`` (N/m^2, :meth:`sensor.unit_channel.UnitChannel._u_detuning`).  The envelope's own start is
+        the channel's (``channel.envelope``); only a carrier has more state."""
+
+    def switch(self, channel, mode: int) -> None:
+        """``channel`` now drives ``mode`` (a new mode, from rest): reset the resonator's state."""
+
+    def retune(self, channel) -> None:
+        """``channel``'s drive frequency moved (a re-zero): the resonator keeps its motion."""
+
+    def advance(self, channel, steady: complex, rate: complex, kappa: float, gamma: float, dt_s: float) -> tuple[complex, bool, float]:
+        """One sample of ``dt_s`` s under the load (kappa N/m^2, gamma N s/m^2), the channel's
+        clocks already advanced: sets ``channel.envelope`` and returns (envelope, settled,
+        tau_s), tau_s = 1 / Re(lambda) (``rate``, 1/s) and ``steady`` eq. 10's envelope."""
+        raise NotImplementedError
+
+
+class SteadyDynamics(Dynamics):
+    """The "steady" dynamics: the envelope is the steady one (eq. 10) at every sample, always settled."""
+
+    __slots__ = ()
+    name = "steady"
+    steady_reading = True
+    sampled = True
+
+    def advance(self, channel, steady: complex, rate: complex, kappa: float, gamma: float, dt_s: float) -> tuple[complex, bool, float]:
+        tau = 1.0 / rate.real
+        channel.envelope = steady
+        return steady, True, tau
+
+
+class EnvelopeDynamics(Dynamics):
+    """The "envelope" dynamics: the first-order complex envelope (:func:`envelope_step`, exact per sample);
+    a switch rings the new mode up from rest (envelope 0)."""
+
+    __slots__ = ()
+    name = "envelope"
+    sampled = True
+
+    def switch(self, channel, mode: int) -> None:
+        channel.envelope = 0j
+
+    def advance(self, channel, steady: complex, rate: complex, kappa: float, gamma: float, dt_s: float) -> tuple[complex, bool, float]:
+        tau = 1.0 / rate.real
+        channel.envelope = envelope = _step(channel.envelope, steady, dt_s, rate)
+        return envelope, channel.time_in_mode_s >= tau * _SETTLE_TAUS, tau
+
+
+class CarrierDynamics(Dynamics):
+    """The "carrier" dynamics: the modal equation through every drive cycle and a lock-in
+    (:class:`sensor.carrier.CarrierResonator`, the channel's ``_carrier``, made by its
+    ``_new_carrier(mode)``); a switch starts the new mode's carrier from rest."""
+
+    __slots__ = ()
+    name = "carrier"
+
+    def start(self, channel, detuning_n_m2: float = 0.0) -> None:
+        channel._carrier = channel._new_carrier(channel.mode)
+        channel._carrier.start_steady(detuning_n_m2)
+
+    def switch(self, channel, mode: int) -> None:
+        channel._carrier = channel._new_carrier(mode)  # the new mode starts from rest
+
+    def retune(self, channel) -> None:
+        old = channel._carrier
+        channel._carrier = new = channel._new_carrier(channel.mode)
+        new.q, new.v, new.phase_time_s = old.q, old.v, old.phase_time_s
+
+    def advance(self, channel, steady: complex, rate: complex, kappa: float, gamma: float, dt_s: float) -> tuple[complex, bool, float]:
+        tau = 1.0 / rate.real
+        channel.envelope = envelope = channel._carrier.step(kappa, gamma, dt_s)
+        return envelope, channel.time_in_mode_s >= tau * _SETTLE_TAUS, tau
+
+
+#: The dynamics by name, one per fidelity (the module's docstring): a new one is added here.
+DYNAMICS: dict[str, Dynamics] = {d.name: d for d in (SteadyDynamics(), EnvelopeDynamics(), CarrierDynamics())}
+
+
+def _dynamics(name: str) -> Dynamics:
+    """The dynamics named ``name`` (a ValueError naming the valid ones otherwise)."""
+    try:
+        return DYNAMICS[name]
+    except (KeyError, TypeError):
+        raise ValueError(f"unknown sensor dynamics {name!r}; valid: {', '.join(DYNAMICS)}") from None

@@ -121,11 +121,7 @@ class UnitChannel(SensorChannel):
         steady0 = self._u_steady(self.mode, 0.0, 0.0, phys.temperature_c)
         self.envelope = steady0
         self._seed_a = steady0 * self._u_scale(self.mode, phys.temperature_c)
-        if self.dynamics == "carrier":
-            self._carrier = self._new_carrier(self.mode)
-            k_d = self._u_detuning(self.mode, phys.temperature_c)
-            a_p = self._carrier.force / (k_d + 1j * self._carrier.omega * self._u_c)
-            self._carrier.q, self._carrier.v = self._carrier._particular(a_p, self._carrier.phase_time_s)
+        self._resonator.start(self, self._u_detuning(self.mode, phys.temperature_c))
         self._unloaded_from = math.nan
         self._unloaded_sum, self._unloaded_n = 0j, 0
 
@@ -204,7 +200,7 @@ class UnitChannel(SensorChannel):
         self._unloaded_n += 1
         if t - self._unloaded_from < REZERO_S:
             return
-        if self.dynamics == "steady":
+        if self._resonator.steady_reading:  # the readings themselves, averaged
             z, sigma_z = self._unloaded_sum / self._unloaded_n, self._sigma[self.mode] / math.sqrt(self._unloaded_n)
         else:
             z, sigma_z = a_ss, gain * self._sigma[self.mode]
@@ -230,10 +226,7 @@ class UnitChannel(SensorChannel):
             self._u_ref[m] *= g * old / new
         # The envelope's normalization G / (j w_d c) moved with w_d: the same V_s, rescaled.
         self.envelope *= 1.0 + frac
-        if self._carrier is not None:
-            old = self._carrier
-            self._carrier = self._new_carrier(self.mode)
-            self._carrier.q, self._carrier.v, self._carrier.phase_time_s = old.q, old.v, old.phase_time_s
+        self._resonator.retune(self)  # a carrier keeps its motion at the new drive
         if self._inference is not None:
             # in the new normalization the envelope is where it was: z / g now, relaxing to 1
             self._inference.restart(t, z / g)
