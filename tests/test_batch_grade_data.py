@@ -23,7 +23,7 @@ from test_third_party_grippers import SERVOS, SLIDE_GRIPPER, keys
 from piezotip import cli, scenarios
 from piezotip.analysis import sweep as sweep_module
 from piezotip.analysis.sweep_rows import error_row
-from piezotip.cosim import gripper_mount
+from piezotip.cosim import gripper_parts
 from piezotip.cosim import recorder as recorder_module
 from piezotip.cosim.loop import CoSimulation
 from piezotip.cosim.recorder import Recorder, read_recording
@@ -297,7 +297,7 @@ def test_the_command_line_names_the_gripper_file_with_a_free_joint(tmp_path, cap
 def test_a_gripper_that_does_not_compile_mounted_names_its_file(tmp_path, monkeypatch):
     """Whatever else fails once the file is mounted (here the free joint, its check switched off)
     names the gripper's file first, then what MuJoCo said of the scene."""
-    monkeypatch.setattr(gripper_mount, "_refuse_free_joints", lambda *args: None, raising=False)
+    monkeypatch.setattr(gripper_parts, "_refuse_free_joints", lambda *args: None)
     path = tmp_path / "floating_hand.xml"
     path.write_text(SLIDE_GRIPPER.format(actuators=SERVOS.format(force=30)).replace('<body name="hand">', '<body name="hand"><freejoint/>'))
     with pytest.raises(ValueError, match=rf"^gripper.mjcf '{path}' does not mount in the scene: MJCF file .*scene_grasp.xml"):
