@@ -577,7 +577,17 @@ class GentleGrasp(MultimodeGrasp):
                 # soft constraint; held at the felt grip instead, a contact the element reads high,
                 # a sphere's, crept on closing into an ever higher reading: 8 N on a 2 g sphere).
                 # Moving the other way, friction brakes the fingers first.
-                drive_n, self._moved_dir = grip_n, 0
+                # Never under the band's near edge about the contact felt, F_f under it: there the
+                # drive would throw the fingers open by the whole excess at once, not hold them.
+                # The probe leaves the contact up to twice the grip wanted (its last plateau window's
+                # growth and the grip that holds, grip_safety each): the Panda's jar, dropped from
+                # 9.3 to 5.2 N in one period as the raise began, opened its pads from 8.2 to 5.9 N in
+                # 50 ms and rocked between them off its pads.  At the edge the contact creeps down
+                # toward the grip as the fingers are still (the soft friction above), or the pull
+                # below takes it down at its pace.
+                drive_n, self._moved_dir = max(grip_n, felt_n - self._friction_n), 0
+                if drive_n > grip_n and self._over_periods >= self.cfg.persist:
+                    self._ease_down(t)
             elif way > 0:
                 # Too light: from the friction band's far edge, on by CLOSING_GAIN of the shortfall
                 # a period (a load change's answer cannot wait a plateau window).
@@ -594,15 +604,21 @@ class GentleGrasp(MultimodeGrasp):
                 # a plateau window a period, gently, so that the fingers' momentum does not open
                 # them past the grip (the Panda's 0.56 kg on the opening let go of a 1 g box).
                 if self._moved_dir >= 0:
-                    drive_n = grip_n
+                    drive_n = max(grip_n, felt_n - self._friction_n)  # from the band's near edge (held above)
                 drive_n -= 0.25 * FEEL_TOLERANCE * grip_n
                 self._moved_dir = -1
-                self._slip_watch_from_s = t + 6.0 * self.cfg.load_filter_s  # a pressure pulled down is no slip
-                self._reference_pa = {}
+                self._ease_down(t)
         self._drive_n = drive_n = min(self.grip_cap_n, max(-self.robot.finger_force_limit_n, drive_n))
         if drive_n >= 0.0:
             return drive_n, self.opening_target
         return -drive_n, self.robot.home_opening_m
+
+    def _ease_down(self, t: float) -> None:
+        """The drive takes the contact down toward the grip wanted: a pressure pulled down is no
+        slip, so the fingertips' slip references wait until it has settled (six load-filter time
+        constants, as after the probe's grip is set)."""
+        self._slip_watch_from_s = t + 6.0 * self.cfg.load_filter_s
+        self._reference_pa = {}
 
     def _start_carry(self, obs: Observation) -> None:
         """The raise begins.  The fingertips' slip references are taken once the grip the probe
