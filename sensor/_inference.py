@@ -174,6 +174,7 @@ class SteadyInference:
     )
 
     def __init__(self, tau0_s: float, sigma: float) -> None:
+        tau0_s, sigma = float(tau0_s), float(sigma)
         self.tau0, self.tau0_sq, self.sigma = tau0_s, tau0_s * tau0_s, sigma
         # The noise terms' constant factors, once (the same products _fit formed every reading:
         # sigma^2, sigma^2 tau0, sigma^2 tau0^2 and sigma^2 / 2, left to right as written there).
@@ -190,6 +191,9 @@ class SteadyInference:
     def restart(self, t_ref: float, a_start: complex | None = None) -> None:
         """A new segment at ``t_ref``: from a known envelope ``a_start`` (0 after a switch), or
         from the next reading (``None``: the envelope there is a free parameter)."""
+        t_ref = float(t_ref)
+        if a_start is not None:
+            a_start = kh.as_complex(a_start)
         self.samples, self.first = [], 0
         self.fits = []
         self.base = _NO_SUMS  # the sample before the window
@@ -205,6 +209,7 @@ class SteadyInference:
 
     def seed(self, a: complex, t_end: float, dt_s: float) -> None:
         """Fill the window with a settled history (the instrument ran unloaded before the scene)."""
+        a, t_end, dt_s = kh.as_complex(a), float(t_end), float(dt_s)
         n = int(WINDOW_S / dt_s)
         self.restart(t_end - n * dt_s, None)
         for k in range(n + 1):
@@ -339,6 +344,10 @@ class SteadyInference:
 
     def step(self, t: float, a: complex) -> tuple[complex, float, bool]:
         """Take the lock-in's reading ``a`` at time ``t``; return (a_ss, gain, trusted)."""
+        # A Python float and complex, as the compiled kernel's C double and complex are (NumPy's
+        # scalars would carry NumPy's arithmetic through the window: its complex division rounds
+        # differently from CPython's, kh.cquot's).
+        t, a = float(t), kh.as_complex(a)
         if t - self.tr > _REBASE_S and self._size():
             self._replay([(self._sample(k).t, self._sample(k).a) for k in range(self._size())])
         x1, x2, y = self._integrate(t, a)

@@ -43,6 +43,12 @@ cdef inline double complex _cx(double re, double im) noexcept:
     return z
 
 
+cdef inline double complex as_complex(double complex z) noexcept:
+    """complex(z): the argument's conversion to a C complex (of a Python complex, a NumPy
+    complex128, any number) made it; nothing is left to do."""
+    return z
+
+
 cdef inline double complex cquot(double complex a, double complex b) except *:
     """a / b: CPython's complex division (``complex_div``)."""
     cdef Py_complex q

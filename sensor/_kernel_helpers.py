@@ -5,7 +5,9 @@ what Python computes, the same floats.  A few operations it would compile otherw
 division (Cython's own formula rounds differently from CPython's), a complex magnitude (here
 ``sqrt(x^2 + y^2)``, not CPython's ``hypot``), ``math``'s and ``cmath``'s functions (C's return
 inf or NaN where Python raises, or are not called at all), a bisection (Python's ``bisect``
-module, called), a record's construction (a Python call).  And the table lookups
+module, called), a record's construction (a Python call), a number made a Python complex
+(``as_complex``: compiled, the argument's conversion to a C complex did it; run as Python, a
+NumPy scalar would carry NumPy's arithmetic on).  And the table lookups
 :func:`interp` and :func:`interp_pair` (:mod:`sensor.lookup`'s, for Python's callers on lists),
 which the kernels read on arrays of C doubles.  The kernels call these as ``kh.name(...)``:
 run as Python, this module's function; compiled, the inline C function of the same name in
@@ -23,6 +25,7 @@ from bisect import bisect_right
 from .compiled import slot_descriptors
 
 __all__ = [
+    "as_complex",
     "atan2",
     "bisect_right",
     "cabs",
@@ -55,6 +58,9 @@ def cabs(z: complex) -> float:
     return abs(z)
 
 
+# complex(z): a Python complex of the number z (a NumPy complex128 too), what a kernel's C
+# ``double complex`` argument is; its arithmetic is then CPython's, as the compiled kernel's is.
+as_complex = complex
 cexp = cmath.exp  # cmath.exp(z)
 exp = math.exp  # math.exp(x): OverflowError past the largest float
 log = math.log  # math.log(x): ValueError for x <= 0

@@ -8,8 +8,9 @@ and compares every output exactly: floats by their bits (-0.0, a NaN's sign and 
 records field by field with their types.  :func:`test_each_comparison_can_fail` drives the
 compiled kernel once more with one input one ulp off, and needs another output.  The drivers
 step through what the per-step path meets and what it rarely does: held loads, steps and ramps,
-ring-ups from rest, zero and non-finite values, a run past the inference's re-basing age, and a
-deep copy made mid-run that goes on in the original's place.
+ring-ups from rest, zero and non-finite values, a run past the inference's re-basing age, NumPy
+scalars where a caller passes them, and a deep copy made mid-run that goes on in the original's
+place.
 
 The rest holds for whichever runs (the suite passes with ``PIEZOTIP_PURE_PYTHON=1`` too): copies
 are made from the constructors' arguments, bad input is refused, a row's values land under their
@@ -189,7 +190,32 @@ def drive_inference(kernel, perturb: bool = False) -> list:
                 if k == n // 2:
                     inf = copy.deepcopy(inf)
             out.append((inf.tau0, inf.sigma, inf.w_target))
+    # A unit channel's readings without noise: NumPy scalars (its envelope is NumPy's), their
+    # arithmetic not to be carried into the window (NumPy's complex division rounds differently
+    # from CPython's, which the compiled kernel's is).
+    for numpy_times, ring_up in ((False, False), (True, True)):
+        inf = kernel.SteadyInference(np.float64(TAU0_S), np.float64(SIGMA * (ULP if perturb else 1.0)))
+        if ring_up:
+            inf.restart(np.float64(0.0), np.complex128(0j))
+        else:
+            inf.seed(np.complex128(1 + 0j), np.float64(0.0), np.float64(0.005))
+        for k, (t, a) in enumerate(_drifting_readings(1500, 0.005, ring_up)):
+            out.append(inf.step(np.float64(t) if numpy_times else t, a))
+            if k == 1000:
+                inf.restart(t, a)  # a re-zero: from the envelope where it is
     return out
+
+
+def _drifting_readings(n: int, dt_s: float, ring_up: bool):
+    """(t, a) of a noiseless envelope (NumPy complex scalars) relaxing toward a load that holds
+    and steps, its mu drifting slowly with the unit's temperature (its detuning)."""
+    a = np.complex128(0j if ring_up else 1 + 0j)
+    for k in range(n):
+        t = (k + 1) * dt_s
+        mu = (1 + 0j, 1.4 - 0.5j, 1.1 - 0.05j)[(k // 400) % 3] - 2e-3j * t
+        a_ss = 1.0 / mu
+        a = a_ss + (a - a_ss) * np.exp(-mu * dt_s / TAU0_S)
+        yield t, a
 
 
 def _channel_core(kernel, ch: SensorChannel, perturb: bool):
