@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import typing
 import warnings
 import weakref
 from collections.abc import Mapping, Sequence
@@ -37,11 +38,14 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
-from piezotip import scenarios
-from piezotip.scenarios.config import INTEGRATORS, PhysicsConfig, ScenarioConfig, SensorConfig, valid_keys
 from piezotip.sensor.channel import SensorChannel
+from piezotip.sensor.checks import _coerce
+from piezotip.sensor.config import SensorConfig
 
 from . import mjhooks
+from .build_checks import check_buildable
+from .config import INTEGRATORS, PhysicsConfig, ScenarioConfig
+from .control.config import ScriptedConfig
 from .loop import SimulationDiverged, coverage_cells, coverage_weights, make_channels, make_fingertip, make_unit
 from .pad_bridge import PadBridge, PadReading
 from .pad_geometry import PadGeometry
@@ -80,6 +84,10 @@ GEL_MATERIAL = f"{PREFIX}gel"
 PHYSICS_KEYS = ("physics.pad_segments", "physics.control_period_s", "physics.gel_update")
 #: Keys that are the model's own options (read from it, never set by attach).
 MODEL_KEYS = ("physics.timestep_s", "physics.integrator")
+#: The scenario the fingertips' configuration is made in (its name and description): the default
+#: grasp's, ``piezotip.scenarios.get("grasp")`` (tests/test_attach.py holds them equal), its object,
+#: gripper and the rest the config's defaults; only its sensor, physics and controller are attach's.
+ATTACH_SCENARIO = ("grasp", "grasp a 100 g box, lift 5 cm, hold 1 s, put it back (the README's main job)")
 
 #: The model options the pads cannot run without: disable flags, and why each is needed.
 _NEEDED = {
@@ -626,7 +634,9 @@ def _integrator_name(option) -> str:
 def fingertip_config(config: Mapping[str, object] | SensorConfig | None, option) -> ScenarioConfig:
     """The fingertips' whole validated configuration: the scenario config's ``sensor.*`` keys
     (a mapping of them, or a :class:`SensorConfig`) and :data:`PHYSICS_KEYS`, at the model's
-    timestep and integrator (``option``).  Every check is the scenario config's own: a bad value
+    timestep and integrator (``option``), in the default grasp's scenario (:data:`ATTACH_SCENARIO`)
+    under the scripted controller over the sensor's modes.  Every check is the scenario config's
+    own, and the build check's (:func:`piezotip.cosim.build_checks.check_buildable`): a bad value
     is a ValueError naming its key."""
     if config is None:
         given: dict[str, object] = {}
@@ -636,7 +646,7 @@ def fingertip_config(config: Mapping[str, object] | SensorConfig | None, option)
         given = dict(config)
     else:
         raise ValueError(f"attach: config must be a mapping of sensor.* keys or a SensorConfig, got {type(config).__name__}")
-    keys = [f"sensor.{k}" for k in valid_keys(SensorConfig()) if k != "pads"] + list(PHYSICS_KEYS)
+    keys = [f"sensor.{f.name}" for f in dataclasses.fields(SensorConfig) if f.name != "pads"] + list(PHYSICS_KEYS)
     for key in given:
         if key in MODEL_KEYS:
             raise ValueError(f"attach: {key} is the model's own option (its <option>), not the fingertip's")
@@ -644,21 +654,40 @@ def fingertip_config(config: Mapping[str, object] | SensorConfig | None, option)
             raise ValueError("attach: sensor.pads does not apply: the fingertips are the sites and bodies given to attach")
         if key not in keys:
             raise ValueError(f"attach: unknown fingertip key {key!r}; valid keys: {', '.join(keys)}")
-    overrides = scenarios.override_strings(given)
     # The period: a whole number of the model's steps (at least one), the nearest to the one asked.
     timestep = float(option.timestep)
     asked = given.get("physics.control_period_s", PhysicsConfig().control_period_s)
     period = {"physics.control_period_s": max(1, round(float(asked) / timestep)) * timestep} if _positive(asked) and timestep > 0 else {}
     model_options = {"physics.timestep_s": timestep, "physics.integrator": _integrator_name(option), **period}
-    # No controller runs here: the scripted one (which reads no sensor) over the sensor's modes
-    # keeps the scenario's checks to the fingertip's own.
-    controller = ["controller.kind=scripted"]
-    controller += [f"controller.modes={text.partition('=')[2]}" for text in overrides if text.startswith("sensor.modes=")]
     try:
-        return scenarios.get("grasp", [*controller, *overrides, *scenarios.override_strings(model_options)])
+        sections: dict[str, dict[str, object]] = {"sensor": {}, "physics": {}}
+        for key, value in {**given, **model_options}.items():
+            head, _, name = key.partition(".")
+            hint = typing.get_type_hints(SensorConfig if head == "sensor" else PhysicsConfig)[name]
+            sections[head][name] = _coerce(key, hint, _plain(value))  # each value's type, as the scenario keys take it
+        physics, sensor = PhysicsConfig(**sections["physics"]), SensorConfig(**sections["sensor"])
+        # No controller runs here: the scripted one (which reads no sensor) over the sensor's modes
+        # keeps the scenario's checks to the fingertip's own.
+        settings = ScenarioConfig(
+            name=ATTACH_SCENARIO[0],
+            description=ATTACH_SCENARIO[1],
+            physics=physics,
+            sensor=sensor,
+            controller=ScriptedConfig(modes=sensor.modes),
+        )
+        return check_buildable(settings.validate())
     except ValueError as err:
         whose = " (physics.timestep_s is the model's option timestep)" if "physics.timestep_s" in str(err) else ""
         raise ValueError(f"attach: {err}{whose}") from None
+
+
+def _plain(value):
+    """``value`` with numpy scalars (alone or in a list) as Python numbers."""
+    if hasattr(value, "item") and callable(value.item):
+        return value.item()
+    if isinstance(value, (list, tuple)):
+        return type(value)(_plain(v) for v in value)
+    return value
 
 
 def _check_options(option, who: str = "attach", kind: str = "gel") -> None:

@@ -1,4 +1,4 @@
-"""A load change while the object is held (``disturb.*``, :class:`~piezotip.scenarios.config.DisturbConfig`).
+"""A load change while the object is held (``disturb.*``, :class:`~piezotip.cosim.config.DisturbConfig`).
 
 An extra downward force on the object comes on at the middle of the hold, as the controller's
 phases define it: the time its phase first turns to hold (the phase it commands, the record's

@@ -1,7 +1,7 @@
 """A gripper nobody here wrote, on the lift: its MJCF file, two fingertips and the actuators that close it.
 
 ``run grasp --set gripper.mjcf=PATH --set "gripper.fingertips=['a', 'b']" --set "gripper.actuators=['m']"``
-(scenario keys: :class:`~scenarios.config.GripperConfig`; docs/grippers.md) grasps with that
+(scenario keys: :class:`~cosim.config.GripperConfig`; docs/grippers.md) grasps with that
 gripper in the house scene: its table, object, options (timestep, integrator, contacts) and lift
 (the palm's slide joint and servo: the arm's stand-in).  :func:`mount_gripper` builds it:
 
@@ -44,7 +44,7 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
-from piezotip.scenarios.config import ScenarioConfig
+from piezotip.cosim.config import ScenarioConfig
 from piezotip.sensor.gel import GelParams
 
 from .control.interface import RobotLimits

@@ -13,7 +13,7 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
-from piezotip.scenarios.config import GripperConfig
+from piezotip.cosim.config import GripperConfig
 from piezotip.sensor.gel import GelParams
 
 from .attach import fingertip_pads

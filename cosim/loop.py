@@ -21,10 +21,12 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-from piezotip.scenarios.config import ScenarioConfig
-from piezotip.sensor import ElementParams, Fingertip, GelModel, SensorElement
-from piezotip.sensor.calibration import SensorUnit, sensor_unit
+from piezotip.cosim.build_checks import check_buildable
+from piezotip.cosim.config import ScenarioConfig
+from piezotip.sensor import Fingertip
+from piezotip.sensor.calibration import SensorUnit
 from piezotip.sensor.channel import SensorChannel
+from piezotip.sensor.configured import nominal_fingertip, physical_unit
 from piezotip.sensor.resonator import Reading
 from piezotip.sensor.spread import spread_weights
 from piezotip.sensor.unit_channel import UnitChannel
@@ -53,11 +55,9 @@ def make_fingertip(config: ScenarioConfig) -> Fingertip:
 
 def make_unit(config: ScenarioConfig) -> SensorUnit | None:
     """The physical unit the simulation runs and its calibration (piezotip.sensor.calibration),
-    or None when the unit is the nominal design itself (``sensor.variation=none`` at 25 C)."""
-    unit = config.sensor.unit_config()
-    if unit.is_nominal and unit.level == "none":
-        return None
-    return sensor_unit(unit, _nominal_fingertip(config))
+    or None when the unit is the nominal design itself (``sensor.variation=none`` at 25 C):
+    :func:`piezotip.sensor.configured.physical_unit` of the scenario's sensor."""
+    return physical_unit(config.sensor)
 
 
 def make_channels(
@@ -86,15 +86,7 @@ def make_channels(
 
 def _nominal_fingertip(config: ScenarioConfig) -> Fingertip:
     """The nominal design: Table I element (or the configured Q), gel, coverage, modes."""
-    s = config.sensor
-    element = SensorElement(ElementParams())
-    if s.quality_factor is not None:
-        element = element.with_quality_factor(s.quality_factor)
-    gel = GelModel(
-        frequency_dependent=s.gel_frequency_dependent, reference_freq_hz=element.natural_frequency_hz(s.modes[0]), layer=s.gel_layer
-    )
-    coverage = (s.coverage_mm[0] * 1e-3, s.coverage_mm[1] * 1e-3)
-    return Fingertip(element=element, gel=gel, coverage=coverage, modes=s.modes)
+    return nominal_fingertip(config.sensor)
 
 
 def make_controller(config: ScenarioConfig, robot: RobotLimits, fingertip: Fingertip) -> Controller:
@@ -280,7 +272,7 @@ class CoSimulation:
     """
 
     def __init__(self, config: ScenarioConfig) -> None:
-        self.config = config.validate()
+        self.config = check_buildable(config.validate())  # once per gripper file and sensor (cached)
         self.mounted = None  # a third-party gripper on the lift (gripper.mjcf), or None: the house's
         if config.gripper.mjcf is None:
             self.model = build_scene(config)

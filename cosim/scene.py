@@ -15,8 +15,8 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
-from piezotip.scenarios.config import RATED_MASS_KG, ObjectConfig, ScenarioConfig
-from piezotip.scenarios.shapes import EGG_ASPECT, get_shape  # noqa: F401  (EGG_ASPECT: importable here, as it was)
+from piezotip.cosim.config import RATED_MASS_KG, ObjectConfig, ScenarioConfig
+from piezotip.cosim.shapes import EGG_ASPECT, get_shape  # noqa: F401  (EGG_ASPECT: importable here, as it was)
 from piezotip.sensor.gel import GelParams
 
 from .control.interface import RobotLimits
@@ -54,7 +54,7 @@ class ObjectShape:
 
 def object_shape(obj: ObjectConfig) -> ObjectShape:
     """Geom type and half-sizes for ``obj``, as its registered shape builds them
-    (:mod:`scenarios.shapes`); ``size_m`` is always the width between the fingers."""
+    (:mod:`cosim.shapes`); ``size_m`` is always the width between the fingers."""
     geom = get_shape(obj.shape).geom(obj.size_m)
     geom_type = getattr(mujoco.mjtGeom, f"mjGEOM_{geom.geom_type.upper()}")  # a pybind11 enum: no mjtGeom[...]
     return ObjectShape(geom_type, geom.size, geom.rest_height_m)

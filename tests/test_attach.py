@@ -379,3 +379,36 @@ def test_a_diverged_step_is_an_error_not_a_silent_reset():
     with pytest.raises(SimulationDiverged, match="mjWARN_BADQVEL"):
         sim.step()
     assert np.all(np.isfinite(data.qvel))  # what MuJoCo left: a reset state, finite
+
+
+@pytest.mark.parametrize(
+    "given",
+    [
+        None,
+        {"sensor.quality_factor": 70, "physics.control_period_s": 0.002},
+        {"sensor.modes": [1, 2], "sensor.coverage_mm": [6, 7.5], "physics.pad_segments": 3},
+        {"sensor.seed": np.int64(5), "sensor.noise": "false", "physics.gel_update": "substep", "physics.control_period_s": 0.0031},
+        SensorConfig(quality_factor=80.0, modes=(1, 2, 3), dynamics="steady"),
+    ],
+)
+def test_the_fingertip_config_is_the_default_grasp_s_with_the_keys_given(given):
+    """attach makes its config itself, below the scenarios (cosim/attach.py): the default grasp's
+    with the given keys, at the model's options, under the scripted controller over the sensor's
+    modes, as the scenario library makes it from the same keys."""
+    from piezotip import scenarios
+    from piezotip.cosim.attach import fingertip_config
+
+    spec = mujoco.MjSpec()
+    spec.option.timestep = 0.0005
+    spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
+    config = fingertip_config(given, spec.option)
+    keys = {f"sensor.{k}": getattr(given, k) for k in ("quality_factor", "modes", "dynamics")} if isinstance(given, SensorConfig) else given
+    asked = (keys or {}).get("physics.control_period_s", 0.005)
+    options = {
+        "physics.timestep_s": 0.0005,
+        "physics.integrator": "implicitfast",
+        "physics.control_period_s": round(asked / 0.0005) * 0.0005,
+    }
+    modes = {"controller.modes": config.sensor.modes}
+    expected = scenarios.get("grasp", {"controller.kind": "scripted", **modes, **(keys or {}), **options})
+    assert config == expected

@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 
 from piezotip import cli, scenarios
-from piezotip.scenarios import config as config_module
+from piezotip.cosim import build_checks
 from piezotip.scenarios.config import MAX_VALUE_CHARS, MIN_COVERAGE_MM, MIN_QUALITY_FACTOR, parse_value
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -300,10 +300,10 @@ def test_a_text_a_mapping_gives_reads_back_as_that_text():
 
 
 def test_the_fingertip_check_is_computed_once_per_sensor():
-    config_module._FINGERTIPS.clear()
+    build_checks._FINGERTIPS.clear()
     for mass in (0.1, 0.2, 0.3):
         scenarios.get("grasp", [f"object.mass_kg={mass}"])
-    assert len(config_module._FINGERTIPS) == 1
+    assert len(build_checks._FINGERTIPS) == 1
 
 
 # --- the console script's name --------------------------------------------------------------

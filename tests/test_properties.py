@@ -29,9 +29,9 @@ from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
 from piezotip import scenarios
+from piezotip.cosim import build_checks
 from piezotip.cosim.loop import coverage_cells, coverage_weights, make_fingertip
 from piezotip.cosim.pad_geometry import PadGeometry
-from piezotip.scenarios import config as config_module
 from piezotip.scenarios.config import (
     FRICTION_RANGE,
     INTEGRATORS,
@@ -230,10 +230,10 @@ def scenario_configs(draw) -> ScenarioConfig:
 
 
 def _without_fingertip_check():
-    """ScenarioConfig.validate without its last check, the fingertip's modes against the controller
+    """The overrides' build check without its fingertip check, the fingertip's modes against the controller
     (it builds and calibrates a fingertip per sensor configuration, seconds each, and judges the
     physics of a coverage, not the text): every other range is checked as the command line does."""
-    return mock.patch.object(config_module, "_check_fingertip", lambda *args: None)
+    return mock.patch.object(build_checks, "_check_fingertip", lambda *args: None)
 
 
 @_settings(60)

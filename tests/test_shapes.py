@@ -177,9 +177,13 @@ def test_unregistering_an_unknown_shape_is_refused():
 
 
 def test_the_registry_reaches_into_no_engine():
-    """scenarios/shapes.py imports only the standard library: a config is checked without MuJoCo,
-    cosim/ or the rest of scenarios/ (config.py imports it, not the other way round)."""
-    tree = ast.parse(open(shapes.__file__, encoding="utf-8").read())
+    """cosim/shapes.py (the registry's home; scenarios/shapes.py re-exports it) imports only the
+    standard library: a config is checked without MuJoCo or the rest of cosim/ (cosim/config.py
+    imports it, not the other way round)."""
+    from piezotip.cosim import shapes as home
+
+    assert shapes._SHAPES is home._SHAPES and shapes.register_shape is home.register_shape
+    tree = ast.parse(open(home.__file__, encoding="utf-8").read())
     imported = set()
     for node in ast.walk(tree):
         if isinstance(node, ast.Import):

@@ -12,7 +12,7 @@
 - :mod:`.registry`: the controller registry (public name :mod:`piezotip.controllers`).
 
 Each controller registers itself (:func:`.registry.register`, :func:`piezotip.controllers.register`)
-with its config class (scenarios/config.py) under its ``controller.kind``: importing this package
+with its config class (cosim/control/config.py) under its ``controller.kind``: importing this package
 registers them.
 """
 

@@ -53,8 +53,9 @@ smoothly (models/README.md, "Sliding pads").
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
-from piezotip.scenarios.config import GentleConfig, ScenarioConfig
+from piezotip.cosim.control.config import GentleConfig
 from piezotip.sensor import Fingertip
 
 from .interface import Observation, RobotLimits, pad_names
@@ -62,6 +63,9 @@ from .lift import grip_for_load_n, load_is_steady, ratchet_grip_n
 from .multimode import MultimodeGrasp, element_self_test
 from .phases import Phase
 from .registry import register
+
+if TYPE_CHECKING:  # annotations only: the scenario's config is above the controllers
+    from piezotip.cosim.config import ScenarioConfig
 
 #: How close the fingers' own closing speed must come to the pace for them to be at it, -: 10 %.
 PACE_TOLERANCE = 0.1

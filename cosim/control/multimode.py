@@ -2,7 +2,7 @@
 
 It reads only the fingertip readouts and the robot's own joints (:class:`Observation`) and
 knows only the robot's design (:class:`RobotLimits`); every number it uses is a field of
-:class:`~scenarios.config.MultimodeConfig` with its derivation, or derived here from the
+:class:`~cosim.control.config.MultimodeConfig` with its derivation, or derived here from the
 fingertip's ranges and the robot's limits.  Registered as ``controller.kind=multimode``.
 
 Phases (:class:`Phase`), one method each::
@@ -54,10 +54,11 @@ from __future__ import annotations
 
 import math
 from operator import attrgetter
+from typing import TYPE_CHECKING
 
 import numpy as np
 
-from piezotip.scenarios.config import MultimodeConfig, ScenarioConfig
+from piezotip.cosim.control.config import MultimodeConfig
 from piezotip.sensor import Fingertip
 from piezotip.sensor.cache import disk_cached
 
@@ -67,6 +68,9 @@ from .lift import LiftPlan, grip_for_load_n, load_is_steady, ratchet_grip_n
 from .phases import FINISHED, Phase
 from .registry import register
 from .selector import ModeSelector, TouchDetector
+
+if TYPE_CHECKING:  # annotations only: the scenario's config is above the controllers
+    from piezotip.cosim.config import ScenarioConfig
 
 
 def trapezoid_speed(distance_m: float, speed_m_s: float, top_speed_m_s: float, accel_m_s2: float, dt_s: float) -> float:
@@ -141,11 +145,11 @@ def element_self_test(config: ScenarioConfig, fingertip: Fingertip) -> str | Non
     """None if the element of ``config``'s scenario passes its start-up self-test in the
     controller's modes, else the self-test's message: the element as built (its unit, as warm as
     it is, and its injected damage), not the model the readout is calibrated with (``fingertip``)."""
-    from piezotip.cosim.loop import make_unit
+    from piezotip.sensor.configured import physical_unit
     from piezotip.sensor.selftest import damaged, self_test
 
     s = config.sensor
-    unit = make_unit(config)
+    unit = physical_unit(s)
     element = unit.physical.fingertip_at(s.temperature_c).element if unit is not None else fingertip.element
     physical = damaged(element, s.damage_stiffness, s.damage_coupling, s.damage_damping)
     modes = config.controller.modes

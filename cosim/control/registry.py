@@ -9,7 +9,7 @@ register themselves with a downward import.  A kind is one of:
 - ``MODULE:CLASS``, a class imported in whichever process asks (a sweep's workers too): a
   registered class, or a subclass of one, whose registration it takes.
 
-Its imports at import time are the standard library's and the configs' (scenarios/config.py):
+Its imports at import time are the standard library's and the configs' (cosim/control/config.py):
 the controllers themselves load the first time the registry is asked (:func:`_load_builtins`).
 """
 
@@ -20,7 +20,7 @@ import importlib
 import warnings
 from dataclasses import dataclass
 
-from piezotip.scenarios.config import ControllerConfig
+from piezotip.cosim.control.config import ControllerConfig
 
 #: Characters a controller's name may not hold: it is given as ``--set controller.kind=NAME``
 #: and in a ``--grid`` (comma-separated values); ':' marks a ``MODULE:CLASS`` kind.

@@ -2,12 +2,17 @@
 
 from __future__ import annotations
 
-from piezotip.scenarios.config import ScenarioConfig, ScriptedConfig
+from typing import TYPE_CHECKING
+
+from piezotip.cosim.control.config import ScriptedConfig
 from piezotip.sensor import Fingertip
 
 from .interface import Command, Event, Observation, RobotLimits, pad_names
 from .phases import Phase
 from .registry import register
+
+if TYPE_CHECKING:  # annotations only: the scenario's config is above the controllers
+    from piezotip.cosim.config import ScenarioConfig
 
 
 @register("scripted", config=ScriptedConfig)
