@@ -57,7 +57,8 @@ def experiment_controllers() -> tuple[tuple[str, tuple[str, ...]], ...]:
     with every mode of the grasp scenario's sensor, then the scenario's own controller with each
     mode alone ("mode n only").  A kind is named only where it is not the scenario's own, so the
     overrides (which key each run's folder and record) are those the experiment always gave."""
-    from piezotip import controllers, scenarios
+    from piezotip import scenarios
+    from piezotip.cosim.control import registry as controllers
 
     grasp = scenarios.get("grasp")
     every = f"controller.modes={list(grasp.sensor.modes)}"
@@ -73,7 +74,7 @@ def experiment_controllers() -> tuple[tuple[str, tuple[str, ...]], ...]:
 def pass_rule_controllers() -> tuple[str, ...]:
     """The controllers held to the experiment's pass rule (a success exactly where the gripper
     can carry the object): those registered for the experiment, by their labels in its rows."""
-    from piezotip import controllers
+    from piezotip.cosim.control import registry as controllers
 
     return tuple(name for name in controllers.names() if controllers.get(name).experiment)
 

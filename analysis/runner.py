@@ -30,6 +30,7 @@ from pathlib import Path
 import numpy as np
 
 from piezotip.interrupts import RunInterrupted, in_main_thread, interruption, note, raise_interruption, replaceable
+from piezotip.provenance import json_safe
 
 #: The files a run writes in its folder besides the recording (``run.npz``, ``run.csv``,
 #: ``run.chunks/``): a rerun removes them, ``summary.json`` first (and its temporary).
@@ -81,19 +82,6 @@ class _Signals:
         for signum, previous in self._previous.items():
             signal.signal(signum, previous)
         self._previous.clear()
-
-
-def json_safe(value):
-    """Replace non-finite floats by None (strict JSON) and numpy scalars by Python ones."""
-    if isinstance(value, (float, np.floating)):
-        return float(value) if math.isfinite(value) else None
-    if isinstance(value, (np.integer, np.bool_)):
-        return value.item()
-    if isinstance(value, dict):
-        return {k: json_safe(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [json_safe(v) for v in value]
-    return value
 
 
 def default_out_dir(name: str, overrides: list[str] | tuple[str, ...] = (), preset: str | None = None) -> Path:

@@ -94,8 +94,8 @@ def _cmd_figures(args: argparse.Namespace) -> int:
 
 
 def _json_safe(value):
-    """Strict JSON (NaN and inf as null): analysis.runner.json_safe, imported when needed."""
-    from piezotip.analysis.runner import json_safe
+    """Strict JSON (NaN and inf as null): provenance.json_safe, imported when needed."""
+    from piezotip.provenance import json_safe
 
     return json_safe(value)
 

@@ -10,10 +10,13 @@ from __future__ import annotations
 import dataclasses
 import functools
 import json
+import math
 import platform
 import subprocess
 from importlib import metadata
 from pathlib import Path
+
+import numpy as np
 
 #: The distributions whose versions a result records (piezotip itself first).
 DISTRIBUTIONS = ("piezotip", "mujoco", "numpy", "scipy")
@@ -84,7 +87,6 @@ def csv_header(provenance: dict, what: str) -> str:
     ``comment="#"``): a line for people (``what`` the table is, the versions, the commit, the
     seeds), then ``# piezotip: `` and ``provenance`` as one line of strict JSON, what the
     Parquet file's metadata holds."""
-    from piezotip.analysis.runner import json_safe
 
     v = provenance.get("versions") or {}
     made = ", ".join(f"{name} {v[name]}" for name in (*DISTRIBUTIONS, "python") if v.get(name))
@@ -121,3 +123,16 @@ __all__ = [
     "resolved_config",
     "versions",
 ]
+
+
+def json_safe(value):
+    """Replace non-finite floats by None (strict JSON) and numpy scalars by Python ones."""
+    if isinstance(value, (float, np.floating)):
+        return float(value) if math.isfinite(value) else None
+    if isinstance(value, (np.integer, np.bool_)):
+        return value.item()
+    if isinstance(value, dict):
+        return {k: json_safe(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [json_safe(v) for v in value]
+    return value
