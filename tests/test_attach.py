@@ -295,20 +295,24 @@ def test_a_turned_site_carries_its_pad_along_its_axes():
 # -- bodies ------------------------------------------------------------------------------
 
 
-def test_pads_on_bodies_face_each_other_and_read_the_weight():
-    """Two fingers one above the other: the lower's pad on its top face (towards the upper),
-    the upper's on its bottom face; the plate rests on the lower pad.  Their faces are 30 mm
-    square, so each pad is the house's 20 x 20 mm."""
-    plate_z = FINGER_TOP_M + H0 + 0.005
-    xml = f"""<mujoco><option integrator="discrete" timestep="0.001"/><worldbody>
+def two_bodies_xml(option: str, plate_z_m: float) -> str:
+    """Two fingers one above the other, 30 mm square boxes (their faces towards each other
+    carry the pads), and the plate on its dashpot at ``plate_z_m`` (its centre, m)."""
+    return f"""<mujoco>{option}<worldbody>
       <body name="lower" pos="0 0 0.1"><geom type="box" size="0.015 0.015 0.01"/></body>
       <body name="upper" pos="0 0 0.3"><geom type="box" size="0.015 0.015 0.01"/></body>
-      <body name="plate" pos="0 0 {plate_z}">
+      <body name="plate" pos="0 0 {plate_z_m}">
         <joint name="press" type="slide" axis="0 0 1" damping="{_dashpot_n_s_m():.6g}"/>
         <geom type="box" size="0.02 0.02 0.005" mass="{PLATE_KG}"/>
       </body>
     </worldbody></mujoco>"""
-    spec = mujoco.MjSpec.from_string(xml)
+
+
+def test_pads_on_bodies_face_each_other_and_read_the_weight():
+    """Two fingers one above the other: the lower's pad on its top face (towards the upper),
+    the upper's on its bottom face; the plate rests on the lower pad.  Their faces are 30 mm
+    square, so each pad is the house's 20 x 20 mm."""
+    spec = mujoco.MjSpec.from_string(two_bodies_xml('<option integrator="discrete" timestep="0.001"/>', FINGER_TOP_M + H0 + 0.005))
     tips = attach(spec, bodies=["lower", "upper"])
     assert [(p.geometry.pad_length_m, p.geometry.pad_width_m) for p in tips.pads] == [(0.02, 0.02)] * 2
     model = spec.compile()
@@ -330,15 +334,7 @@ def test_touch_pads_on_bodies_read_the_whole_face_and_leave_the_model_as_it_was(
     """``pad="touch"`` on bodies: each zone is the body's whole face towards the other (a 30 mm
     box's corners carry a resting plate), the plate's weight over that face presses the element;
     no body, geom or joint is added, and a spring-less model (a touch pad needs no spring) is taken."""
-    plate_z = FINGER_TOP_M + 0.005
-    xml = f"""<mujoco><option><flag spring="disable"/></option><worldbody>
-      <body name="lower" pos="0 0 0.1"><geom type="box" size="0.015 0.015 0.01"/></body>
-      <body name="upper" pos="0 0 0.3"><geom type="box" size="0.015 0.015 0.01"/></body>
-      <body name="plate" pos="0 0 {plate_z}">
-        <joint name="press" type="slide" axis="0 0 1" damping="{_dashpot_n_s_m():.6g}"/>
-        <geom type="box" size="0.02 0.02 0.005" mass="{PLATE_KG}"/>
-      </body>
-    </worldbody></mujoco>"""
+    xml = two_bodies_xml('<option><flag spring="disable"/></option>', FINGER_TOP_M + 0.005)
     spec = mujoco.MjSpec.from_string(xml)
     tips = attach(spec, bodies=["lower", "upper"], pad="touch")
     assert [(p.kind, p.strips, p.area_m2) for p in tips.pads] == [("touch", (), pytest.approx(0.03 * 0.03))] * 2
