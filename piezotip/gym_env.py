@@ -662,7 +662,8 @@ class MultimodePolicy:
     def for_env(cls, env) -> MultimodePolicy:
         """The policy for ``env`` (a GraspEnv, or a wrapper of one)."""
         policy = cls.__new__(cls)
-        policy.config = env.unwrapped.base_config
+        policy._env = env.unwrapped
+        policy.config = policy._env.base_config
         policy._init_from_config()
         return policy
 
@@ -684,6 +685,13 @@ class MultimodePolicy:
     def __call__(self, obs: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
         t = float(obs["time_s"][0])
         if self.controller is None or t <= self._last_t - 0.5 * self.dt:
+            # An environment's episode has its own object (randomized, or given at reset): the
+            # camera the controller's touch plans from (perception.*) sees that one, not the
+            # scenario's (a 40 mm camera reading closed on a 25 mm object at the touch's 1.4 mm/s
+            # until the episode ran out).
+            episode = getattr(getattr(self, "_env", None), "config", None)
+            if episode is not None:
+                self.config = episode
             home = {"home_lift_m": float(obs["lift_setpoint_m"][0]), "home_opening_m": float(obs["opening_setpoint_m"][0])}
             robot = dataclasses.replace(self.robot, **home)
             self.controller = make_controller(self.config, robot, self.fingertip)

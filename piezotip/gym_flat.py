@@ -306,6 +306,11 @@ class GraspFlatEnv(gym.Env):
         """The scenario's configuration (GraspEnv's; ``MultimodePolicy.for_env`` reads it)."""
         return self.grasp_env.base_config
 
+    @property
+    def config(self):
+        """This episode's configuration, its object included (GraspEnv's; None before a reset)."""
+        return self.grasp_env.config
+
     def action_to_grasp(self, action) -> dict[str, np.ndarray]:
         """GraspEnv's action for a flat one (:meth:`ActionScale.to_grasp`)."""
         return self.action_scale.to_grasp(action, len(self.pads))

@@ -8,6 +8,10 @@ cannot slam the object down), observations normalized to [-1, 1] (forces on one 
 dense reward whose best return is a gentle placed grasp, and ``randomize=True``, a new object at
 each reset (shape, mass, size, friction, crush force) drawn from the seed across the gripper's
 rating.  The class docstring has the tables; docs/gym.md the reasons.
+
+:class:`GraspAssistEnv` (``piezotip/GraspAssist-v0``) is the same task with the house controller
+running the grasp and the policy correcting its grip (residual policy learning): action 0 is the
+house controller, bit for bit.
 """
 
 from __future__ import annotations
@@ -22,9 +26,10 @@ from gymnasium import spaces
 
 from piezotip.analysis.referee import Criteria
 from piezotip.analysis.run_report import object_needed_grip_n
+from piezotip.cosim.control.phases import Phase
 from piezotip.cosim.loop import CoSimulation
 from piezotip.cosim.rows import READOUT_STATUSES as STATUS_CODES  # the readout's own (what an agent sees)
-from piezotip.gym_env import GraspEnv, _with_blind_controller, real_numbers, shown
+from piezotip.gym_env import GraspEnv, MultimodePolicy, _with_blind_controller, real_numbers, shown
 from piezotip.gym_flat import PlacedReleasedGate
 from piezotip.scenarios.config import OBJECT_SHAPES, RATED_MASS_KG, ObjectConfig
 from piezotip.scenarios.shapes import shape_names
@@ -729,3 +734,223 @@ class GraspLearnEnv(gym.Env):
             min(self._at_height_s / self.hold_s, 1.0),
         ]
         return np.clip(np.asarray(values), -1.0, 1.0).astype(np.float32)
+
+
+# -- the assisted grasp: residual learning over the house controller -------------------------
+
+#: The house controller's phases, in code order: the assisted environment's phase one-hot.
+PHASE_NAMES = tuple(p.label for p in Phase)
+
+
+class GraspAssistEnv(GraspLearnEnv):
+    """The grasp of ``piezotip/GraspLearn-v0`` with the house controller at the wheel: the policy
+    corrects its grip (``piezotip/GraspAssist-v0``, issue 46).
+
+    ## Description
+
+    Residual policy learning (Silver et al. 2018, "Residual Policy Learning"; Johannink et al.
+    2019, "Residual Reinforcement Learning for Robot Control"): the scenario's own controller (the
+    gentle grasp by default, :class:`~piezotip.gym_env.MultimodePolicy`, exactly as it runs alone
+    in ``Grasp-v0``) runs the grasp's skeleton at every control period (approach, touch, probe,
+    carry, hold, place, release) and the policy, at each decision (40 ms, eight periods), scales
+    the grip it commands.  A learner starting from nothing must find the whole sequence before
+    any success pays (GraspLearn-v0 did not, in 100k-300k steps); here the untrained policy
+    already grasps as the house does (20 of the 20 held-out objects of examples/train_ppo.py,
+    median grip margin 1.29), and what is left to learn is where its grip is wrong.
+
+    The controller is built at each reset for the episode's scenario (``grasp_env.config``, as
+    :class:`~piezotip.gym_env.MultimodePolicy` builds it), so that its camera (``perception.*``)
+    sees the episode's object, as it does when the command line runs that object.
+
+    The physics, the readout, the referee, the object draws (``randomize``), the progress and the
+    reward's parts are :class:`GraspLearnEnv`'s.
+
+    ## Action Space
+
+    ``Box(-1, 1, (1,), float32)``: ``a``, the grip factor's exponent.  Every control period until
+    the next decision, the fingers' force limit is the controller's (``Command.grip_force_limit_n``)
+    times ``2 ** (a * grip_octaves)``, at most the fingers' own limit.  ``grip_octaves`` = 1: x0.5
+    to x2.  The span: the house holds at 1.1-1.5x the need (the least grip that holds), so x0.5
+    reaches below the need (a policy can find where the object slips) and x2 reaches 2.2-3x, past
+    the task's margin of 2 and up to the draws' crush floor (2.5x the need): nothing the task
+    rewards lies outside, and a wider span only makes an untrained policy's noise coarser.  A
+    factor, not a rate: each decision's noise changes the grip for 40 ms and is gone, nothing
+    accumulates.  The controller's vibration modes, set-points and phases are its own.
+
+    **Action 0 is the house controller, bit for bit** (the factor is exactly 1.0): the same
+    commands, the same record, the referee's same outcome and grip margin as the controller run
+    alone in ``Grasp-v0`` on the same object and seed, built for that episode's scenario
+    (tests/test_gym_assist.py).
+
+    An action outside the box, not real numbers, non-finite or of another shape raises
+    ``ValueError``.
+
+    ## Observation Space
+
+    ``Box(-1, 1, (n,), float32)``, ``env.unwrapped.observation_names``: GraspLearnEnv's (with
+    ``grip_command`` the grip applied, the controller's times the factor), then
+
+    | Name | Observation | Scaled as |
+    |---|---|---|
+    | ``house_grip`` | the grip the controller commanded in the last period (before the factor) | force log scale |
+    | ``grip_factor`` | the last action (the factor's exponent; 0 at the reset) | -1 .. 1 |
+    | ``phase_{p}`` | 1 if the controller is in phase p (approach, close, squeeze, lift, hold, place, release, done, fault) | one-hot |
+
+    ## Rewards
+
+    GraspLearnEnv's parts (:data:`REWARD_PARTS`, each in ``info``, ``reward`` their sum; weights
+    :class:`LearnReward`): the progress potentials (touch, carry, lift, hold, place: what an
+    assisted grasp that lifts the heavy object the house gave up on earns over one that does
+    not); ``reward_grip``, the cost of the grip beyond 1.25x the least grip that holds
+    (``info["needed_grip_n"]``, m g / (2 mu)) while carried, ``grip_per_s`` x min(ln(grip / (1.25
+    need)), ln 10) per second; ``reward_crush`` (-0.5), ``reward_drop`` (-0.1, dropped or lost),
+    ``reward_slip`` (-0.1, 5 mm in the fingers while carried), ending the episode; and
+    ``reward_success`` (+10) when the referee judges it a success, ending it.
+
+    ## Episode End
+
+    GraspLearnEnv's, with the time limit the scenario's duration (12 s for ``grasp``: the time the
+    house has when it runs alone) unless ``settings`` says otherwise.  The last
+    step's ``info`` has the referee's ``outcome``, ``grip_margin``, ``needed_grip_n`` and
+    ``verdict``.
+
+    ## Arguments
+
+    GraspLearnEnv's, and ``grip_octaves`` (the factor's span, octaves each way: 1).
+
+    ## Version History
+
+    - v0: the first version.
+    """
+
+    def __init__(
+        self,
+        scenario: str = "grasp",
+        overrides=None,
+        preset: str | None = None,
+        render_mode: str | None = None,
+        randomize: bool | ObjectDraw = False,
+        settings: LearnSettings | None = None,
+        reward: LearnReward | None = None,
+        width: int = 640,
+        height: int = 480,
+        grip_octaves: float = 1.0,
+    ) -> None:
+        super().__init__(scenario, overrides, preset, render_mode, randomize, settings, reward, width, height)
+        grasp = self.grasp_env
+        if settings is None:  # the scenario's whole time: the house's slowest grasps take it
+            self.settings = LearnSettings(time_limit_s=grasp.base_config.duration_s).validate(grasp.dt)
+            self.weights = self.weights.validate(self.settings.time_limit_s)
+            self.max_steps = math.ceil(self.settings.time_limit_s / self.settings.decision_period_s - 1e-9)
+        if not (isinstance(grip_octaves, (int, float)) and not isinstance(grip_octaves, bool) and 0 < grip_octaves <= 10):
+            raise ValueError(f"grip_octaves must be a number in (0, 10], got {shown(grip_octaves)}")
+        self.grip_octaves = float(grip_octaves)
+        self.house = MultimodePolicy.for_env(grasp)
+        self.action_space = spaces.Box(-1.0, 1.0, (1,), np.float32)
+        self._house_grip_n, self._factor_action = 0.0, 0.0
+
+    @property
+    def phase(self) -> Phase:
+        """The house controller's phase (APPROACH before its first period)."""
+        controller = self.house.controller
+        return Phase.APPROACH if controller is None else controller.phase
+
+    def reset(self, *, seed: int | None = None, options: dict | None = None):
+        _, info = super().reset(seed=seed, options=options)
+        self.house.reset()  # its next controller is the episode's (MultimodePolicy: the camera sees this object)
+        self._grip_n, self._house_grip_n, self._factor_action = 0.0, 0.0, 0.0  # no command yet
+        return self._observation(), info
+
+    def step(self, action):
+        if self._grasp_obs is None:
+            raise RuntimeError("call reset() before step()")
+        if self._ended is not None:
+            raise RuntimeError(f"the episode has ended ({self._ended}); call reset() before step()")
+        a = self._checked(action)
+        self._factor_action = float(a[0])
+        factor = 2.0 ** (self._factor_action * self.grip_octaves)  # exactly 1.0 at 0: the house's own grip
+        s, grasp, w, progress = self.settings, self.grasp_env, self.weights, self._progress
+        before = dict(progress.potentials)
+        parts = dict.fromkeys(REWARD_PARTS, 0.0)
+        self._opening_before_m = float(self._grasp_obs["opening_m"][0])
+        terminated = truncated = False
+        ended, verdict = "", None
+        for _ in range(self.periods_per_step):
+            command = self.house(self._grasp_obs)
+            self._house_grip_n = float(command["grip_force_n"][0])
+            self._grip_n = min(self._house_grip_n * factor, self.grip_max_n)
+            command["grip_force_n"] = np.array([self._grip_n])
+            obs, _, terminated, truncated, info = grasp.step(command)
+            self._lift_accel_m_s2 = (float(obs["lift_velocity_m_s"][0]) - float(self._grasp_obs["lift_velocity_m_s"][0])) / grasp.dt
+            self._grasp_obs = obs
+            row = grasp.last_row()
+            slipped = progress.update(row)
+            if progress.carried:
+                grip = 0.5 * (row["left_finger_force_n"] + row["right_finger_force_n"])
+                parts["reward_grip"] -= grip_cost_per_s(grip, self.need_n, w) * grasp.dt
+            if terminated or truncated:
+                ended = info.get("ended", "duration")
+                break
+            if slipped:
+                terminated, ended = True, "slipped"
+                break
+            if self._gate.opens(row):
+                verdict = grasp.verdict()
+                if verdict.success:
+                    terminated, ended = True, "success"
+                    break
+        progress.end_decision()
+        self._steps += 1
+        lift_m = float(self._grasp_obs["lift_m"][0])
+        at_height = lift_m >= self._home_lift_m + self.lift_height_m - progress.criteria.slip_tolerance_m
+        self._at_height_s += s.decision_period_s if at_height else 0.0
+        for p in PROGRESS:
+            parts[f"reward_{p}"] = getattr(w, p) * (progress.potentials[p] - before[p])
+        if not (terminated or truncated) and self._steps >= self.max_steps:
+            truncated, ended = True, "time_limit"
+        info = {"time_s": grasp.sim.time_s, "grip_factor": factor, "phase": self.phase.label}
+        if terminated or truncated:
+            verdict = grasp.verdict() if verdict is None or ended != "success" else verdict
+            penalty = {"crushed": ("reward_crush", w.crush), "dropped": ("reward_drop", w.drop), "lost": ("reward_drop", w.drop)}
+            penalty["slipped"] = ("reward_slip", w.slip)
+            if ended in penalty:
+                key, value = penalty[ended]
+                parts[key] = -value
+            if ended == "success":
+                parts["reward_success"] = w.success
+            info.update(
+                ended=ended,
+                outcome=verdict.outcome,
+                reason=verdict.reason,
+                grip_margin=verdict.grip_margin,
+                needed_grip_n=verdict.needed_grip_n,
+                hold_grip_n=verdict.hold_grip_n,
+                verdict=verdict.as_dict(),
+                progress=dict(progress.potentials),
+            )
+            self._ended = f"{'terminated' if terminated else 'truncated'}: {ended}"
+        info.update(parts)
+        reward = float(sum(parts.values()))
+        return self._observation(), reward, terminated, truncated, info
+
+    def _checked(self, action) -> np.ndarray:
+        """The action as float64, or ValueError naming what is wrong with it."""
+        a = real_numbers(action)
+        if a is None or a.size != 1 or a.ndim > 1:
+            raise ValueError(f"action must be 1 real number in [-1, 1] (the grip factor's exponent), got {shown(action)}")
+        a = a.reshape(1)
+        if not np.all(np.isfinite(a)):
+            raise ValueError(f"action must be finite, got {shown(action)}")
+        if np.any(np.abs(a) > 1.0):
+            raise ValueError(f"action must lie in the action space [-1, 1], got {shown(action)}")
+        return a
+
+    def _names(self) -> tuple[str, ...]:
+        return (*super()._names(), "house_grip", "grip_factor", *(f"phase_{p}" for p in PHASE_NAMES))
+
+    def _observation(self) -> np.ndarray:
+        base = super()._observation()
+        phase = int(self.phase)
+        extra = [force_to_unit(self._house_grip_n, self.grip_min_n, self.grip_max_n), self._factor_action]
+        extra += [1.0 if k == phase else 0.0 for k in range(len(PHASE_NAMES))]
+        return np.concatenate([base, np.clip(np.asarray(extra), -1.0, 1.0).astype(np.float32)])

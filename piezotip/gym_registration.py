@@ -1,7 +1,8 @@
 """Register the Gymnasium environments ``piezotip/Grasp-v0``, ``piezotip/GraspFlat-v0`` (the
-same task with flat, scaled spaces for learning libraries: piezotip/gym_flat.py) and
-``piezotip/GraspLearn-v0`` (the task shaped for learning: piezotip/gym_learn.py) without
-importing gymnasium.
+same task with flat, scaled spaces for learning libraries: piezotip/gym_flat.py),
+``piezotip/GraspLearn-v0`` (the task shaped for learning: piezotip/gym_learn.py) and
+``piezotip/GraspAssist-v0`` (the house controller with a learned grip correction, the same
+module) without importing gymnasium.
 
 ``import gymnasium`` costs about 130 ms, and the command line imports the ``piezotip`` package
 on every command, so ``import piezotip`` must not import it.  :func:`register_when_imported`
@@ -29,8 +30,15 @@ FLAT_ENV_ID = "piezotip/GraspFlat-v0"
 FLAT_ENTRY_POINT = "piezotip.gym_flat:GraspFlatEnv"
 LEARN_ENV_ID = "piezotip/GraspLearn-v0"
 LEARN_ENTRY_POINT = "piezotip.gym_learn:GraspLearnEnv"
+ASSIST_ENV_ID = "piezotip/GraspAssist-v0"
+ASSIST_ENTRY_POINT = "piezotip.gym_learn:GraspAssistEnv"
 #: Every environment this package registers: id -> entry point.
-ENVIRONMENTS = {ENV_ID: ENTRY_POINT, FLAT_ENV_ID: FLAT_ENTRY_POINT, LEARN_ENV_ID: LEARN_ENTRY_POINT}
+ENVIRONMENTS = {
+    ENV_ID: ENTRY_POINT,
+    FLAT_ENV_ID: FLAT_ENTRY_POINT,
+    LEARN_ENV_ID: LEARN_ENTRY_POINT,
+    ASSIST_ENV_ID: ASSIST_ENTRY_POINT,
+}
 
 
 def register_env(gymnasium) -> None:
