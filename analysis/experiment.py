@@ -224,7 +224,7 @@ def experiment_provenance(preset: str | None = None, base_overrides: tuple[str, 
     object's and controller's overrides (a row's run is that config with its object's, then its
     controller's, then the user's overrides applied: :func:`experiment_points`)."""
     from piezotip import scenarios
-    from piezotip.provenance import config_provenance
+    from piezotip.runtime.provenance import config_provenance
 
     objects = OBJECTS if objects is None else objects
     controllers = experiment_controllers() if controllers is None else controllers
@@ -264,7 +264,7 @@ def write_outputs(
     peak pressures; ``aim``: the grip margin the experiment's controller aims at, as
     :func:`experiment_figure` takes it).  ``provenance`` (:func:`experiment_provenance`; None:
     the versions alone) heads both tables: the CSV's ``# `` lines, the JSON's keys."""
-    from piezotip.provenance import csv_header, versions
+    from piezotip.runtime.provenance import csv_header, versions
 
     from .sweep_output import write_csv_rows
 

@@ -29,8 +29,8 @@ from pathlib import Path
 
 import numpy as np
 
-from piezotip.interrupts import RunInterrupted, in_main_thread, interruption, note, raise_interruption, replaceable
-from piezotip.provenance import json_safe
+from piezotip.runtime.interrupts import RunInterrupted, in_main_thread, interruption, note, raise_interruption, replaceable
+from piezotip.runtime.provenance import json_safe
 
 #: The files a run writes in its folder besides the recording (``run.npz``, ``run.csv``,
 #: ``run.chunks/``): a rerun removes them, ``summary.json`` first (and its temporary).
@@ -185,7 +185,7 @@ def _run(name, overrides, out, csv, render, plot, quiet, preset, video, video_fp
     from piezotip import scenarios
     from piezotip.cosim.loop import CoSimulation, RunResult
     from piezotip.cosim.recorder import Recorder
-    from piezotip.provenance import config_provenance
+    from piezotip.runtime.provenance import config_provenance
 
     from .run_report import object_disturbance, object_needed_grip_n, plot_run, summary
 

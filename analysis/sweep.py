@@ -52,7 +52,7 @@ def run_point(
     options = dict(options or {})
     import tempfile
 
-    from piezotip.interrupts import interruption, signal_in
+    from piezotip.runtime.interrupts import interruption, signal_in
 
     from .runner import run_scenario
 
@@ -202,7 +202,8 @@ def sweep(
     Ctrl-C raises KeyboardInterrupt out of the call, SIGTERM :class:`piezotip.interrupts.Terminated`
     (a KeyboardInterrupt, and uncaught an exit with status 143), once the cluster is closed; the
     points finished are in ``out``'s journal, from which the same call resumes."""
-    from piezotip import interrupts, scenarios
+    from piezotip import scenarios
+    from piezotip.runtime import interrupts
 
     base = scenarios.override_strings(overrides)
     points = grid_points(grid, base)
@@ -229,7 +230,7 @@ def sweep_provenance(scenario: str, grid: Mapping[str, Sequence[object]], overri
     grid; the versions; the seeds and the config every point starts from (the preset and
     ``overrides`` applied), each point then setting the grid's keys to its row's values."""
     from piezotip import scenarios
-    from piezotip.provenance import config_provenance
+    from piezotip.runtime.provenance import config_provenance
 
     base = scenarios.get(scenario, list(overrides), preset)
     grid = {key: list(values) for key, values in grid.items()}

@@ -171,7 +171,7 @@ class _interrupts_deferred:
     def __enter__(self):
         import signal
 
-        from piezotip.interrupts import in_main_thread, replaceable
+        from piezotip.runtime.interrupts import in_main_thread, replaceable
 
         self.caught, self.previous = None, {}
         if in_main_thread():
@@ -181,7 +181,7 @@ class _interrupts_deferred:
         return self
 
     def _hold(self, signum, frame) -> None:
-        from piezotip.interrupts import note
+        from piezotip.runtime.interrupts import note
 
         note(signum)
         if self.caught is None:
@@ -190,7 +190,7 @@ class _interrupts_deferred:
     def __exit__(self, kind, value, tb) -> None:
         import signal
 
-        from piezotip.interrupts import interruption
+        from piezotip.runtime.interrupts import interruption
 
         for signum, previous in self.previous.items():
             signal.signal(signum, previous)

@@ -37,7 +37,7 @@ def write_sweep(rows: list[dict], grid_keys: Sequence[str], out: Path, plot: boo
     import pyarrow as pa
     import pyarrow.parquet as pq
 
-    from piezotip.provenance import METADATA_KEY, csv_header, versions
+    from piezotip.runtime.provenance import METADATA_KEY, csv_header, versions
 
     from .runner import json_safe
 
