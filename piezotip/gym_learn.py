@@ -615,9 +615,14 @@ class GraspLearnEnv(gym.Env):
         self._at_height_s += s.decision_period_s if at_height else 0.0
         for p in PROGRESS:
             parts[f"reward_{p}"] = getattr(w, p) * (progress.potentials[p] - before[p])
+        return self._end_step(parts, {"time_s": grasp.sim.time_s}, terminated, truncated, ended, verdict)
+
+    def _end_step(self, parts: dict, info: dict, terminated: bool, truncated: bool, ended: str, verdict):
+        """The step's return: the time limit, the end's penalty or bonus and the referee's verdict
+        in ``info`` at the last step, the reward's parts in ``info`` and their sum the reward."""
+        w, grasp = self.weights, self.grasp_env
         if not (terminated or truncated) and self._steps >= self.max_steps:
             truncated, ended = True, "time_limit"
-        info = {"time_s": grasp.sim.time_s}
         if terminated or truncated:
             verdict = grasp.verdict() if verdict is None or ended != "success" else verdict
             penalty = {"crushed": ("reward_crush", w.crush), "dropped": ("reward_drop", w.drop), "lost": ("reward_drop", w.drop)}
@@ -635,7 +640,7 @@ class GraspLearnEnv(gym.Env):
                 needed_grip_n=verdict.needed_grip_n,
                 hold_grip_n=verdict.hold_grip_n,
                 verdict=verdict.as_dict(),
-                progress=dict(progress.potentials),
+                progress=dict(self._progress.potentials),
             )
             self._ended = f"{'terminated' if terminated else 'truncated'}: {ended}"
         info.update(parts)
@@ -906,32 +911,8 @@ class GraspAssistEnv(GraspLearnEnv):
         self._at_height_s += s.decision_period_s if at_height else 0.0
         for p in PROGRESS:
             parts[f"reward_{p}"] = getattr(w, p) * (progress.potentials[p] - before[p])
-        if not (terminated or truncated) and self._steps >= self.max_steps:
-            truncated, ended = True, "time_limit"
         info = {"time_s": grasp.sim.time_s, "grip_factor": factor, "phase": self.phase.label}
-        if terminated or truncated:
-            verdict = grasp.verdict() if verdict is None or ended != "success" else verdict
-            penalty = {"crushed": ("reward_crush", w.crush), "dropped": ("reward_drop", w.drop), "lost": ("reward_drop", w.drop)}
-            penalty["slipped"] = ("reward_slip", w.slip)
-            if ended in penalty:
-                key, value = penalty[ended]
-                parts[key] = -value
-            if ended == "success":
-                parts["reward_success"] = w.success
-            info.update(
-                ended=ended,
-                outcome=verdict.outcome,
-                reason=verdict.reason,
-                grip_margin=verdict.grip_margin,
-                needed_grip_n=verdict.needed_grip_n,
-                hold_grip_n=verdict.hold_grip_n,
-                verdict=verdict.as_dict(),
-                progress=dict(progress.potentials),
-            )
-            self._ended = f"{'terminated' if terminated else 'truncated'}: {ended}"
-        info.update(parts)
-        reward = float(sum(parts.values()))
-        return self._observation(), reward, terminated, truncated, info
+        return self._end_step(parts, info, terminated, truncated, ended, verdict)
 
     def _checked(self, action) -> np.ndarray:
         """The action as float64, or ValueError naming what is wrong with it."""
