@@ -11,9 +11,9 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
-from .attach import open_pose_qpos
 from .gripper_parts import GripperParts, _path_from_world, _subtree
 from .pad_geometry import PAD_SIDES
+from .pad_placement import open_pose_qpos
 
 PREFIX = "gripper/"
 """What the names of the gripper file's parts start with in the scene (``gripper/finger_joint1``)."""

@@ -16,10 +16,10 @@ import numpy as np
 from piezotip.cosim.config import GripperConfig
 from piezotip.sensor.gel import GelParams
 
-from .attach import fingertip_pads
 from .gripper_file import _file_key, load_gripper_spec
 from .pad_geometry import PadGeometry
 from .pad_model import PadPlacement
+from .pad_placement import fingertip_pads
 
 #: The joints a gripper's fingers move on (one coordinate each).
 _ONE_DOF = (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE))
