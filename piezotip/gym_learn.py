@@ -17,6 +17,7 @@ house controller, bit for bit.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import asdict, dataclass, fields
 from typing import ClassVar
 
@@ -559,12 +560,8 @@ class GraspLearnEnv(gym.Env):
         return self._observation(), info
 
     def step(self, action):
-        if self._grasp_obs is None:
-            raise RuntimeError("call reset() before step()")
-        if self._ended is not None:
-            raise RuntimeError(f"the episode has ended ({self._ended}); call reset() before step()")
-        a = self._checked(action)
-        s, grasp, w, progress = self.settings, self.grasp_env, self.weights, self._progress
+        a = self._begin_step(action)
+        s = self.settings
         # The grip moves from where it is, by at most grip_rate_decades_per_s: a held object's grip
         # is a state the policy raises or lowers, not one redrawn with every decision's noise
         # (redrawn, a single low draw dropped what the mean held: issue 46).
@@ -580,13 +577,31 @@ class GraspLearnEnv(gym.Env):
             # rises grasps the object high, at an edge, or not at all (what PPO did first, issue 46).
             lift_target_m = min(lift_target_m, float(self._grasp_obs["lift_setpoint_m"][0]))
         mode = mode_index(float(a[3]), len(self.modes))
+        parts, terminated, truncated, ended, verdict = self._decide(lambda: self._grasp_action(opening_target_m, lift_target_m, mode))
+        return self._end_step(parts, {"time_s": self.grasp_env.sim.time_s}, terminated, truncated, ended, verdict)
+
+    def _begin_step(self, action) -> np.ndarray:
+        """The action, checked (:meth:`_checked`), once a reset began an episode that has not ended."""
+        if self._grasp_obs is None:
+            raise RuntimeError("call reset() before step()")
+        if self._ended is not None:
+            raise RuntimeError(f"the episode has ended ({self._ended}); call reset() before step()")
+        return self._checked(action)
+
+    def _decide(self, command: Callable[[], dict]) -> tuple[dict, bool, bool, str, object]:
+        """One decision: up to ``periods_per_step`` control periods, each stepping the grasp with
+        ``command()`` (GraspEnv's action), the progress and the grip's cost accounted as they
+        go, stopped by the grasp's own end, a slip or a success at the gate.  Returns the
+        reward's parts so far (progress, grip), whether the episode terminated or was truncated,
+        how it ended ("" while it runs) and the referee's verdict if the gate took one."""
+        s, grasp, w, progress = self.settings, self.grasp_env, self.weights, self._progress
         before = dict(progress.potentials)
         parts = dict.fromkeys(REWARD_PARTS, 0.0)
         self._opening_before_m = float(self._grasp_obs["opening_m"][0])
         terminated = truncated = False
         ended, verdict = "", None
         for _ in range(self.periods_per_step):
-            obs, _, terminated, truncated, info = grasp.step(self._grasp_action(opening_target_m, lift_target_m, mode))
+            obs, _, terminated, truncated, info = grasp.step(command())
             self._lift_accel_m_s2 = (float(obs["lift_velocity_m_s"][0]) - float(self._grasp_obs["lift_velocity_m_s"][0])) / grasp.dt
             self._grasp_obs = obs
             row = grasp.last_row()
@@ -615,7 +630,7 @@ class GraspLearnEnv(gym.Env):
         self._at_height_s += s.decision_period_s if at_height else 0.0
         for p in PROGRESS:
             parts[f"reward_{p}"] = getattr(w, p) * (progress.potentials[p] - before[p])
-        return self._end_step(parts, {"time_s": grasp.sim.time_s}, terminated, truncated, ended, verdict)
+        return parts, terminated, truncated, ended, verdict
 
     def _end_step(self, parts: dict, info: dict, terminated: bool, truncated: bool, ended: str, verdict):
         """The step's return: the time limit, the end's penalty or bonus and the referee's verdict
@@ -867,51 +882,19 @@ class GraspAssistEnv(GraspLearnEnv):
         return self._observation(), info
 
     def step(self, action):
-        if self._grasp_obs is None:
-            raise RuntimeError("call reset() before step()")
-        if self._ended is not None:
-            raise RuntimeError(f"the episode has ended ({self._ended}); call reset() before step()")
-        a = self._checked(action)
+        a = self._begin_step(action)
         self._factor_action = float(a[0])
         factor = 2.0 ** (self._factor_action * self.grip_octaves)  # exactly 1.0 at 0: the house's own grip
-        s, grasp, w, progress = self.settings, self.grasp_env, self.weights, self._progress
-        before = dict(progress.potentials)
-        parts = dict.fromkeys(REWARD_PARTS, 0.0)
-        self._opening_before_m = float(self._grasp_obs["opening_m"][0])
-        terminated = truncated = False
-        ended, verdict = "", None
-        for _ in range(self.periods_per_step):
+
+        def command() -> dict:
             command = self.house(self._grasp_obs)
             self._house_grip_n = float(command["grip_force_n"][0])
             self._grip_n = min(self._house_grip_n * factor, self.grip_max_n)
             command["grip_force_n"] = np.array([self._grip_n])
-            obs, _, terminated, truncated, info = grasp.step(command)
-            self._lift_accel_m_s2 = (float(obs["lift_velocity_m_s"][0]) - float(self._grasp_obs["lift_velocity_m_s"][0])) / grasp.dt
-            self._grasp_obs = obs
-            row = grasp.last_row()
-            slipped = progress.update(row)
-            if progress.carried:
-                grip = 0.5 * (row["left_finger_force_n"] + row["right_finger_force_n"])
-                parts["reward_grip"] -= grip_cost_per_s(grip, self.need_n, w) * grasp.dt
-            if terminated or truncated:
-                ended = info.get("ended", "duration")
-                break
-            if slipped:
-                terminated, ended = True, "slipped"
-                break
-            if self._gate.opens(row):
-                verdict = grasp.verdict()
-                if verdict.success:
-                    terminated, ended = True, "success"
-                    break
-        progress.end_decision()
-        self._steps += 1
-        lift_m = float(self._grasp_obs["lift_m"][0])
-        at_height = lift_m >= self._home_lift_m + self.lift_height_m - progress.criteria.slip_tolerance_m
-        self._at_height_s += s.decision_period_s if at_height else 0.0
-        for p in PROGRESS:
-            parts[f"reward_{p}"] = getattr(w, p) * (progress.potentials[p] - before[p])
-        info = {"time_s": grasp.sim.time_s, "grip_factor": factor, "phase": self.phase.label}
+            return command
+
+        parts, terminated, truncated, ended, verdict = self._decide(command)
+        info = {"time_s": self.grasp_env.sim.time_s, "grip_factor": factor, "phase": self.phase.label}
         return self._end_step(parts, info, terminated, truncated, ended, verdict)
 
     def _checked(self, action) -> np.ndarray:
