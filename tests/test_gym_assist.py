@@ -23,6 +23,7 @@ import gymnasium
 import numpy as np
 import pytest
 from gymnasium.utils.env_checker import check_env
+from test_gym_learn import _episode  # one episode under a policy(obs, env), as GraspLearn-v0's tests run it
 
 import piezotip  # noqa: F401 - registers the environments
 from piezotip.gym_env import GraspEnv, MultimodePolicy
@@ -40,22 +41,9 @@ def env():
     env.close()
 
 
-def _episode(env, seed, policy, max_steps=10**9):
-    obs, start = env.reset(seed=seed)
-    observations, rewards, infos = [obs], [], []
-    for _ in range(max_steps):
-        obs, reward, terminated, truncated, info = env.step(policy(obs))
-        observations.append(obs)
-        rewards.append(reward)
-        infos.append(info)
-        if terminated or truncated:
-            break
-    return start, np.array(observations), rewards, infos
-
-
 def _random_policy(seed, scale=1.0):
     rng = np.random.default_rng(seed)
-    return lambda obs: np.clip(rng.normal(0.0, scale, 1), -1.0, 1.0).astype(np.float32)
+    return lambda obs, env: np.clip(rng.normal(0.0, scale, 1), -1.0, 1.0).astype(np.float32)
 
 
 def test_registered_and_gymnasium_check_env():
@@ -95,7 +83,7 @@ def test_stable_baselines3_check_env():
 # 1000000: the house succeeds (placed at 5 s); 1000005: a 3.6 kg sphere it never lifts (12 s).
 @pytest.mark.parametrize("seed", [1_000_000, 1_000_005])
 def test_action_zero_is_the_house_controller_bit_for_bit(env, seed):
-    _, _, _, infos = _episode(env, seed, lambda obs: ZERO)
+    _, _, _, infos = _episode(env, seed, lambda obs, env: ZERO)
     assisted = env.grasp_env.recording()
     house_env = GraspEnv("grasp", None, "fast")
     house = MultimodePolicy.for_env(house_env)
