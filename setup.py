@@ -41,6 +41,7 @@ KERNELS = (
     ("sensor", "_channel"),
     ("cosim", "_pad_kernels"),
     ("cosim", "_period"),
+    ("cosim", "_readout"),
     ("cosim", "_rows"),
     ("cosim/control", "_control"),
 )

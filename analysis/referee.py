@@ -225,6 +225,22 @@ def touch_metrics(
     return peak, to_touch
 
 
+def impact_n(data) -> float:
+    """The touch's own force from a run's record, N: the largest true finger force (the physics
+    steps' peak where recorded) from the first contact until the lift phase begins; NaN where
+    nothing touched."""
+    from piezotip.cosim.control import phase_index
+
+    left, right = (data.get(f"{side}_finger_peak_force_n", data[f"{side}_finger_force_n"]) for side in ("left", "right"))
+    force = np.maximum(left, right)
+    touched = np.flatnonzero(force > 1e-6)
+    if touched.size == 0:
+        return math.nan
+    lifting = np.flatnonzero(data["phase"] >= phase_index("lift"))
+    end = lifting[0] if lifting.size else force.size
+    return float(force[touched[0] : max(end, touched[0] + 1)].max())
+
+
 def disturb_onset_s(time_s: np.ndarray, phase: np.ndarray | None, hold_s: float) -> float:
     """When a disturbance's load came on, s: the middle of the hold as the controller's phases
     define it, the first sample recorded in the hold phase plus half of ``hold_s`` (s) (the

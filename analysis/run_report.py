@@ -302,7 +302,7 @@ def _grip_words(report: dict | None) -> str:
 def sensed_pressure_pa(data: dict[str, np.ndarray], side: str) -> np.ndarray:
     """The true pressure ``side``'s sensing patch feels, Pa: the gel's mean on the element's
     coverage (``{side}_coverage_pressure_pa``, the readout's input and the truth its estimate is
-    judged against, analysis.coverage), or, in a record made before that column, the pad's mean
+    judged against, reports.coverage), or, in a record made before that column, the pad's mean
     over the element (``{side}_true_pressure_pa``; the same under a uniform load)."""
     return data.get(f"{side}_coverage_pressure_pa", data[f"{side}_true_pressure_pa"])
 

@@ -6,7 +6,7 @@
 
 Runs every registered scenario at the three presets under its own controller, the default grasp
 under each built-in controller, and the default grasp on each third-party gripper whose package
-is installed (:func:`analysis.gripper_tables.grippers`; the fast preset), and writes, per run,
+is installed (:func:`reports.gripper_tables.grippers`; the fast preset), and writes, per run,
 the SHA-256 of each recorded column's bytes and the referee's outcome (CONTRIBUTING.md,
 "Refactoring: the golden record").  ``--compare`` prints every run and column that differs and
 exits 1 if any does (a run only one file has counts as a difference).  Progress on stderr.
@@ -29,7 +29,7 @@ PRESETS = ("fast", "balanced", "accurate")
 def cases(quick: bool = False) -> list[tuple[str, str, dict]]:
     """(scenario, preset, overrides) of every run; ``quick``: the fast preset only."""
     import piezotip
-    from piezotip.analysis.gripper_tables import grippers
+    from piezotip.reports.gripper_tables import grippers
 
     presets = PRESETS[:1] if quick else PRESETS
     out = [(name, preset, {}) for name in piezotip.scenario_names() for preset in presets]

@@ -10,7 +10,7 @@ bookkeeping) are timed in ``repeats`` runs of the scenario as ``run_sim.py run``
 patched) and around the recorder's appends, the timers' own cost subtracted; each stage's
 fastest run is kept (noise only ever adds time).  Timers disturb what they measure (caches, a
 few hundred ns each): the stages are shares of the cost, the totals come from the plain runs,
-which are the product's own ``bench`` (:func:`piezotip.analysis.bench.bench_case`: the step's
+which are the product's own ``bench`` (:func:`piezotip.reports.bench.bench_case`: the step's
 time, bare ``mj_step``'s in the same states, their ratio), run first on the same config.
 """
 
@@ -122,7 +122,7 @@ def stages_report(name: str, config, repeats: int = 5, duration_s: float | None 
     the stage times of the same config, ``duration_s`` simulated seconds a run (None: the
     config's): ``stages_us`` (us per control step), ``stages_share`` (each stage's share of the
     step, gel forces inside physics)."""
-    from piezotip.analysis.bench import BenchCase, bench_case
+    from piezotip.reports.bench import BenchCase, bench_case
 
     entry = bench_case(BenchCase(name, config), repeats=repeats, duration_s=duration_s)  # checks the duration
     if duration_s is not None:

@@ -43,6 +43,7 @@ from piezotip.sensor.checks import _coerce
 from piezotip.sensor.config import SensorConfig
 
 from . import mjhooks
+from ._readout import ReadoutPass
 from .build_checks import check_buildable
 from .config import INTEGRATORS, PhysicsConfig, ScenarioConfig
 from .control.config import ScriptedConfig
@@ -640,6 +641,10 @@ class _FingertipHook:
     readout afresh, as it was at bind (the same noise from the same seed).
     """
 
+    #: The readout rides on MuJoCo's sensor callback alone (cosim.mjhooks.Hook); the gel law, on
+    #: gel pads, is a hook of its own.
+    callbacks = ("sensor",)
+
     def __init__(self, tips: Fingertips, model: mujoco.MjModel, data: mujoco.MjData) -> None:
         if not isinstance(model, mujoco.MjModel) or not isinstance(data, mujoco.MjData):
             raise ValueError("bind: give the compiled mujoco.MjModel and its mujoco.MjData")
@@ -707,14 +712,33 @@ class _FingertipHook:
         edges = {name: layout[0] for name, layout in self._layouts.items()}
         self.channels: dict[str, SensorChannel] = make_channels(config, fingertip, self._unit, edges)
         self._readings: dict[str, TipReading] | None = None
-        self._samples: list[tuple | None] = [None] * len(self.channels)
-        # Per fingertip, in order: its channel's reading and estimate (one call), its pad's
-        # reader, its coverage cells' shares.
-        self._pipeline = [(self.channels[name].sample, self._readers[name].read, self._layouts[name][2]) for name in self.channels]
-        first = [math.nan, math.nan, float(STATUS_CODES["settling"]), float(min(config.sensor.modes)), math.nan]
-        self._values = np.tile(first, len(self.channels))
+        self._sampled = False
+        self._pass = self._new_pass(ReadoutPass)
         self._last_s = self.data.time
         self._next_s = self.data.time + self.period_s
+
+    def _new_pass(self, kind: type) -> ReadoutPass:
+        """Every fingertip's pad read, channel and sensor values in one pass a period (``kind``:
+        cosim/_readout.py's, compiled where built: a touch pad's touch sensor read in C, a gel
+        pad's strips through its reader), bound to this data's sensors."""
+        readers = [self._readers[name] for name in self.channels]
+        touch = [isinstance(r, TouchReader) for r in readers]
+        first = [math.nan, math.nan, float(STATUS_CODES["settling"]), float(min(self.tips.config.sensor.modes)), math.nan]
+        readout = kind(
+            [channel.sample for channel in self.channels.values()],
+            [None if t else r.read for r, t in zip(readers, touch, strict=True)],
+            [r.adr if t else -1 for r, t in zip(readers, touch, strict=True)],
+            [r.area_m2 if t else math.nan for r, t in zip(readers, touch, strict=True)],
+            [self._layouts[name][2] for name in self.channels],
+            self._sensor_adr,
+            first * len(self.channels),
+            self._gel_valid_pa,
+            self._backstop_pa,
+            STATUS_CODES,
+            STATUS_CODES["outside_model"],
+        )
+        readout.bind(self._sensordata)
+        return readout
 
     @property
     def names(self) -> tuple[str, ...]:
@@ -754,34 +778,17 @@ class _FingertipHook:
     def _sample(self) -> None:
         """Every fingertip's pressures, sensor and readout, once (one period since the last):
         the sensors' values now, the :class:`TipReading` objects when :meth:`readings` asks."""
-        samples, period_s, codes = self._samples, self.period_s, STATUS_CODES
-        gel_valid_pa, backstop_pa, outside = self._gel_valid_pa, self._backstop_pa, STATUS_CODES["outside_model"]
-        values = []  # every fingertip's sensors, in order: one write into the array at the end
-        for k, (sample, read, fractions) in enumerate(self._pipeline):
-            (profile,), (cells,) = read()
-            reading, estimate = sample(cells, period_s)
-            # The coverage's mean pressure (one cell: fsum of one value is that value).
-            truth = cells[0] * fractions[0] if len(cells) == 1 else math.fsum(p * f for p, f in zip(cells, fractions, strict=True))
-            # Past where the model holds (a strip over the element past the gel's valid strain,
-            # the element on its backstop), whatever the readout said: the simulator knows.
-            past = truth > backstop_pa or max(profile) > gel_valid_pa
-            samples[k] = (reading, estimate, truth, past)
-            values += (
-                estimate.pressure_pa,
-                estimate.uncertainty_pa,
-                outside if past else codes.get(estimate.status, -1),
-                reading.mode,
-                truth,
-            )
-        self._values[:] = values
-        self._readings = None  # made from the samples when asked
+        self._pass.sample(self.period_s)
+        self._sampled = True
+        self._readings = None  # made from the pass's records when asked
 
     def _write(self, data: mujoco.MjData) -> None:
         # MuJoCo zeroes user sensors at every step: written every step, through a view kept
         # while the same MjData comes back (an MjData attribute builds a new view at each access).
         if data is not self._sensordata_of():
             self._sensordata, self._sensordata_of = data.sensordata, weakref.ref(data)
-        self._sensordata[self._sensor_adr] = self._values
+            self._pass.bind(self._sensordata)
+        self._pass.write()
 
     # -- piezotip's own loop ---------------------------------------------------------------
 
@@ -820,9 +827,10 @@ class _FingertipHook:
     def readings(self) -> dict[str, TipReading]:
         """Each fingertip's :class:`TipReading` at the last sample (:meth:`step`'s end, or the
         last period ``mj_step`` reached), by name."""
-        if self._samples[0] is None:
+        if not self._sampled:
             raise RuntimeError("no readings yet: call step() (or mj_step for one period) first")
         if self._readings is None:
+            p = self._pass
             self._readings = {
                 name: TipReading(
                     estimate.pressure_pa,
@@ -833,7 +841,7 @@ class _FingertipHook:
                     reading.v1,
                     truth,
                 )
-                for name, (reading, estimate, truth, past) in zip(self.channels, self._samples, strict=True)
+                for name, reading, estimate, truth, past in zip(self.channels, p.readings, p.estimates, p.truths, p.pasts, strict=True)
             }
         return dict(self._readings)
 

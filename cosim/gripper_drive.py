@@ -51,8 +51,8 @@ class DrivePath:
     palm_above_m : how far above the pads' centre the rest of the gripper (what the fingers hang
         from) reaches down to, at home, m (inf: nothing).
     centre_rise_m : how far the pads' centre lies above its home height there, m (0 for fingers
-        that slide; a linkage's fingertips swing along an arc: Robotiq's drop 9 mm from open to
-        a 44 mm grip).
+        that slide; a linkage's fingertips swing along an arc: tests/test_third_party_grippers.py::
+        test_robotiqs_pads_swing_down_their_arc_and_the_lift_braking_opens_them).
     static_force : the force each actuator needs to hold the free fingers there (their springs;
         :func:`_static_force`), its units, shape (actuators, points): the drive's no-load
         profile, which its grip reading leaves out (a linkage's springs are no grip).
@@ -188,10 +188,11 @@ def _free_closing(model: mujoco.MjModel, parts: GripperParts, actuators: list[in
 
     The fingers start in the open pose (:func:`cosim.attach.open_pose_qpos`: the joints in their
     ranges, the servos at their open ends), not at the file's ``qpos0``: a hand closed there
-    (Menagerie's Franka hand) starts with its pads pressed through each other, and one whose
-    ``qpos0`` lies outside its joints' ranges (the ALOHA gripper) against its limits, both far
-    past what the contacts and limits can push out in a step.  The settling closes what the open
-    pose leaves open (a linkage's loops, which it does not solve)."""
+    starts with its pads pressed through each other, and one whose ``qpos0`` lies outside its
+    joints' ranges against its limits, both far past what the contacts and limits can push out
+    in a step (tests/test_gripper_natural_pose.py::test_jaws_closed_at_qpos0_mount_open_and_grasp_the_box
+    and test_fingers_whose_qpos0_is_outside_their_range_mount_in_it_and_grasp_the_box).  The
+    settling closes what the open pose leaves open (a linkage's loops, which it does not solve)."""
     data = mujoco.MjData(model)
     left, right = (model.site(f"{side}_pad_surface").id for side in PAD_SIDES)
     ranges = np.array([a.ctrl_range for a in parts.actuators])
@@ -343,8 +344,9 @@ def opening_inertia_kg(model: mujoco.MjModel, path: DrivePath, joints: list[int]
     - c = e_lift^T M v, the cross term of the kinetic energy (1/2) m_l z'^2 + c z' o' +
       (1/2) m_o o'^2, so by Lagrange a lift accelerating at z'' pushes the opening with -c z''
       (N).  0 for fingers that slide across the lift; a linkage whose pads rise as they open
-      has c > 0: the lift braking at the top opens them (Robotiq's 2F-85: 13 g at a 30 mm
-      opening, 6 mN at 0.5 m/s^2, a third of the 2 g paper ball's grip)."""
+      has c > 0: the lift braking at the top opens them, by a good share of a light object's
+      grip (tests/test_third_party_grippers.py::
+      test_robotiqs_pads_swing_down_their_arc_and_the_lift_braking_opens_them)."""
     dofs, qadr = [int(model.jnt_dofadr[j]) for j in joints], [int(model.jnt_qposadr[j]) for j in joints]
     lift = int(model.jnt_dofadr[model.joint("lift_joint").id])
     speeds = path.joint_rates()  # joint speed per opening speed, (points, joints)

@@ -34,10 +34,11 @@ def load_gripper_spec(path: str | Path, warn: bool = True) -> mujoco.MjSpec:
       file alone in degrees, which would shrink a joint range of 0.8 rad to 0.8 degrees;
     - an asset (mesh, texture, material, ...) named twice keeps its first definition, as
       robosuite's merge keeps it; MuJoCo refuses the second;
-    - an attribute this MuJoCo does not know (robosuite's xarm7_gripper.xml puts ``group`` on a
-      ``<default>``) is left out; MuJoCo refuses the file.
+    - an attribute this MuJoCo does not know (such a merge lets one through, on a ``<default>``
+      say) is left out; MuJoCo refuses the file.
 
-    Each repair comes with a :class:`GripperFileWarning` naming it (with ``warn``).
+    Each repair comes with a :class:`GripperFileWarning` naming it (with ``warn``;
+    tests/test_third_party_grippers.py::test_a_gripper_file_loads_as_a_part_of_the_scene).
 
     Raises
     ------

@@ -183,8 +183,9 @@ def reference_qpos(model: mujoco.MjModel) -> np.ndarray:
     the pads' centre) and the links modelled through each other in this pose, not in the open
     one: MuJoCo places no pose by solving the file's equality constraints, so a linkage's loops
     are closed only where its author assembled it, at ``qpos0``.  A file whose ``qpos0`` lies
-    outside its joints' ranges (the ALOHA gripper's fingers at 0 on rails of 21-57 mm) has no
-    such pose there: its joints come to their nearest ends."""
+    outside its joints' ranges has no such pose there: its joints come to their nearest ends
+    (tests/test_gripper_natural_pose.py::
+    test_fingers_whose_qpos0_is_outside_their_range_mount_in_it_and_grasp_the_box)."""
     qpos = model.qpos0.copy()
     for joint in range(model.njnt):
         if model.jnt_limited[joint] and int(model.jnt_type[joint]) in _ONE_DOF:

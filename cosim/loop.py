@@ -328,9 +328,11 @@ class CoSimulation:
         else:
             self._fingers_from = self._fingers_to = self.data.ctrl[self.mounted.drive.actuators].tolist()
         # The referee judges a crush on the fingers' largest force, which can peak between two
-        # control periods' samples (8 % over them in the default grasp): for an object with a
+        # control periods' samples (a squeeze rings within a period): for an object with a
         # crush limit, MuJoCo's sensors run in every physics step and each period records the
-        # fingers' peak over its steps (PEAK_COLUMNS); other objects do not pay for it.
+        # fingers' peak over its steps (PEAK_COLUMNS); other objects do not pay for it
+        # (tests/test_grasp_outcomes.py::test_a_crush_between_two_samples_is_still_a_crush and
+        # test_peaks_cost_nothing_for_a_robust_object_and_never_change_the_motion).
         self._track_peaks = config.object.crush_force_n is not None
         self._finger_peaks = (0.0, 0.0)
         # A load change while held (disturb.*): None where none comes on, so that the per-step

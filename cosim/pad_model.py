@@ -258,7 +258,7 @@ COMPLIANT_PAD_SOLIMP = (0.1, 0.9999, 3.0e-5, 0.1, 3.0)
 #: a loaded contact at d = 0.96-0.995, whose friction rows are 50-400x softer than at 0.9999
 #: (regularization (1 - d) / d: 0.005-0.04 against 1e-4); impratio divides the friction rows'
 #: regularization, and 100 brings a held object's creep under 0.1 mm/s of hold at 1.2x its needed
-#: grip on the whole creep grid (analysis/creep.py).
+#: grip on the whole creep grid (reports/creep.py).
 COMPLIANT_IMPRATIO = 1000.0
 #: The hard pad contact (``physics.pad_contact=hard``, the model before): 0.9999 from first touch.
 HARD_PAD_SOLIMP = (0.9999, 0.9999, 0.001, 0.5, 2.0)

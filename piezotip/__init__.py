@@ -8,7 +8,8 @@ The Python API (see :mod:`piezotip.api` and the README)::
 
 The packages beneath: :mod:`piezotip.sensor` (the fingertip's physics, numpy/scipy only),
 :mod:`piezotip.cosim` (MuJoCo bridge, loop, controllers, recorder), :mod:`piezotip.scenarios`
-(configs, presets, objects), :mod:`piezotip.analysis` (reports, referee, bench, sweeps).
+(configs, presets, objects), :mod:`piezotip.analysis` (runner, referee, sweeps, plots); above the API,
+:mod:`piezotip.reports` (bench, fidelity, coverage, creep, figures, ...), which only the command line imports.
 
 ``import piezotip`` stays cheap (no MuJoCo, scipy or matplotlib): the API's names load on
 first use (the module's ``__getattr__``).  Type checkers and IDEs read the ``TYPE_CHECKING``

@@ -84,7 +84,7 @@ PRESET_NAMES = ("fast", "balanced", "accurate", "reference")
 
 
 def _cmd_figures(args: argparse.Namespace) -> int:
-    from piezotip.analysis.figures import write_figures
+    from piezotip.reports.figures import write_figures
 
     written = write_figures(Path(args.out))
     print(f"wrote {len(written)} files to {args.out}:")
@@ -101,7 +101,7 @@ def _json_safe(value):
 
 
 def _cmd_range(args: argparse.Namespace) -> int:
-    from piezotip.analysis.range_report import check_coverage, format_table, write_range_files
+    from piezotip.reports.range_report import check_coverage, format_table, write_range_files
     from piezotip.sensor import Fingertip
 
     coverage = None
@@ -138,7 +138,7 @@ def _cmd_range(args: argparse.Namespace) -> int:
 def _range_unit(args: argparse.Namespace, nominal) -> int:
     """``range`` of a physical unit (--variation, --unit-seed, --calibration, --temperature-c),
     or a Monte Carlo over --units of them."""
-    from piezotip.analysis.range_report import format_table, monte_carlo, unit_range_report, write_monte_carlo_plot
+    from piezotip.reports.range_report import format_table, monte_carlo, unit_range_report, write_monte_carlo_plot
     from piezotip.sensor.calibration import SensorUnit, UnitConfig
 
     variation = args.variation or "none"
@@ -379,7 +379,7 @@ def _sweep_out_dir(args: argparse.Namespace) -> Path:
 
 
 def _cmd_bench(args: argparse.Namespace) -> int:
-    from piezotip.analysis.bench import bench_report, format_report, grasp_cases, write_report
+    from piezotip.reports.bench import bench_report, format_report, grasp_cases, write_report
 
     if args.repeats < 1:
         raise ValueError(f"--repeats must be at least 1, got {args.repeats}")
@@ -391,7 +391,7 @@ def _cmd_bench(args: argparse.Namespace) -> int:
         # The per-step cost grows with instrumented pads (x active modes, which is one each):
         # the same scene with one fingertip instrumented, beside the default two.
         from piezotip import scenarios
-        from piezotip.analysis.bench import BenchCase
+        from piezotip.reports.bench import BenchCase
 
         cases.append(BenchCase("grasp, 1 pad", scenarios.get("grasp", [*base, "sensor.pads=['left']"])))
     progress = None if args.json else (lambda name: print(f"benchmarking {name} ...", file=sys.stderr, flush=True))
@@ -401,13 +401,13 @@ def _cmd_bench(args: argparse.Namespace) -> int:
         print(f"error: {err}", file=sys.stderr)
         return 1
     if args.skin:
-        from piezotip.analysis.skin_bench import skin_report
+        from piezotip.reports.skin_bench import skin_report
 
         if progress:
             progress("a 16-fingertip skin")
         report["skin"] = skin_report(repeats=args.repeats)
     if not args.no_presets:
-        from piezotip.analysis.fidelity import fidelity_report, format_fidelity, plot_pareto
+        from piezotip.reports.fidelity import fidelity_report, format_fidelity, plot_pareto
 
         fidelity = fidelity_report(progress=progress)
         report["presets"] = fidelity["presets"]
@@ -421,7 +421,7 @@ def _cmd_bench(args: argparse.Namespace) -> int:
     else:
         print(format_report(report))
         if args.skin:
-            from piezotip.analysis.skin_bench import format_skin_report
+            from piezotip.reports.skin_bench import format_skin_report
 
             print()
             print(format_skin_report(report["skin"]))
@@ -434,7 +434,7 @@ def _cmd_bench(args: argparse.Namespace) -> int:
 
 
 def _cmd_creep(args: argparse.Namespace) -> int:
-    from piezotip.analysis.creep import creep_report, format_table
+    from piezotip.reports.creep import creep_report, format_table
 
     out = None
     if args.out:

@@ -196,7 +196,7 @@ class ObjectDraw:
         (m g / (2 mu)): 2.5, room for the grip margin of 2 the task is judged by.
     crush_floor_n : ... and at least this, N: 1, three times the grip a learning policy starts
         with and touches at (0.32 N; the house controller touches at 0.12-0.15 N,
-        analysis/touch_trade.py).  At 0.3 N a quarter of the light objects broke at the first
+        reports/touch_trade.py).  At 0.3 N a quarter of the light objects broke at the first
         touch and PPO learned to grip too little to lift (issue 46).
         Drawn log-uniformly from there to the fingers' force limit (beyond it no grip crushes).
     """

@@ -29,7 +29,7 @@ they would need.  The benchmark (``run_sim.py bench``) measures each preset's co
 errors against ``reference``, and the reference's own convergence: the reference refined as a
 whole (:func:`reference_refined`: its timestep, pad strip width and carrier sampling interval
 halved once and twice) gives the observed order and the Richardson-extrapolated value of each
-compared quantity, hence the reference's own uncertainty (analysis/fidelity.py).
+compared quantity, hence the reference's own uncertainty (reports/fidelity.py).
 """
 
 from __future__ import annotations

@@ -18,6 +18,9 @@ a control step's.  Each lives in one Python module, its one source, the one to r
 - ``cosim/_period.py``: :class:`cosim.period.PeriodPhysics`, a control period's substeps (the
   servos' interpolated set-points, the gel law, ``mj_step``, the fingers' peak force, the
   stability check);
+- ``cosim/_readout.py``: :class:`cosim._readout.ReadoutPass`, every attached fingertip's
+  readout once a period (its pad's pressures, its channel's reading and estimate, its sensor
+  values) and the values' write into ``sensordata`` at every step;
 - ``cosim/_rows.py``: :class:`cosim.rows.RowBuilder` and ``stack_rows``, a control step's
   recorded row;
 - ``cosim/control/_control.py``: :class:`cosim.control.selector.ModeSelector` and
@@ -72,6 +75,7 @@ KERNELS = (
     "piezotip.sensor._channel",
     "piezotip.cosim._pad_kernels",
     "piezotip.cosim._period",
+    "piezotip.cosim._readout",
     "piezotip.cosim._rows",
     "piezotip.cosim.control._control",
 )

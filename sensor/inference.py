@@ -51,7 +51,7 @@ _RAMP_CHI2 = 25.0
 #: degrees of freedom is exceeded by chance e^-6 = 0.25 % of the time, the change test's own
 #: SUSPECT_STAT rate: a held load still reads "ok" 99 % of the time.  Over the scenario library
 #: the 3-sigma coverage of "ok" readings, load changes included, went from 98.9 % to 99.3 %;
-#: over the hold-out grasps (analysis/coverage.py) from 99.15 % to 99.5 %.
+#: over the hold-out grasps (reports/coverage.py) from 99.15 % to 99.5 %.
 RAMP_SUSPECT_CHI2 = 12.0
 #: ...and its relative rate is taken against a modal load of at least this (|mu - 1| of a load
 #: about ten times the noise: a ramp from unloaded does not shrink the window to nothing).

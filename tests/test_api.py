@@ -118,7 +118,7 @@ def test_a_saved_figure_reads_back_as_drawn(tmp_path):
     assert np.array_equal(read, drawn)
 
 
-@pytest.mark.parametrize("name", ["sensor", "analysis", "cosim", "scenarios", "models", "run_sim"])
+@pytest.mark.parametrize("name", ["sensor", "analysis", "reports", "cosim", "scenarios", "models", "run_sim"])
 def test_only_piezotip_is_installed_at_the_top_level(name, tmp_path):
     """From a folder outside the checkout, the repository's folders are not importable by
     their own names (they would collide with a user's modules): only ``piezotip.<name>``."""

@@ -263,3 +263,48 @@ def test_a_bound_mjdata_is_freed_with_its_hooks_and_the_fingertips_run_without_t
     gc.collect()
     assert gone() is None  # nothing of piezotip's keeps it alive (the environments made and dropped by the thousand)
     assert address not in mjhooks._BOUND
+
+
+def test_touch_pads_install_only_mujocos_sensor_callback():
+    """Touch pads need no gel law: MuJoCo's passive callback stays unset (an installed
+    dispatcher is a Python call in every model's step of the process), the sensor one is ours."""
+    script = """
+import mujoco
+from test_attach import scene_xml
+from piezotip.cosim.attach import attach
+spec = mujoco.MjSpec.from_string(scene_xml())
+tips = attach(spec, sites=["pressed", "free"], pad="touch")
+model = spec.compile()
+data = mujoco.MjData(model)
+tips.bind(model, data)
+mujoco.mj_step(model, data)
+print(mujoco.get_mjcb_passive() is None, mujoco.get_mjcb_sensor() is not None)
+"""
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    env = {**__import__("os").environ, "PYTHONPATH": str(Path(__file__).parent)}
+    result = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, env=env, check=True)
+    assert result.stdout.split() == ["True", "True"]
+
+
+def test_the_readout_pass_refuses_what_it_cannot_read():
+    from piezotip.cosim._readout import ReadoutPass
+
+    def make(readers=(None,), touch_adr=(0,), sensor_adr=(1, 2, 3, 4, 5), first=(0.0,) * 5):
+        return ReadoutPass(
+            [lambda c, dt: None], list(readers), list(touch_adr), [1e-4], [[1.0]], list(sensor_adr), list(first), 1e6, 1e7, STATUS_CODES, 4
+        )
+
+    with pytest.raises(ValueError, match="one reader, touch address"):
+        make(readers=(None, None))
+    with pytest.raises(ValueError, match="5 sensor addresses"):
+        make(sensor_adr=(1, 2, 3))
+    with pytest.raises(ValueError, match=r"a reader \(gel pad\) or a touch sensor address"):
+        make(touch_adr=(-1,))
+    readout = make()
+    with pytest.raises(ValueError, match=r"outside sensordata \(4 values"):
+        readout.bind(np.zeros(4))
+    readout.bind(np.zeros(6))
+    readout.write()

@@ -11,8 +11,8 @@ import pytest
 
 from piezotip import cli as run_sim
 from piezotip import scenarios
-from piezotip.analysis.bench import BenchCase, bench_cases
 from piezotip.cosim.control.phases import PHASES
+from piezotip.reports.bench import BenchCase, bench_cases
 
 TOP_KEYS = {"overhead_ratio", "overhead_ratio_hold", "realtime_factor", "wall_s_per_sim_s", "bare_step_us", "cosim_step_us", "scenes"}
 
@@ -81,7 +81,7 @@ def test_bench_rejects_bad_arguments(capsys):
 def test_fidelity_presets_report_cost_and_errors_against_reference():
     """The presets' table on one scene: every preset named, errors against reference, the
     reference's halving check; the reference against itself has no error."""
-    from piezotip.analysis.fidelity import fidelity_report
+    from piezotip.reports.fidelity import fidelity_report
 
     report = fidelity_report(scenes=("grasp",), cost_repeats=1)
     names = [e["name"] for e in report["presets"]]
@@ -137,7 +137,7 @@ def _stand_in_run(scene, overrides, preset):
 @pytest.fixture(scope="module")
 def preset_report(tmp_path_factory):
     """``bench --json`` with the presets' table, its runs replaced by the stand-in."""
-    from piezotip.analysis import fidelity
+    from piezotip.reports import fidelity
 
     out = tmp_path_factory.mktemp("bench-presets")
     with pytest.MonkeyPatch.context() as patch:
@@ -156,7 +156,7 @@ def preset_report(tmp_path_factory):
 def test_a_presets_cost_is_its_fastest_of_repeated_runs(monkeypatch):
     """Machine noise only adds time: each preset's cost is the fastest of ``cost_repeats``
     identical runs; the reference (dearer than the rest together) runs once."""
-    from piezotip.analysis import fidelity
+    from piezotip.reports import fidelity
 
     calls: dict[tuple, int] = {}
 
@@ -226,7 +226,7 @@ def test_the_table_prints_an_error_below_the_uncertainty_as_a_bound(preset_repor
 def test_each_preset_is_priced_on_the_grip_its_controller_chose(preset_report):
     """Issue 29: beside the fixed-grip pressure error, the multimode grasp's hold grip and peak
     contact against the reference's, with the reference's own uncertainty from its halving."""
-    from piezotip.analysis.fidelity import SAFETY_NOT_ASYMPTOTIC
+    from piezotip.reports.fidelity import SAFETY_NOT_ASYMPTOTIC
 
     data, text = preset_report
     by_name = {e["name"]: e for e in data["presets"]}

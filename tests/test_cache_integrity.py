@@ -273,7 +273,7 @@ class Runs:
 def _stored_namespaces() -> set[str]:
     """Every kind of entry the project stores: the namespaces of its ``disk_cached`` calls."""
     found = set()
-    for name in ("piezotip", "piezotip.sensor", "piezotip.cosim", "piezotip.analysis", "piezotip.scenarios"):
+    for name in ("piezotip", "piezotip.sensor", "piezotip.cosim", "piezotip.analysis", "piezotip.reports", "piezotip.scenarios"):
         for folder in importlib.import_module(name).__path__:
             for path in Path(folder).rglob("*.py"):
                 if path.name != "cache.py":

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 from numpy.testing import assert_allclose
 
-from piezotip.analysis.range_report import estimate_errors, unit_range_report
+from piezotip.reports.range_report import estimate_errors, unit_range_report
 from piezotip.sensor import Fingertip
 from piezotip.sensor.calibration import SensorUnit, UnitConfig, detuning, steady_reading, sweep_resonance
 from piezotip.sensor.channel import SensorChannel

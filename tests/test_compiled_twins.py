@@ -498,6 +498,52 @@ def drive_control(kernel, perturb: bool = False) -> list:
     return out
 
 
+_READOUT_XML = """<mujoco><worldbody><body name="palm" pos="0 0 .1"><geom type="box" size=".04 .02 .005"/>
+<site name="a" type="box" size=".01 .01 .0055" pos="-.0125 0 .005"/><site name="b" type="box" size=".01 .01 .0055" pos=".0125 0 .005"/>
+<site name="c" type="box" size=".00375 .0025 .001" pos=".03 0 .005"/></body>
+<body name="box" pos="-.0125 0 .126"><freejoint/><geom type="box" size=".008 .008 .02" mass=".2"/></body></worldbody></mujoco>"""
+
+
+def drive_readout(kernel, perturb: bool = False) -> list:
+    """Every fingertip's sensor values and records, through ``kernel``'s pass in place of the
+    bound fingertips' own: touch pads and gel pads (three strips a pad and one), a box resting,
+    pressed past the gel's range and lifted off, noise and none, steady dynamics, a reset."""
+    import mujoco
+
+    from piezotip.cosim.attach import attach
+
+    out = []
+    for pad, sites, config in (
+        ("touch", ["a", "b"], None),
+        ("touch", ["a", "b", "c"], {"sensor.noise": False}),
+        ("gel", ["a", "b"], None),
+        ("gel", ["c", "a"], {"sensor.dynamics": "steady"}),
+    ):
+        spec = mujoco.MjSpec.from_string(_READOUT_XML)
+        tips = attach(spec, sites=sites, pad=pad, config=config)
+        model = spec.compile()
+        data = mujoco.MjData(model)
+        loop = tips.bind(model, data)
+        hook = loop._hook
+        if perturb and pad == "touch":
+            hook._readers[sites[0]].area_m2 *= ULP  # the first pad's area one ulp up
+        hook._new_pass = functools.partial(lambda hook, _kind: type(hook)._new_pass(hook, kernel.ReadoutPass), hook)
+        hook._start()
+        box = model.body("box").id
+        for k in range(900):
+            data.xfrc_applied[box, 2] = (0.0, -40.0, -2000.0, 6.0)[(k // 150) % 4]
+            if k == 600:
+                mujoco.mj_resetData(model, data)  # time goes back: the readout starts afresh
+            mujoco.mj_step(model, data)
+            out.append(data.sensordata.copy())
+            if k % 50 == 49:
+                p = hook._pass
+                out += [list(p.readings), list(p.estimates), list(p.truths), list(p.pasts), p.values()]
+        loop.step()
+        out.append(loop.readings())
+    return out
+
+
 #: Each kernel's driver, by its module's name.
 DRIVERS = {
     "piezotip.sensor._sampler": drive_sampler,
@@ -506,6 +552,7 @@ DRIVERS = {
     "piezotip.sensor._channel": drive_channel,
     "piezotip.cosim._pad_kernels": drive_pad_kernels,
     "piezotip.cosim._period": drive_period,
+    "piezotip.cosim._readout": drive_readout,
     "piezotip.cosim._rows": drive_rows,
     "piezotip.cosim.control._control": drive_control,
 }

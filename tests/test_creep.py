@@ -1,4 +1,4 @@
-"""analysis/creep.py: the held-object creep measurement (issue 29, item 3).
+"""reports/creep.py: the held-object creep measurement (issue 29, item 3).
 
 The rig's lift profile against the closed form of a trapezoidal move, the needed grip against
 m g / (2 mu), the contact variants' names and what they write, and real measurements: a 100 g box
@@ -15,8 +15,8 @@ import numpy as np
 import pytest
 
 from piezotip import cli, scenarios
-from piezotip.analysis import creep
-from piezotip.analysis.creep import CONTACT_VARIANTS, CREEP_LIMIT_MM_S, apply_contact, measure_creep, needed_grip_n, ramp_duration_s, ramp_m
+from piezotip.reports import creep
+from piezotip.reports.creep import CONTACT_VARIANTS, CREEP_LIMIT_MM_S, apply_contact, measure_creep, needed_grip_n, ramp_duration_s, ramp_m
 
 # ---------------------------------------------------------------------------------------
 # The lift's trapezoidal profile.
@@ -214,7 +214,7 @@ def test_cli_creep_quick_json(tmp_path):
 # contact (physics.pad_contact=compliant) rests deep enough not to open.
 @pytest.mark.parametrize("obj", [("box", 0.5, 0.5), ("sphere", 0.1, 1.0)])
 def test_sliding_pads_chatter_with_hard_contacts_and_not_with_compliant_ones(obj):
-    from piezotip.analysis.creep import sliding_chatter
+    from piezotip.reports.creep import sliding_chatter
 
     assert sliding_chatter(*obj, contact="hard") > 0.1
     assert sliding_chatter(*obj) < 0.01  # the model's own (compliant) pad contact

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from piezotip import scenarios
-from piezotip.analysis.fidelity import (
+from piezotip.reports.fidelity import (
     HELD_WINDOW_S,
     SAFETY_ASYMPTOTIC,
     SAFETY_NOT_ASYMPTOTIC,

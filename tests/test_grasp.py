@@ -165,6 +165,49 @@ def test_no_false_touch_on_noise(tip):
     assert not any(touch.update(ch.update([0.0], DT).v1) for _ in range(4000))
 
 
+def test_one_reading_past_the_shewhart_limit_is_a_touch_a_reading_before_the_cusum_alone():
+    """The multimode defaults (k 0.5, h 8, single 6 sigmas): a drop of 7 sigma in one reading
+    alarms at once, where the CUSUM alone (6.5 after one such reading, 13 after two) needs the
+    second: the Shewhart limit feels a sharp touch one reading sooner."""
+    from piezotip.cosim.control.config import MultimodeConfig
+
+    c, sigma = MultimodeConfig(), 0.01
+    combined = TouchDetector(sigma, c.cusum_drift_sigma, c.cusum_alarm_sigma, c.touch_single_sigma)
+    cusum_alone = TouchDetector(sigma, c.cusum_drift_sigma, c.cusum_alarm_sigma, math.inf)
+    for detector in (combined, cusum_alone):
+        for _ in range(20):
+            detector.learn(0.5)
+    dropped = 0.5 - 7.0 * sigma
+    assert [combined.update(dropped) for _ in range(2)] == [True, True]
+    assert [cusum_alone.update(dropped) for _ in range(2)] == [False, True]
+
+
+def _touch_peak_n(*overrides: str) -> float:
+    """The fingers' largest force on the 2 g paper ball (crushed at 0.1 N) from the start of a
+    multimode grasp on the house gripper to the end of its squeeze (the touch and the grip
+    floor), N: the peak over every physics step (the object has a crush limit)."""
+    from piezotip.cosim.control import Phase
+    from piezotip.cosim.loop import CoSimulation
+
+    sim = CoSimulation(scenarios.get("grasp", [*scenarios.object_overrides("paper-ball-2g"), "controller.kind=multimode", *overrides]))
+    peak = 0.0
+    left, right = (sim.columns.index(f"{side}_finger_peak_force_n") for side in ("left", "right"))
+    while sim.controller.phase is not Phase.LIFT and not sim.controller.finished:
+        row = sim.advance()
+        peak = max(peak, row[left], row[right])
+    assert sim.controller.phase is Phase.LIFT, [e.message for e in sim.controller.events]
+    return peak
+
+
+def test_the_default_closing_speed_touches_the_paper_ball_under_its_crush_limit():
+    """The pads press on past the contact by about the contact's stiffness times the closing
+    speed times the time the touch takes to be felt and answered (k v t): the multimode
+    controller's default 20 mm/s touches the 0.1 N paper ball at about 0.06 N; closing at
+    50 mm/s presses it past 0.1 N before the fingers stop."""
+    assert _touch_peak_n() < 0.1
+    assert _touch_peak_n("controller.closing_speed_m_s=0.05") > 0.1
+
+
 def test_saturation_in_the_only_mode_is_reported(tip):
     records, _sel = drive(tip, np.full(50, 2e4), modes=(1,))
     assert all(r[2] == 1 for r in records)

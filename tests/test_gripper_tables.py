@@ -1,9 +1,9 @@
-"""analysis/gripper_tables.py: docs/grippers.md's tables from the runs' rows (the runs themselves
+"""reports/gripper_tables.py: docs/grippers.md's tables from the runs' rows (the runs themselves
 are whole grasps, run by hand; here the rows are made up, so the counting is checked alone)."""
 
 from __future__ import annotations
 
-from piezotip.analysis import gripper_tables as gt
+from piezotip.reports import gripper_tables as gt
 from piezotip.scenarios import OBJECTS
 
 

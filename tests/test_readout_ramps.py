@@ -1,6 +1,6 @@
 """A reading taken while the load changes under it is "settling", not "ok" (issue 29, item 5):
 :data:`sensor.inference.RAMP_SUSPECT_CHI2`, in the reference and its compiled twin alike, and the
-3-sigma coverage of "ok" readings over whole grasps, load changes included (analysis/coverage.py)."""
+3-sigma coverage of "ok" readings over whole grasps, load changes included (reports/coverage.py)."""
 
 import math
 import random
@@ -8,7 +8,7 @@ import random
 import numpy as np
 import pytest
 
-from piezotip.analysis import coverage
+from piezotip.reports import coverage
 from piezotip.sensor import inference
 from piezotip.sensor.compiled import source_module
 

@@ -1,5 +1,5 @@
 """A skin of 16 attached fingertips under a resting box, in a plain ``mj_step`` loop at MuJoCo's
-default options (analysis/skin_bench.py's scene): the pads under the box carry its weight and
+default options (reports/skin_bench.py's scene): the pads under the box carry its weight and
 read it, the others read nothing; and ``bench --skin``'s report."""
 
 from __future__ import annotations
@@ -8,9 +8,9 @@ import mujoco
 import numpy as np
 import pytest
 
-from piezotip.analysis.skin_bench import BOX_KG, PAD_HALF_M, _variants, format_skin_report, skin_report, skin_xml
 from piezotip.cosim import mjhooks
 from piezotip.cosim.attach import STATUS_CODES, attach, sensor_name
+from piezotip.reports.skin_bench import BOX_KG, PAD_HALF_M, _variants, format_skin_report, skin_report, skin_xml
 
 ROWS = COLS = 4
 PAD_AREA_M2 = (2 * PAD_HALF_M) ** 2

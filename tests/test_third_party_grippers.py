@@ -496,6 +496,27 @@ ROBOSUITE = {
 }
 
 
+def test_the_pandas_fingers_close_at_the_commanded_pace_against_their_dry_friction():
+    """The fingers' force while they close freely covers their joints' dry friction besides
+    their damping at the pace: robosuite's Panda (1 N of friction on the opening, 50 N s/m)
+    closes at the multimode 20 mm/s.  On the damping alone (1.5 N, 0.5 N of it left past the
+    friction) it would close at half that pace."""
+    from piezotip.cosim.control import Phase
+
+    file, tips, actuators = ROBOSUITE["panda"]
+    sim = CoSimulation(config(keys(_robosuite_grippers() / file, tips, actuators, **{"controller.kind": "multimode"})))
+    controller, times, openings = sim.controller, [], []
+    while sim.time_s < 1.2:
+        obs = sim.sense()
+        sim.act(controller.step(obs, sim.dt))
+        times.append(obs.time_s)
+        openings.append(obs.opening_m)
+    assert controller.phase is Phase.CLOSE and sim.robot.finger_friction_n == pytest.approx(1.0, rel=1e-6)
+    free = np.asarray(times) >= 0.6  # at pace, half a second after the closing began
+    speed_m_s = -np.polyfit(np.asarray(times)[free], np.asarray(openings)[free], 1)[0]
+    assert speed_m_s == pytest.approx(controller.cfg.closing_speed_m_s, rel=0.05)
+
+
 def test_the_pandas_touch_leaves_the_paper_ball_whole():
     """The 2 g paper ball crushes at 0.1 N: the Panda's fingers (1 kg of armature each) coasted
     on after the touch and pressed it to 0.15 N; braked for a period, 0.09 N (multimode)."""
@@ -751,6 +772,38 @@ def test_robotiqs_touch_leaves_the_paper_ball_whole():
     overrides = keys(_robotiq_2f85(), *ROBOTIQ_2F85, **{"controller.kind": "multimode", **PAPER_BALL})
     result = piezotip.run("grasp", overrides=overrides, preset="fast")
     assert result.outcome == "success", result.reason
+
+
+def test_the_pandas_and_the_2f85s_fingers_coast_past_a_control_period_and_are_braked():
+    """With the drive's force down to the grip floor, their joints' damping alone stops the
+    fingers, in m_o / c_j: 11 ms for robosuite's Panda (0.56 kg of armature on the opening, 50 N
+    s/m), 30 ms for Robotiq's 2F-85 (0.74 kg, 25 N s/m), past the 5 ms control period: both are
+    braked at the touch (the house gripper, 2.3 ms, is not:
+    test_fingers_that_coast_past_a_control_period_are_braked_at_the_touch)."""
+    file, tips, actuators = ROBOSUITE["panda"]
+    for overrides, coast_s in ((keys(_robosuite_grippers() / file, tips, actuators), 0.011), (keys(_robotiq_2f85(), *ROBOTIQ_2F85), 0.030)):
+        sim = CoSimulation(config({**overrides, "controller.kind": "multimode"}))
+        robot = sim.robot
+        assert robot.finger_mass_kg / robot.finger_joint_damping_n_s_m == pytest.approx(coast_s, rel=0.1)
+        assert sim.controller.brakes
+
+
+def test_robotiqs_pads_swing_down_their_arc_and_the_lift_braking_opens_them():
+    """The 2F-85's fingertips ride a four-bar: the pads' centre falls 9 mm from open to a 44 mm
+    grip (DrivePath.centre_rise_m: where the gripper starts so that they meet the object's
+    centre), 1.9 mm from a 60 to a 53 mm opening (RobotLimits.pad_rise_m: what a squeeze moves
+    the object or the pads' height by).  And as the pads rise while they open, the lift's
+    braking at the top at 0.5 m/s^2 pulls them open by c a (RobotLimits.lift_coupling_kg): c =
+    16 g at a 30 mm opening, 8 mN, over a third of the least grip that holds the 2 g paper ball
+    (m g / (2 mu) = 19.6 mN), which the grip makes up for while the lift carries."""
+    sim = CoSimulation(config(keys(_robotiq_2f85(), *ROBOTIQ_2F85)))
+    path, robot = sim.mounted.drive.path, sim.robot
+    assert np.interp(0.044, path.opening_m, path.centre_rise_m) == pytest.approx(-0.009, abs=5e-4)
+    assert robot.pads_height_m(0.3, 0.053) - robot.pads_height_m(0.3, 0.060) == pytest.approx(-0.0019, abs=2e-4)
+    assert np.interp(0.03, *robot.lift_coupling_kg) == pytest.approx(0.016, rel=0.1)
+    paper_ball = scenarios.OBJECTS["paper-ball-2g"]
+    least_grip_n = paper_ball.mass_kg * robot.gravity_m_s2 / (2.0 * paper_ball.friction)
+    assert least_grip_n / 3.0 < robot.lift_opens_n(0.03, -0.5) < least_grip_n
 
 
 # -- MuJoCo Menagerie's grippers, used untouched (the `menagerie` extra) -----------------------

@@ -9,8 +9,8 @@ whose seed drew such a baseline (it looped on false touches until it gave up).""
 import random
 
 from piezotip import api
-from piezotip.analysis.coverage import HOLDOUT, seeded
 from piezotip.cosim.control.selector import TouchDetector
+from piezotip.reports.coverage import HOLDOUT, seeded
 
 SIGMA = 1e-3
 

@@ -1,4 +1,4 @@
-"""The touch's trade (analysis/touch_trade.py): the force at the touch grows with the bound the
+"""The touch's trade (reports/touch_trade.py): the force at the touch grows with the bound the
 gentle controller keeps it within (about k v t: the pads' contact stiffness, the closing speed the
 bound sets, the loop's reaction time), the time to touch shrinks with it and with the control
 period, measured on the issue's 2 g wafer from the referee's record."""
@@ -9,7 +9,7 @@ import math
 
 import pytest
 
-from piezotip.analysis import touch_trade
+from piezotip.reports import touch_trade
 
 
 @pytest.fixture(scope="module")

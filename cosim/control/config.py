@@ -80,9 +80,10 @@ class MotionConfig(ControllerConfig):
     ----------
     closing_speed_m_s : how fast the fingers close, m/s: 0.02, the slowest setting of common
         parallel grippers (20-150 mm/s).  The element feels a touch some 10 ms after contact at
-        best (Table I's slow resonator), and the pads press on by about the speed times that
-        delay meanwhile: at 20 mm/s a 0.1 N-fragile object survives the touch, at 40 mm/s it
-        does not (README, "Grasp experiments").
+        best (Table I's slow resonator), and the pads press on by about the contact's stiffness
+        times the speed times that delay meanwhile: the slowest speed leaves a 0.1 N-fragile
+        object whole at the touch (tests/test_grasp.py::
+        test_the_default_closing_speed_touches_the_paper_ball_under_its_crush_limit).
     opening_speed_m_s : how fast they open on release, m/s (a parallel gripper's tens of mm/s).
     lift_speed_m_s : how fast the object is lifted, m/s.
     touchdown_speed_m_s : the last part of the descent when placing, m/s: a fifth of the
@@ -185,8 +186,9 @@ class MultimodeConfig(MotionConfig):
         resumes), while a drift of a sigma per reading alarms within 16.
     touch_single_sigma : one reading's drop that signals a touch alone (the Shewhart limit of a
         combined Shewhart-CUSUM, Lucas 1982), sigmas: 6, a one-sided Gaussian tail of 1e-9 per
-        reading.  A touch is then felt one reading sooner than by the CUSUM alone (at 20 mm/s,
-        0.06 N on a 30 mm sphere instead of 0.11 N).
+        reading.  A sharp touch is then felt one reading sooner than by the CUSUM alone, while the
+        fingers press on by the closing speed times a period less (tests/test_grasp.py::
+        test_one_reading_past_the_shewhart_limit_is_a_touch_a_reading_before_the_cusum_alone).
     out_of_range_sigma : readings outside [-n sigma, 1 + n sigma] are a sensor fault.
     squeeze_settle_s : the squeeze's settling before the lift, s: 0.1, several times the finger
         servo's time constant on the gel (46 g of finger on the pad's 2.4 kN/m: 4 ms) and long

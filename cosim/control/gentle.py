@@ -12,11 +12,18 @@ contact can come: within ``touch_band_sigmas`` of the width a camera reports
 (``perception.*``), fast (``closing_speed_m_s``) until there.  Nothing of the object is known
 but that camera's width, with its stated sigma.
 
+*The touchdown* (:meth:`GentleGrasp._plan_touchdown`): as the object lands, the pads slide down
+it at the lift's speed until the lift stops, and the slip presses them by up to k mu v t (the
+friction measured, the fingers' stop: :func:`landing_speed_m_s`); the place's last stretch runs
+at the v that keeps that within the touch's allowance (``touch_force_n`` less the grip floor),
+or a grip past it within the grip's safety factor over it, at most ``touchdown_speed_m_s``.
+
 The multimode controller grips at
 ``grip_safety`` x load / (2 x ``friction_assumed``) and raises the grip by the safety factor at
 every friction check that reads "still on the table": it holds an object of friction 1 with
-1.6x the grip it needs, and 2-7x where its checks misread MuJoCo's creep.  The gentle one knows
-neither mass nor friction and measures both:
+more than the grip it needs, and more again where its checks misread MuJoCo's creep
+(tests/test_grip_economy.py::test_the_gentle_grasp_holds_the_catalogue_gentler_than_the_multimode_one).
+The gentle one knows neither mass nor friction and measures both:
 
 - *the probe* (:meth:`GentleGrasp._transfer`): from the grip floor, the lift's goal rises at
   ``probe_speed_m_s``; while the lift follows it (the pads slide up the object, or the object is
@@ -113,6 +120,25 @@ def touch_speed_m_s(touch_force_n: float, detected_n: float, stiffness_n_m: floa
     return (touch_force_n - detected_n) / (stiffness_n_m * reaction_s)
 
 
+def landing_speed_m_s(allowed_n: float, stiffness_n_m: float, friction: float, give_way_s: float) -> float:
+    """The fastest touchdown whose landing presses the pads by at most ``allowed_n`` more, m/s of
+    the lift (infinite where the fingers give way at once, ``give_way_s`` 0).
+
+    As the object lands it stops, the gripper does not: the pads slide down it at the lift's
+    speed v until the lift stops (the friction reverses, at its limit), and a sliding contact separates at
+    mu v (MuJoCo's convex contacts: cosim/pad_model.py, COMPLIANT_PAD_SOLIMP).  Fingers held at
+    their force give way to that only after their stop time ``give_way_s`` (:func:`touch_reaction_s`
+    less the period's reading: no reading is needed, the drive's force limit acts at once), so the
+    pads' contact of stiffness k is pressed by up to k mu v t: the touch's k v t with the pads'
+    separation for the closing.  So v = allowed / (k mu t): a bound, reached most nearly on flat
+    faces, less on round ones and under heavy objects, whose grip the lift's push barely
+    overcomes (tests/test_gentle_touch.py::test_a_light_box_is_not_pressed_past_its_crush_force_as_it_lands,
+    ::test_the_default_box_lands_at_the_configured_speed)."""
+    if give_way_s <= 0.0:
+        return math.inf
+    return allowed_n / (stiffness_n_m * friction * give_way_s)
+
+
 def approach_pace_m_s(opening_m: float, slow_from_m: float, touch_m_s: float, top_m_s: float, accel_m_s2: float, dt_s: float) -> float:
     """The closing pace at ``opening_m`` (m), m/s of opening: ``top_m_s`` far from the object,
     braking at ``accel_m_s2`` so as to close at ``touch_m_s`` from ``slow_from_m`` on (the camera's
@@ -155,11 +181,13 @@ def probe_verdict(span: list[tuple[float, float]], safety: float, falls: bool = 
     (elasticity 0).  The grip grows exponentially, so a load lagging it by a constant time is a
     constant factor of it and the ratio of the thirds' means is free of the lag.  With
     ``falls``, a grip that falls tells the same: the contact of a drive with dry friction creeps
-    from the touch's leftover down toward a lower command (the Panda's, from 0.088 to 0.055 N in
-    0.7 s, with the fingertips reading it); a drive without friction applies the command, which
-    the probe only raises, and a reading of it that falls is the drive settling, not the contact
-    (the 2F-85's linkage read 0.011 then 0.008 N while its pads slid up a can at an unchanged
-    load).  The error comes from the scatter of the loads within each third (stick-slip at
+    from the touch's leftover down toward a lower command, the fingertips reading it
+    (tests/test_third_party_grippers.py::test_the_gentle_probe_reads_the_pandas_contact_creeping_down_from_the_touch);
+    a drive without friction applies the command, which the probe only raises, and a reading of
+    it that falls is the drive settling, not the contact
+    (tests/test_third_party_grippers.py::test_robotiqs_falling_grip_reading_is_not_read_as_a_weight;
+    both: tests/test_grip_economy.py::test_a_falling_grip_tells_a_weight_from_sliding_pads_only_where_the_contact_can_fall).
+    The error comes from the scatter of the loads within each third (stick-slip at
     milli-newton grips): infinite until the grip has changed by ``safety`` over the span (too
     short to tell)."""
     thirds = _thirds(span)
@@ -185,10 +213,10 @@ def carried_nothing_at_first(span: list[tuple[float, float]], safety: float, fal
     third: that third's mean load is not positive, so no ratio of loads can be read over it.
 
     The load is the lift's, zeroed (tared) on one reading as the lift phase begins; where the
-    squeeze still rings in the gripper then, the load starts below zero (Robotiq's 2F-85 on a
-    60 g egg: the tare caught +0.13 N of a linkage's ringing, gone 20 ms later, so the load
-    read -0.13 N until the egg rose), and a span anchored there never reaches a verdict,
-    however far the grip grows: the probe squeezed the egg to 43 N, past its 25 N."""
+    squeeze still rings in the gripper then (a linkage's ringing), the load starts below zero
+    until the object rises, and a span anchored there never reaches a verdict, however far the
+    grip grows (tests/test_third_party_grippers.py::test_robotiqs_four_bar_grasps_the_default_box[gentle-egg],
+    tests/test_grip_economy.py::test_a_span_whose_first_third_carried_nothing_is_told_apart_from_one_too_short)."""
     thirds = _thirds(span)
     if thirds is None:
         return False
@@ -233,8 +261,9 @@ class GentleGrasp(MultimodeGrasp):
         self._init_touch(fingertip, width_prior_m)
         #: The fingers' force limit as they start to close (from rest, and closing on after a false
         #: touch): what their drive needs at no speed, its dry friction (x ``drive_margin``); it
-        #: grows with their speed (_close_step).  At the top pace's force, the servo's target
-        #: jumping from the squeeze's (closed) to the fingers lurched them 0.4 mm in a period.
+        #: grows with their speed (_close_step).  Not the top pace's force: the servo's target,
+        #: jumping from the squeeze's (closed) to the fingers, would lurch them on at it
+        #: (tests/test_gentle_touch.py::test_the_fingers_start_to_close_at_the_force_their_dry_friction_needs).
         self.moving_force_n = min(robot.finger_force_limit_n, max(self.grip_floor_n, c.drive_margin * robot.finger_friction_n))
         self.grip_n = self.moving_force_n
         #: Whether the grip, once the object is carried, is closed on what the fingertips feel
@@ -275,6 +304,36 @@ class GentleGrasp(MultimodeGrasp):
         knee_n = min(self.grip_cap_n, max(self.grip_floor_n, self.grip_rate_n_s / self.grip_growth_per_s))
         ramp_s = math.log(knee_n / self.grip_floor_n) / self.grip_growth_per_s + (self.grip_cap_n - knee_n) / self.grip_rate_n_s
         self.transfer_timeout_s = 2.0 * (ramp_s + c.lift_height_m / c.lift_speed_m_s)
+
+    def _enter(self, phase: Phase, t: float, why: str = "") -> None:
+        super()._enter(phase, t, why)
+        if phase is Phase.PLACE:
+            self._plan_touchdown(t)
+
+    def _plan_touchdown(self, t: float) -> None:
+        """The landing's speed, as the place begins (:func:`landing_speed_m_s`): its slip may add
+        to the grip held what the touch may add to the floor it is detected at (``touch_force_n``
+        less the grip floor), or, on a grip past that, the grip's safety factor over it (what the
+        controller already presses an object by: each step of the probe, each slip's answer); at
+        the friction the probe measured (the highest expected where the pads never slid: the one
+        read is only a bound from below), k the pads' contact stiffness, t the fingers' stop (the
+        touch's reaction less its period).  At most ``touchdown_speed_m_s`` (the lift's cap,
+        :attr:`~.lift.LiftPlan.touchdown_cap_m_s`).  Nothing of the object is read but the grip
+        held and the friction measured: a light object's grip leaves the touch's allowance, a
+        heavy one's its own margin (tests/test_gentle_touch.py::test_the_default_box_lands_at_the_configured_speed)."""
+        c = self.cfg
+        allowed_n = max(self.touch_force_n - self.grip_floor_n, (c.grip_safety - 1.0) * self.grip_n)
+        friction = self.friction if self._slid else c.friction_max
+        give_way_s = self.touch_reaction_s - self.dt_s
+        cap = landing_speed_m_s(allowed_n, self.contact_stiffness_n_m, friction, give_way_s)
+        self.lift.touchdown_cap_m_s = cap
+        speed = min(cap, c.touchdown_speed_m_s)
+        self._event(
+            t,
+            "touchdown_plan",
+            f"landing at {speed * 1e3:.3g} mm/s: its slip may add {allowed_n:.3g} N to the {self.grip_n:.3g} N grip (friction "
+            f"{friction:.3g}, pads {self.contact_stiffness_n_m:.3g} N/m, the fingers' stop {give_way_s * 1e3:.3g} ms)",
+        )
 
     def _lift_message(self) -> str:
         return f"grip {self.grip_n:.3g} N: probing for the grip that holds"

@@ -123,9 +123,10 @@ class RobotLimits:
         servo's velocity gain is inside its force, which the force limit caps).
     pad_rise_m : (openings, rises), m: how far the pads' centre lies above its height at home
         at each opening (increasing) of the fingers' free closing; a linkage's fingertips swing
-        along an arc as they close (Robotiq's 2F-85: down 1.9 mm from a 60 to a 53 mm opening),
-        so pads that squeeze an object move it, or the lift, with them.  Empty where they do
-        not (slides; the house gripper).
+        along an arc as they close, so pads that squeeze an object move it, or the lift, with
+        them (tests/test_third_party_grippers.py::
+        test_robotiqs_pads_swing_down_their_arc_and_the_lift_braking_opens_them).  Empty where
+        they do not (slides; the house gripper).
     lift_coupling_kg : (openings, couplings), kg: the fingers' inertia coupling the lift to the
         opening, c = e_lift^T M v (cosim.gripper_drive.opening_inertia_kg): a lift accelerating
         at a pushes the fingers open with -c a, N on the opening.  Empty where it is 0 (slides).

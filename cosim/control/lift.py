@@ -88,6 +88,10 @@ class LiftPlan:
         self._low_sum_n = 0.0  # their sum, N
         self._steady_steps = 0  # periods in a row at the touchdown speed (table_took_weight)
         self._table_steps = 0  # of them, periods in a row with the table carrying the weight
+        #: The fastest the object may land, m/s: the touchdown speed asked of :meth:`lower` and
+        #: :meth:`table_took_weight` is capped by it (none by default; the gentle controller sets
+        #: it from its touch bound as it starts to place: gentle.py, :func:`~.gentle.landing_speed_m_s`).
+        self.touchdown_cap_m_s = math.inf
 
     # -- the load -------------------------------------------------------------------------
 
@@ -137,8 +141,10 @@ class LiftPlan:
     def table_took_weight(self, touchdown_speed_m_s: float, table_load_fraction: float) -> bool:
         """Whether the table has taken the weight while placing: the raw load under
         ``table_load_fraction`` of the held load two periods in a row, judged only after a plateau
-        window at the steady touchdown speed (while the lift brakes, the gripper's own inertia,
-        far more than a light object's, blurs the load).  Once per period."""
+        window at the steady touchdown speed, ``touchdown_speed_m_s`` at most :attr:`touchdown_cap_m_s`
+        (while the lift brakes, the gripper's own inertia, far more than a light object's, blurs
+        the load).  Once per period."""
+        touchdown_speed_m_s = min(touchdown_speed_m_s, self.touchdown_cap_m_s)
         self._steady_steps = self._steady_steps + 1 if self.speed_m_s == touchdown_speed_m_s else 0
         on_table = self._steady_steps >= self.plateau_steps and self.raw_load_n < table_load_fraction * self.held_load_n
         self._table_steps = self._table_steps + 1 if on_table else 0
@@ -200,7 +206,9 @@ class LiftPlan:
         self.goal_m = min(self.top_m, self.goal_m + self.speed_m_s * dt_s)
 
     def lower(self, distance_m: float, top_speed_m_s: float, end_speed_m_s: float, dt_s: float) -> None:
-        """Move the goal down for a period, braking to ``end_speed_m_s`` over ``distance_m``."""
+        """Move the goal down for a period, braking to ``end_speed_m_s`` (at most
+        :attr:`touchdown_cap_m_s`) over ``distance_m``."""
+        end_speed_m_s = min(end_speed_m_s, self.touchdown_cap_m_s)
         self.speed_m_s = self.next_speed_m_s(distance_m, top_speed_m_s, end_speed_m_s, dt_s)
         self.goal_m -= self.speed_m_s * dt_s
 

@@ -223,7 +223,8 @@ class MultimodeGrasp:
         #: The fingers' force limit while they move freely: what their drive's damping and its
         #: joints' dry friction need at the commanded speed, x 1.5 (a guard: a touch before it is
         #: detected meets no more; the house gripper's joints have no friction, a mounted one's
-        #: may: without it robosuite's fingers closed at half pace and the grasp gave up).
+        #: may, and a force on the damping alone leaves them too little past it to keep pace:
+        #: tests/test_third_party_grippers.py::test_the_pandas_fingers_close_at_the_commanded_pace_against_their_dry_friction).
         moving = c.drive_margin * (robot.finger_damping_n_s_m * c.closing_speed_m_s + robot.finger_friction_n)
         self.moving_force_n = min(robot.finger_force_limit_n, max(self.grip_floor_n, moving))
         opening = c.drive_margin * (robot.finger_damping_n_s_m * c.opening_speed_m_s + robot.finger_friction_n)
@@ -235,8 +236,10 @@ class MultimodeGrasp:
         #: Whether the fingers coast on past a touch by more than they close in a control period
         #: once the drive's force drops to the grip floor: their joints' damping alone stops
         #: them in m_o / c_j (the servo's velocity gain is inside its force, which the floor
-        #: caps), 2.3 ms for the house's 23 g on 10 N s/m, 11 ms for robosuite's Panda (1 kg of
-        #: armature a finger), 30 ms for Robotiq's 2F-85.  Such fingers are braked (_brake_n).
+        #: caps), longer than the period for heavy fingers or a mounted drive's armature.  Such
+        #: fingers are braked (_brake_n; tests/test_third_party_grippers.py::
+        #: test_fingers_that_coast_past_a_control_period_are_braked_at_the_touch and
+        #: test_the_pandas_and_the_2f85s_fingers_coast_past_a_control_period_and_are_braked).
         self.brakes = robot.finger_mass_kg > robot.finger_joint_damping_n_s_m * dt_s
         #: Whether the lift's acceleration moves the fingers (RobotLimits.lift_coupling_kg: a
         #: linkage's), which the grip then makes up for while the lift carries the object.
@@ -451,9 +454,9 @@ class MultimodeGrasp:
         if free is None:
             # Learned once settled: the rise this period under the floor, and what a rise that
             # shrinks by a constant ratio each period (a servo settling exponentially) has still
-            # to add under it too.  A slide with 1 N of dry friction rose 10 mN a period 0.2 s
-            # after its target reached pace, 0.1 N more to come: learned at its first rise
-            # under the floor, that remainder was felt as a contact.
+            # to add under it too: a drive with dry friction creeps up to its pace, and the rest
+            # of such a rise is no contact (tests/test_third_party_grippers.py::
+            # test_fingers_with_dry_friction_feel_the_touch_on_the_fingertips).
             if abs(rise) < floor and settling_remainder_n(rise, last_rise) < floor:
                 self._free_drive_n = drive_n
             return ""
@@ -475,14 +478,12 @@ class MultimodeGrasp:
         within their rating; 0 where they do not need it (:attr:`brakes`).
 
         The touch is felt in the period the pads meet the object; fingers that then coast on
-        for m_o / c_j press it by their momentum, not by the grip the controller asks: the
-        2 g paper ball's 0.1 N crush limit was passed within 20 ms of the touch on the Panda
-        (0.15 N) and on Robotiq's 2F-85 (0.21 N).  Braked, the drive pulls the fingers back
-        with this force (its opening target the open fingers') for one period, then squeezes
-        at the grip floor: the paper ball then meets 0.092 N on the Panda and 0.056 N on the
-        2F-85 (0.15 and 0.21 N unbraked).  One period's brake does not stop the Panda's fingers
-        quite (they close 45 um more over the next 20 ms); braking on while they still closed
-        (up to m_o / c_j) pulled the 2F-85's pads off the object (``unfelt_contact``)."""
+        for m_o / c_j press it by their momentum, not by the grip the controller asks.  Braked,
+        the drive pulls the fingers back with this force (its opening target the open
+        fingers') for one period, then squeezes at the grip floor.  One period only: held on
+        for longer (up to m_o / c_j) the brake's force acts on fingers it has already stopped
+        (tests/test_third_party_grippers.py::test_the_pandas_touch_leaves_the_paper_ball_whole
+        and test_robotiqs_touch_leaves_the_paper_ball_whole)."""
         if not self.brakes:
             return 0.0
         speed_m_s = max(self._last_opening_m - opening_m, 0.0) / dt_s
@@ -501,10 +502,11 @@ class MultimodeGrasp:
         empty = [pad for pad, sel in self.selectors.items() if sel.trusted and sel.status == "below_detection"]
         if empty and self._felt_in_squeeze.issuperset(empty):
             # Each of them read the object's pressure since the touch: no alarm, but pads that
-            # the grip floor lets go (the 2F-85's linkage springs its pads back off a 3 g cube,
-            # their contact 38 -> 9 mN in 0.1 s, under the floor's pressure).  Closing on at the
-            # moving force would press and spring back again; the grip grows instead, by the
-            # safety factor per plateau window, until they read it.
+            # the grip floor lets go (a linkage's springs push its pads back off a light object,
+            # under the floor's pressure).  Closing on at the moving force would press and spring
+            # back again; the grip grows instead, by the safety factor per plateau window, until
+            # they read it (tests/test_third_party_grippers.py::
+            # test_robotiqs_pads_that_let_go_at_the_grip_floor_are_squeezed_not_closed_on).
             if self.grip_n >= self.grip_cap_n:
                 self._give_up(
                     t,
@@ -630,8 +632,8 @@ class MultimodeGrasp:
             if not self._window_load_is_steady(speed):
                 # Neither: the load did not follow the drive's reading, and it is no weight's:
                 # pads sliding at a grip the reading does not show (fingers that the drive's dry
-                # friction holds still), or whose load creeps (the 2F-85's on a 330 g jar, 12 mN
-                # of its 3.2 N).  Checked again from here, the grip up by the safety factor.
+                # friction holds still), or whose load creeps below their friction limit.  Checked
+                # again from here, the grip up by the safety factor (_window_load_is_steady).
                 self._check = None
                 lift.window.clear()
                 return
@@ -644,10 +646,12 @@ class MultimodeGrasp:
         """Whether the window's load is a weight's.  A load that did not follow the grip's
         reading may still be pads sliding: at an unchanged grip, on a drive whose dry friction
         (``finger_friction_n``) holds its fingers still while its force changes by less, or at a
-        load that creeps below their friction limit (MuJoCo's soft friction, the 2F-85's pads
-        on a 330 g jar).  A carried object's load changes only with the lift's acceleration, at
-        most the transfer speed ``speed_m_s`` over the servo's time constant kv / kp, as a share
-        of g; sliding pads stick and slip far more (:func:`load_is_steady`)."""
+        load that creeps below their friction limit (MuJoCo's soft friction).  A carried object's
+        load changes only with the lift's acceleration, at most the transfer speed ``speed_m_s``
+        over the servo's time constant kv / kp, as a share of g; sliding pads stick and slip far
+        more (:func:`load_is_steady`; tests/test_third_party_grippers.py::
+        test_the_pandas_friction_check_tells_sliding_pads_from_a_weight and
+        test_robotiqs_friction_check_needs_a_steady_load_to_call_it_carried)."""
         robot = self.robot
         fraction = speed_m_s * robot.lift_kp_n_m / (robot.lift_kv_n_s_m * robot.gravity_m_s2)
         return load_is_steady([entry[2] for entry in self.lift.window], fraction)
@@ -713,8 +717,9 @@ class MultimodeGrasp:
         table_has_weight = lift.table_took_weight(c.touchdown_speed_m_s, c.table_load_fraction)
         below = obs.lift_pos_m < touchdown - c.touchdown_margin_m
         # Nothing carried (a give-up during the transfer): back down to where the lift was, or
-        # open where it is if the lift carries nothing of the object either (lowered first, the
-        # 2F-85's fingers closed over a raspberry's top pressed it into the table past 1.5 N).
+        # open where it is if the lift carries nothing of the object either: fingers closed
+        # over an object's top would press it into the table on the way down
+        # (tests/test_third_party_grippers.py::test_a_give_up_with_nothing_carried_opens_where_the_lift_is).
         home = lift.held_load_n < self.robot.min_load_n and obs.lift_pos_m <= touchdown + 1e-4
         unloaded = self.gave_up is not None and max(lift.held_load_n, lift.load_n) < self.robot.min_load_n
         if table_has_weight or below or home or unloaded:
@@ -737,8 +742,9 @@ class MultimodeGrasp:
             # the first period, then the pads' gel unloading pushes them out.  The target jumps
             # to them with the grip at the floor (the servo never squeezes the object back) and
             # its profile keeps its speed: it overtakes the gel's creep within a few periods.
-            # (Restarting the profile from rest whenever the fingers crept ahead held the
-            # object on the table until the creep stopped: up to 2.7 s on a soft object.)
+            # (A target left behind, its profile restarted from rest whenever the fingers crept
+            # ahead, would hold the object until the creep stopped: tests/test_grasp_outcomes.py::
+            # test_a_placed_soft_object_is_let_go_at_once.)
             self.opening_target = obs.opening_m
             self.grip_n = self.grip_floor_n
         else:
@@ -803,7 +809,8 @@ class MultimodeGrasp:
         # read pressure: no fingertip may report a measured load).  For lost_s, as the
         # fingertips' own loss: a fingertip "settling" (just after a mode switch, or a load
         # step) is not one reading empty, and both can settle at once while a high grip has the
-        # fingers a millimetre past that width (seen at 25 N and 62 N); an object gone stays gone.
+        # fingers a millimetre past that width; an object gone stays gone
+        # (tests/test_grasp_outcomes.py::test_fingers_past_the_width_while_both_fingertips_settle_is_not_yet_a_loss).
         shut_m = self._width_m - 2.0 * self.robot.pad_travel_m - obs.opening_m
         watched = carried or self.shut_check_in_transfer
         if watched and shut_m > 0 and not any(sel.trusted and sel.status == "ok" for sel in self.selectors.values()):
@@ -829,7 +836,8 @@ class MultimodeGrasp:
             # slip's answer raises it): the pressures it brings are no slip's reference yet.  A
             # slip is answered at most once per six load-filter time constants, the time the
             # load check gives an answer to show (the fingertips see it sooner, but a raised
-            # grip rings in the fingers, and a ring's trough is no slip: tests/test_slip_answers.py).
+            # grip rings in the fingers, and a ring's trough is no slip: tests/test_slip_answers.py::
+            # test_slip_answers_are_at_least_the_settling_time_apart).
             self._reference_pa = {}
             return False
         for pad, sel in self.selectors.items():

@@ -12,9 +12,10 @@ trusted, the last trusted estimate is held meanwhile.
 Why every switch waits for ``persist`` readings, the pressure switches too: a switch costs
 the new mode's ring-up (readings "settling", the controller blind for tens of ms with Table
 I's damping), so it only pays for a pressure that stays on the other side.  Pads that stick
-and slip on an object still on the table make the true pressure swing between, say, 0.2 and
-1.7 times a switch pressure from one 5 ms reading to the next (the 60 g egg while its grip
-ramps): a hysteresis band of +-h on single readings then switches at every reading.
+and slip on an object still on the table make the true pressure swing past both edges of the
+band from one 5 ms reading to the next while the grip ramps: a hysteresis band of +-h on single
+readings then switches at every reading
+(tests/test_grasp.py::test_no_chatter_when_the_pressure_swings_across_the_band_every_reading).
 
 :class:`TouchDetector` is a one-sided CUSUM (Page 1954) on the drop of the most sensitive
 mode's reading below its unloaded baseline, in sigmas of the reading, with a Shewhart limit on

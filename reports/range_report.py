@@ -8,11 +8,10 @@ from pathlib import Path
 
 import numpy as np
 
+from piezotip.analysis.plotting import new_figure, save_figure
 from piezotip.scenarios.config import MIN_COVERAGE_MM
 from piezotip.sensor import Fingertip
 from piezotip.sensor.fingertip import range_within_model
-
-from .plotting import new_figure, save_figure
 
 PRESSURE_GRID_PA = np.logspace(-1, 6.2, 300)
 #: How finely :func:`check_coverage` finds the shortest coverage with a range, mm (and rounds it up to).

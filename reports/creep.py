@@ -65,10 +65,9 @@ import time
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 
+from piezotip.analysis.referee import needed_grip_n  # m g / (2 mu) per finger: the grip the creep is measured against
 from piezotip.cosim.control import Command, Event, Observation, Phase, RobotLimits
 from piezotip.cosim.pad_model import pad_geom_ids
-
-from .referee import needed_grip_n  # m g / (2 mu) per finger: the grip the creep is measured against
 
 #: The requirement (issue 29): at 1.2x the needed grip, at most this much motion per second of hold, mm/s.
 CREEP_LIMIT_MM_S = 0.1

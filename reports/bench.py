@@ -298,7 +298,7 @@ def format_report(report: dict) -> str:
 def plot_report(report: dict, path: Path) -> Path:
     """The first case's time per physics step against bare mj_step's, by controller phase, and
     each case's cost (Pareto-ready: one point per case at its wall time per simulated second)."""
-    from .plotting import new_figure, save_figure
+    from piezotip.analysis.plotting import new_figure, save_figure
 
     fig, axes = new_figure(1, 2, figsize=(11, 4.2))
     first = report["scenes"][0]
@@ -328,7 +328,7 @@ def write_report(report: dict, out_dir: Path) -> list[Path]:
     """bench.json and bench.png into ``out_dir``."""
     import json
 
-    from .runner import json_safe  # NaN and inf are not JSON
+    from piezotip.analysis.runner import json_safe  # NaN and inf are not JSON
 
     out_dir.mkdir(parents=True, exist_ok=True)
     json_path = out_dir / "bench.json"

@@ -16,7 +16,7 @@ changing the code).  Printed, and written to ``OUT/tables.md``, as markdown: the
 (outcome, grip margin, ``touch_peak_n``), the variations' successes per object and the
 successes' margins, and every failure with the referee's reason.
 
-    python -m piezotip.analysis.gripper_tables --out out/gripper-tables [--parts nominal variation extras]
+    python -m piezotip.reports.gripper_tables --out out/gripper-tables [--parts nominal variation extras]
 
 Needs the assets: ``pip install -e .[grippers,menagerie]`` and ``pip install --no-deps
 dm-robotics-moma``; a gripper whose files are missing is left out with a line saying so.
@@ -38,7 +38,7 @@ LIGHTEST = "tissue-box-1g"
 FRICTION_FACTORS = (0.9, 1.0, 1.1)
 MASS_FACTORS = (0.9, 1.1)
 CONTROLLERS = ("multimode", "gentle")
-#: The issue's wafer (analysis/touch_trade.py's, at 30 mm).
+#: The issue's wafer (reports/touch_trade.py's, at 30 mm).
 WAFER = {"object.shape": "box", "object.mass_kg": 0.002, "object.size_m": 0.03, "object.friction": 0.39, "object.crush_force_n": 0.05}
 
 

@@ -173,8 +173,7 @@ def scripted_overrides(scene: str) -> list[str]:
     the mode that resolves the pressure of that grip best (the scripted controller drives its
     first mode, mode 1, which saturates at 3 kPa: the 10 kg block's grip is 245 kPa)."""
     from piezotip import scenarios
-
-    from .experiment import gripper
+    from piezotip.analysis.experiment import gripper
 
     obj = scenarios.get(scene).object
     limit_n, g = gripper()
@@ -187,7 +186,7 @@ COST_REPEATS = 3
 
 
 def _run(scene: str, overrides: list[str], preset: str | None) -> tuple[dict, dict, float]:
-    from .runner import run_scenario
+    from piezotip.analysis.runner import run_scenario
 
     with tempfile.TemporaryDirectory(prefix="piezotip-fidelity-") as tmp:
         summary, data = run_scenario(scene, overrides, Path(tmp), plot=False, quiet=True, preset=preset)
@@ -630,7 +629,7 @@ def format_fidelity(report: dict) -> str:
 
 def plot_pareto(report: dict, path: Path) -> Path:
     """Error against cost, one point per preset (log-log), with the reference's uncertainty."""
-    from .plotting import new_figure, save_figure
+    from piezotip.analysis.plotting import new_figure, save_figure
 
     fig, axes = new_figure(figsize=(7, 5))
     ax = axes[0][0]

@@ -10,7 +10,7 @@ of them that hold the truth, and the worst miss in sigmas with its run, time and
 :func:`holdout_coverage` runs a set of hold-out grasps (:data:`HOLDOUT`: objects that are not in
 the experiment's catalogue, :data:`analysis.experiment.OBJECTS`, and a few other presets and
 sensor designs) and measures them; :func:`main` prints it (``python -m
-piezotip.analysis.coverage [--json] [--workers N] [--seeds S ...] [--only NAME ...]``).
+piezotip.reports.coverage [--json] [--workers N] [--seeds S ...] [--only NAME ...]``).
 """
 
 from __future__ import annotations
@@ -196,7 +196,7 @@ def seeded(grasps: Iterable[Grasp], seeds: Iterable[int] = SEEDS) -> list[Grasp]
 
 def run_grasp(grasp: Grasp, scenario: str = "grasp") -> tuple[str, dict, dict[str, np.ndarray]]:
     """Run one grasp headless: (its name, the run's summary, its recording)."""
-    from .runner import run_scenario
+    from piezotip.analysis.runner import run_scenario
 
     with tempfile.TemporaryDirectory(prefix="piezotip-coverage-") as tmp:
         summary, data = run_scenario(scenario, list(grasp.overrides), Path(tmp), plot=False, quiet=True, preset=grasp.preset)
@@ -247,9 +247,9 @@ def format_report(report: dict) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    """``python -m piezotip.analysis.coverage``: run the hold-out grasps and print the figure;
+    """``python -m piezotip.reports.coverage``: run the hold-out grasps and print the figure;
     exit status 0 when at least :data:`TARGET` of the "ok" readings hold the truth, else 1."""
-    parser = argparse.ArgumentParser(prog="python -m piezotip.analysis.coverage", description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(prog="python -m piezotip.reports.coverage", description=__doc__.splitlines()[0])
     parser.add_argument("--json", action="store_true", help="print the result as JSON")
     parser.add_argument("--workers", type=int, default=1, help="processes to run the grasps in (default 1)")
     parser.add_argument(
@@ -270,7 +270,7 @@ def main(argv: list[str] | None = None) -> int:
         grasps = tuple(known[n] for n in args.only)
     report = holdout_coverage(grasps, seeds=args.seeds, workers=args.workers)
     if args.json:
-        from .runner import json_safe
+        from piezotip.analysis.runner import json_safe
 
         print(json.dumps(json_safe(report), indent=2))
     else:

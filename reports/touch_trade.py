@@ -21,7 +21,7 @@ light object the probe's grip, not the touch's) and ``time_to_touch_s``, and the
 force, ``impact_n``: the largest true finger force from the first contact until the lift
 begins (the touch and the squeeze at the grip floor, before the probe's grip).
 
-    python -m piezotip.analysis.touch_trade --out out/touch-trade     # touch_trade.csv, .png
+    python -m piezotip.reports.touch_trade --out out/touch-trade     # touch_trade.csv, .png
 
 The object is the issue's wafer: 2 g, friction 0.39 (its least grip 0.025 N), crushing at
 0.05 N.  Each point runs three times, at 29.93, 30 and 30.07 mm (the contact at another phase of
@@ -40,6 +40,8 @@ from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
+
+from piezotip.analysis.referee import impact_n  # the touch's own force from a record (the gentle touch's tests read it too)
 
 #: The wafer: the object keys of every run (mass kg, friction, crush force N).
 WAFER = {"object.shape": "box", "object.mass_kg": 0.002, "object.friction": 0.39, "object.crush_force_n": 0.05}
@@ -86,22 +88,6 @@ def touch_speed_m_s(overrides: dict) -> float:
     from piezotip.cosim.loop import CoSimulation
 
     return float(getattr(CoSimulation(scenarios.get("grasp", overrides)).controller, "touch_speed_m_s", math.nan))
-
-
-def impact_n(data) -> float:
-    """The touch's own force from a run's record, N: the largest true finger force (the physics
-    steps' peak where recorded) from the first contact until the lift phase begins; NaN where
-    nothing touched."""
-    from piezotip.cosim.control import phase_index
-
-    left, right = (data.get(f"{side}_finger_peak_force_n", data[f"{side}_finger_force_n"]) for side in ("left", "right"))
-    force = np.maximum(left, right)
-    touched = np.flatnonzero(force > 1e-6)
-    if touched.size == 0:
-        return math.nan
-    lifting = np.flatnonzero(data["phase"] >= phase_index("lift"))
-    end = lifting[0] if lifting.size else force.size
-    return float(force[touched[0] : max(end, touched[0] + 1)].max())
 
 
 def _run(controller: str, bound_n: float | None, period_s: float, sigma_m: float | None, preset: str | None) -> list[dict]:

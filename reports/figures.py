@@ -17,9 +17,8 @@ from pathlib import Path
 import numpy as np
 from scipy.optimize import brentq
 
+from piezotip.analysis.plotting import new_figure, save_figure
 from piezotip.sensor import SensorElement
-
-from .plotting import new_figure, save_figure
 
 #: The two coverages of the published analysis, m.
 COVERAGES: dict[str, tuple[float, float]] = {"whole": (0.0, 7.5e-3), "tip": (6.5e-3, 7.5e-3)}

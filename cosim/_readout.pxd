@@ -1,0 +1,36 @@
+# The C types of _readout.py (its one source; piezotip.sensor.compiled explains the kernels).
+cimport cython
+
+cimport piezotip.sensor._channel as sc
+cimport piezotip.sensor._kernel_helpers as kh
+
+cdef Py_ssize_t VALUES_PER_TIP
+cdef object _ESTIMATE_GET
+cdef Py_ssize_t _ESTIMATE_AT[3]
+
+
+@cython.final
+cdef class ReadoutPass:
+    cdef Py_ssize_t _n
+    cdef list _samples, _cores, _readers, _fractions
+    cdef long[::1] _touch_adr, _sensor_adr
+    cdef double[::1] _areas, _values, _sensordata
+    cdef double _gel_valid, _backstop
+    cdef dict _codes
+    cdef long _outside
+    cdef public list readings, estimates, truths, pasts
+
+    @cython.locals(i=Py_ssize_t, size=Py_ssize_t)
+    cpdef bind(self, double[::1] sensordata)
+
+    @cython.locals(
+        k=Py_ssize_t, i=Py_ssize_t, j=Py_ssize_t, adr=long, n_cells=Py_ssize_t, p=double, peak=double, q=double, truth=double,
+        past=bint, c=sc.ChannelCore, fractions=list, values="double[::1]", sensordata="double[::1]",
+        gel_valid=double, backstop=double,
+    )
+    cpdef sample(self, double period_s)
+
+    @cython.locals(i=Py_ssize_t, sensordata="double[::1]", adr="long[::1]", values="double[::1]")
+    cpdef write(self)
+
+    cpdef list values(self)
