@@ -125,7 +125,8 @@ def gripper() -> tuple[float, float]:
     """(the fingers' force limit, N per finger; gravity, m/s^2) as the gripper's model has them
     (one model for every object: the gripper does not change with what it grasps)."""
     from piezotip import scenarios
-    from piezotip.cosim.scene import build_scene, finger_force_limit_n, gravity_m_s2
+    from piezotip.cosim.assembly import build_scene
+    from piezotip.cosim.scene import finger_force_limit_n, gravity_m_s2
 
     model = build_scene(scenarios.get("grasp"))
     return finger_force_limit_n(model), gravity_m_s2(model)

@@ -20,7 +20,7 @@ collision geometry towards the other fingertip(s) instead (docs/attach.md).
 The pads are the house gripper's, built by the same code (:func:`cosim.pad_model.add_pad_strips`
 with the class ``pad`` of models/gripper.xml, copied); the step runs the same pieces as the
 co-simulation loop (:class:`cosim.pad_bridge.PadBridge`, the loop's coverage cells and weights,
-:func:`cosim.loop.make_fingertip`, :class:`sensor.channel.SensorChannel` or its physical unit's
+:func:`cosim.instrument.make_fingertip`, :class:`sensor.channel.SensorChannel` or its physical unit's
 ``UnitChannel``).  Everything added is named with the prefix ``piezotip/``; the user's bodies,
 geoms, options and contacts are otherwise left as they were.
 """
@@ -47,7 +47,8 @@ from ._readout import ReadoutPass
 from .build_checks import check_buildable
 from .config import INTEGRATORS, PhysicsConfig, ScenarioConfig
 from .control.config import ScriptedConfig
-from .loop import SimulationDiverged, coverage_cells, coverage_weights, make_channels, make_fingertip, make_unit
+from .instrument import make_channels, make_fingertip, make_unit
+from .loop import SimulationDiverged, coverage_cells, coverage_weights
 from .pad_bridge import PadBridge, PadReading
 from .pad_geometry import PadGeometry
 from .pad_model import COMPLIANT_PAD_SOLIMP, HARD_PAD_SOLIMP, PadPlacement, _remap_keys, add_pad_strips, copy_pad_class, pad_time_constant_s

@@ -39,7 +39,7 @@ _FINGERTIPS: dict[tuple, str | None] = {}
 
 
 def _check_fingertip(config: ScenarioConfig, senses: bool) -> None:
-    """The fingertip the run builds (cosim.loop.make_fingertip: a varied unit calibrated), and for
+    """The fingertip the run builds (cosim.instrument.make_fingertip: a varied unit calibrated), and for
     a controller that reads the fingertips (registered with ``senses``: the multimode ones) each
     allowed mode the most useful somewhere and a switch pressure from each up to the next (the
     edge between their bands): what their mode selector is built for (cosim.control.selector
@@ -57,7 +57,7 @@ def _check_fingertip(config: ScenarioConfig, senses: bool) -> None:
 
 def _fingertip_problem(config: ScenarioConfig, modes: tuple[int, ...], senses: bool) -> str | None:
     from piezotip.cosim.control.selector import allowed_ranges
-    from piezotip.cosim.loop import make_fingertip
+    from piezotip.cosim.instrument import make_fingertip
 
     s = config.sensor
     try:

@@ -76,7 +76,7 @@ def build_model(
     ----------
     scene : a scene name (``"grasp"`` for ``models/scene_grasp.xml``, the one scene file, see
         :func:`scene_names`) or a path to any MJCF file that includes ``gripper.xml``.  A
-        scenario's scene, with its object, is :func:`cosim.scene.build_scene`'s.
+        scenario's scene, with its object, is :func:`cosim.assembly.build_scene`'s.
     pad_segments : N, strips per element.  None keeps the file's pads (N = 5 in gripper.xml).
     geometry : the full pad geometry (overrides ``pad_segments``); None keeps the file's pads
         unless ``pad_segments`` or ``gel`` is given.

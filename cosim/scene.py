@@ -1,7 +1,7 @@
 """A scenario's MuJoCo scene: the gripper, the table and the configured object.
 
 The scene file ``models/scene_grasp.xml`` holds the gripper, the table and a placeholder
-object; :func:`build_scene` replaces the object by the one a scenario configures (shape,
+object; :func:`cosim.assembly.build_scene` replaces the object by the one a scenario configures (shape,
 size, mass, friction), regenerates the pads for the configured resolution and sets the
 timestep and integrator.  The home state (gripper open, pads centred on the object's grasp
 height, object at rest) is computed here from the geometry instead of a typed keyframe, so it
@@ -87,13 +87,9 @@ def _edit_object(obj: ObjectConfig):
     return edit
 
 
-def build_scene(config: ScenarioConfig, gel: GelParams | None = None) -> mujoco.MjModel:
-    """The compiled model for ``config``: its object, pad resolution, timestep and integrator;
-    with ``gripper.mjcf``, that gripper on the lift (:func:`cosim.gripper_mount.mount_gripper`)."""
-    if config.gripper.mjcf is not None:
-        from .gripper_mount import mount_gripper  # it builds on this module
-
-        return mount_gripper(config, gel).model
+def build_house_scene(config: ScenarioConfig, gel: GelParams | None = None) -> mujoco.MjModel:
+    """The house gripper's compiled scene for ``config``: its object, pad resolution, timestep
+    and integrator (a scenario's model, a mounted gripper's too: :func:`cosim.assembly.build_scene`)."""
     phys = config.physics
     model = build_model(
         SCENE_FILE,
@@ -105,52 +101,6 @@ def build_scene(config: ScenarioConfig, gel: GelParams | None = None) -> mujoco.
     model.opt.integrator = _INTEGRATORS[phys.integrator]
     apply_pad_contact(model, resolve_pad_contact(phys.pad_contact, mounted=False))
     return model
-
-
-@dataclass(frozen=True)
-class GripperRanges:
-    """What a driver outside the loop (a Gymnasium agent) commands the gripper within.
-
-    Attributes
-    ----------
-    lift_range_m : the lift servo's set-points, (low, high), m.
-    opening_range_m : the fingers' opening set-points, (low, high), m (0 = the unloaded pads
-        touching).
-    opening_joint_range_m : the openings the fingers reach, (low, high), m.
-    finger_force_limit_n : the fingers' force limit, N per finger.
-    gravity_m_s2 : the magnitude of gravity, m/s^2.
-    """
-
-    lift_range_m: tuple[float, float]
-    opening_range_m: tuple[float, float]
-    opening_joint_range_m: tuple[float, float]
-    finger_force_limit_n: float
-    gravity_m_s2: float
-
-
-def gripper_ranges(config: ScenarioConfig) -> GripperRanges:
-    """The gripper's command ranges and force limit for ``config``, as its model has them: the
-    house gripper's servos (models/gripper.xml), or a mounted gripper's drive (from its open
-    pads down to touching, its rating: cosim.gripper_mount)."""
-    if config.gripper.mjcf is not None:
-        from .gripper_mount import mount_gripper
-
-        mounted = mount_gripper(config)
-        lift, drive = mounted.model.actuator("lift_actuator"), mounted.drive
-        reach = (float(drive.path.opening_m[0]), drive.home_opening_m)
-        ranges = (float(lift.ctrlrange[0]), float(lift.ctrlrange[1])), (0.0, drive.home_opening_m), reach
-        return GripperRanges(*ranges, drive.rating_n(), gravity_m_s2(mounted.model))
-    model = build_scene(config)
-    lift, fingers = model.actuator("lift_actuator"), model.actuator("fingers_actuator")
-    joints = [model.joint(f"{side}_finger_joint").range for side in ("left", "right")]
-    return GripperRanges(
-        (float(lift.ctrlrange[0]), float(lift.ctrlrange[1])),
-        (float(fingers.ctrlrange[0]), float(fingers.ctrlrange[1])),
-        # The opening is the fingers tendon: the sum of the two finger joints (coef 1 each).
-        (float(joints[0][0] + joints[1][0]), float(joints[0][1] + joints[1][1])),
-        finger_force_limit_n(model),
-        gravity_m_s2(model),
-    )
 
 
 def finger_force_limit_n(model: mujoco.MjModel) -> float:
@@ -263,4 +213,4 @@ def finite_state(data: mujoco.MjData) -> bool:
     return bool(np.all(np.isfinite(data.qpos)) and np.all(np.isfinite(data.qvel)))
 
 
-__all__ = ["GripperRanges", "build_scene", "grasp_height_m", "gripper_ranges", "object_height_m", "object_shape", "reset_home"]
+__all__ = ["build_house_scene", "grasp_height_m", "object_height_m", "object_shape", "reset_home"]

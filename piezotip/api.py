@@ -215,7 +215,7 @@ def fingertip(scenario: str = "grasp", overrides: Overrides = None, preset: str 
     amplitude), ``resolution(pressure_pa, mode)``, ``detection_limit(mode)``,
     ``upper_limit(mode)``, ``mode_bands()``, ``dynamic_range()``, ``estimate(v1, mode)``.
     """
-    from piezotip.cosim.loop import make_fingertip
+    from piezotip.cosim.instrument import make_fingertip
 
     return make_fingertip(config(scenario, overrides, preset))
 

@@ -309,7 +309,7 @@ class GraspEnv(gym.Env):
         self.modes = tuple(cfg.sensor.modes)
         self.dt = cfg.physics.control_period_s
         self.total_steps = math.ceil(cfg.duration_s / self.dt - 1e-9)
-        from piezotip.cosim.scene import gripper_ranges
+        from piezotip.cosim.assembly import gripper_ranges
 
         ranges = gripper_ranges(cfg)  # the house gripper's servos, or a mounted gripper's drive (gripper.mjcf)
         self.lift_range_m, self.opening_range_m = ranges.lift_range_m, ranges.opening_range_m

@@ -22,8 +22,8 @@ import numpy as np
 from gymnasium import spaces
 
 from piezotip.analysis.referee import Criteria
+from piezotip.cosim.assembly import gripper_ranges
 from piezotip.cosim.rows import READOUT_STATUSES as STATUS_CODES  # the readout's own (what an agent sees)
-from piezotip.cosim.scene import gripper_ranges
 from piezotip.gym_env import GraspEnv, MultimodePolicy, ObjectRanges, RewardWeights, real_numbers, shown
 
 

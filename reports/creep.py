@@ -118,7 +118,8 @@ def default_size_m(mass_kg: float) -> float:
 def finger_force_limit_n() -> float:
     """The fingers' force limit per finger, N, as the compiled model has it (models/gripper.xml)."""
     from piezotip import scenarios
-    from piezotip.cosim.scene import build_scene, finger_force_limit_n
+    from piezotip.cosim.assembly import build_scene
+    from piezotip.cosim.scene import finger_force_limit_n
 
     return finger_force_limit_n(build_scene(scenarios.get("grasp")))
 

@@ -1,6 +1,6 @@
 """The objects the project grasps, each defined once: the scenario library and the grasp
 experiments both take them from here (the scene file holds only a placeholder that
-cosim.scene.build_scene replaces).
+cosim.assembly.build_scene replaces).
 
 Masses and sizes are those of the everyday objects named; friction is against the pads'
 silicone film (dry contacts: 0.3 for glass, about 1 for cardboard and painted metal, 1.2 for

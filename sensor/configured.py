@@ -2,7 +2,7 @@
 the readout and the controller know it, and the physical unit the simulation runs when that unit
 is not the design (``sensor.variation``, ``sensor.temperature_c``: piezotip.sensor.calibration).
 
-Below the engine and the controllers, which both build them (cosim.loop.make_fingertip and
+Below the engine and the controllers, which both build them (cosim.instrument.make_fingertip and
 make_unit; the multimode controller's start-up self-test).
 """
 

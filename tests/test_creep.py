@@ -111,7 +111,7 @@ def test_variants_write_their_settings_into_the_model(monkeypatch):
     """An option goes into ``opt``; a ``pad_`` parameter into the pad strips' geoms and no other."""
     import mujoco
 
-    from piezotip.cosim.scene import build_scene
+    from piezotip.cosim.assembly import build_scene
 
     monkeypatch.setitem(
         CONTACT_VARIANTS, "probe", {"impratio": 3.0, "pad_solref": (0.002, 1.5), "pad_condim": 4, "enable": ["speculative"]}

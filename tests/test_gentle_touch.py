@@ -103,6 +103,86 @@ def test_without_a_camera_the_fingers_close_at_the_touch_speed_from_the_start():
     assert c.width_prior_m is None and c.slow_from_m == math.inf
 
 
+# -- the closing --------------------------------------------------------------------------------
+
+
+def _panda(**more) -> dict:
+    """robosuite's Panda gripper (1 N of dry friction a finger, a soft finger servo) as override keys."""
+    from test_third_party_grippers import ROBOSUITE, _robosuite_grippers, keys
+
+    file, tips, actuators = ROBOSUITE["panda"]
+    return {**keys(_robosuite_grippers() / file, tips, actuators), **more}
+
+
+def _close(overrides: dict, preset: str | None = None):
+    """A gentle grasp run until the fingers stop closing: (the simulation, the observed times, s,
+    and openings, m, of the closing)."""
+    from piezotip.cosim.control import Phase
+
+    sim = CoSimulation(scenarios.get("grasp", overrides, preset))
+    c, times, openings = sim.controller, [], []
+    while c.phase <= Phase.CLOSE and not c.finished:
+        obs = sim.sense()
+        sim.act(c.step(obs, sim.dt))
+        if c.phase is Phase.CLOSE:
+            times.append(obs.time_s)
+            openings.append(obs.opening_m)
+    return sim, np.asarray(times), np.asarray(openings)
+
+
+def test_the_fingers_start_to_close_at_the_force_their_dry_friction_needs():
+    """The fingers' force limit as they start to close (from rest, or closing on after a false
+    touch) is what their drive needs at no speed, its dry friction x ``drive_margin`` (at least the
+    grip floor), and grows with their speed from there: at the top pace's force the servo's
+    target, jumping from the squeeze's (closed) to the fingers, lurches them on at once."""
+    for overrides in ({}, _panda()):
+        c = CoSimulation(scenarios.get("grasp", overrides)).controller
+        robot, margin = c.robot, c.cfg.drive_margin
+        at_rest_n = max(c.grip_floor_n, margin * robot.finger_friction_n)
+        assert c.moving_force_n == pytest.approx(at_rest_n, rel=1e-12) and c.grip_n == c.moving_force_n
+        top_pace_n = margin * (robot.finger_damping_n_s_m * c.cfg.closing_speed_m_s + robot.finger_friction_n)
+        assert c.moving_force_n < 0.9 * top_pace_n
+
+
+def test_a_soft_servos_fingers_meet_the_object_at_the_touch_speed():
+    """robosuite's Panda's soft finger servo lags its target by millimetres at the top pace; while
+    the target brakes it leads the fingers by no more than the servo needs at the target's speed,
+    so the fingers themselves slow to the touch speed before they meet the box (left at the top
+    pace's lead, they met it at over ten times the touch speed)."""
+    sim, times, openings = _close(_panda(), preset="fast")
+    c = sim.controller
+    assert math.isfinite(c.touch_time_s), [e.message for e in c.events]
+    speed_m_s = -np.diff(openings[-6:]) / np.diff(times[-6:])  # the fingers' own, the last periods before the touch
+    assert speed_m_s.mean() < 2.0 * c.touch_speed_m_s, (speed_m_s, c.touch_speed_m_s)
+
+
+def test_the_fingers_speed_up_is_not_a_touch_at_the_fast_presets_steady_readout():
+    """Speeding up, the fingers press each pad's gel on its element by rho h0 a: at the fast
+    preset's steady readout that is a drop the CUSUM sums past its alarm while the speed-up to
+    the top pace lasts, a touch far from the object (and closing on, the next speed-up the next).
+    Given back to the detector, the first touch is where the pads meet the 40 mm box."""
+    sim, _, openings = _close({}, preset="fast")
+    c = sim.controller
+    assert math.isfinite(c.touch_time_s) and not any(e.kind == "false_touch" for e in c.events), [e.message for e in c.events]
+    assert openings[-1] == pytest.approx(sim.config.object.size_m, abs=1e-3)
+
+
+def test_the_joints_learn_the_free_force_over_a_plateau_window():
+    """At the touch speed a friction drive's force creeps by under a grip floor a period, and by a
+    grip floor over tens of milliseconds: learned on the first quiet period, that creep is felt as
+    a contact wide of the object.  Learned over a plateau window of quiet periods, it is the free
+    force; a rise past it by more than the grip floor is still a contact."""
+    c = CoSimulation(scenarios.get("grasp")).controller
+    floor, pace = c.grip_floor_n, c.touch_speed_m_s
+    c._steady, c._moved_m_s, c._pace_m_s, c._last_drive_n = True, pace, pace, 0.2  # closing at the pace
+    creep = [0.2 + 0.3 * floor * k for k in range(1, c.lift.plateau_steps + 1)]
+    assert len(creep) * 0.3 > 2.0  # the window's creep is past a grip floor
+    assert not any(c._joint_touch(drive_n) for drive_n in creep)
+    assert c._free_drive_n == creep[-1]
+    assert not c._joint_touch(creep[-1] + 0.9 * floor)
+    assert c._joint_touch(creep[-1] + 1.1 * floor)
+
+
 # -- bad input ------------------------------------------------------------------------------------
 
 

@@ -162,6 +162,26 @@ def test_the_probe_measures_the_friction_of_slippery_objects_and_carries_them(ov
     assert s["grip_margin"] <= 1.5
 
 
+def test_the_friction_bound_from_the_carried_grip_applies_only_past_the_cap():
+    """Carried over the span, the friction is at least W / 2 G at its mean grip G: a friction
+    measured while the pads slid is raised to that bound only where the grip it asks is past the
+    cap (stick-slip reads it low there).  Under the cap it stands: a light grip's bound is only as
+    good as the drive's reading of it, and a linkage that reads the grip low would make it a
+    higher friction and a grip that does not hold."""
+    from types import SimpleNamespace
+
+    obs = SimpleNamespace(time_s=5.0, lift_pos_m=0.05)
+    light = CoSimulation(scenarios.get("grasp")).controller
+    light._slid, light.friction = True, 0.5
+    light._carry(obs, 5.0, 0.0196, 0.01, 0.012)  # the bound, 0.0196 / 0.024 = 0.82, is not taken
+    assert light.friction == 0.5 and light._grip_goal_n == pytest.approx(SAFETY * 0.0196 / (2 * 0.5))
+    heavy = CoSimulation(scenarios.get("grasp")).controller
+    heavy._slid, heavy.friction = True, 0.5
+    weight_n = heavy.grip_cap_n  # asks 1.25 x the cap at 0.5
+    heavy._carry(obs, 5.0, weight_n, 0.5 * weight_n, weight_n / 1.5)  # carried at a mean grip of W / 1.5: at least 0.75
+    assert heavy.friction == pytest.approx(0.75) and any(e.kind == "carried" for e in heavy.events)
+
+
 def test_a_friction_read_above_the_pads_highest_is_a_misread_said_and_read_again():
     """A probe that reads more friction than the pads can have (``controller.friction_max``) has
     misread the grip (a mounted drive reads light grips up to 2x off), not the object: it says so

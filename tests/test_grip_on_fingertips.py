@@ -96,6 +96,36 @@ def test_a_raised_grip_is_not_pulled_down_for_six_load_filter_time_constants(con
         assert _drive(controller, too_hard, grip, t=10.01 + 0.005 * k)[0] == grip
 
 
+def test_placing_the_falling_pressure_is_not_closed_on(controller):
+    """Placing, the table takes the weight and the pads' pressure falls (a slip to the fingertips):
+    the drive keeps the grip, and is not closed past its friction onto an object that is landing."""
+    controller.phase = Phase.PLACE
+    assert _drive(controller, 0.02, 0.1) == (0.1, controller.opening_target)
+
+
+def test_fingers_still_opening_are_held_not_closed_on_at_once(controller):
+    """Moving, the friction pushes with the drive the other way: fingers that a pull still opens
+    and then read too light are held at the grip until they stand still (a close started at once
+    snaps them shut past the grip), and only then closed past the friction."""
+    controller._moved_dir = -1  # a pull eases the grip down
+    controller._held_opening_m = _Obs.opening_m - 1e-4  # and the fingers opened in the last period
+    assert _drive(controller, 0.05, 0.1) == (0.1, controller.opening_target)
+    assert controller._moved_dir == 0
+    limit_n, _ = _drive(controller, 0.05, 0.1)  # standing still now
+    assert limit_n > 0.1 + controller.robot.finger_friction_n
+
+
+def test_a_grip_felt_far_over_is_held_at_the_friction_bands_near_edge(controller):
+    """The probe leaves the contact up to twice the grip wanted.  Fingers closing that then read
+    it are held F_f under the contact felt, at the friction band's near edge, where it creeps down
+    toward the grip: set to the grip at once, the drive would throw them open by the whole excess
+    and the object rock off the pads."""
+    controller._moved_dir = 1  # closing
+    controller._held_opening_m = _Obs.opening_m + 1e-4  # and the fingers closed in the last period
+    limit_n, opening_m = _drive(controller, 2.0, 1.0)
+    assert limit_n == pytest.approx(2.0 - controller.robot.finger_friction_n) and opening_m == controller.opening_target
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize(
     ("obj", "most"),

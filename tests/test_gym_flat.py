@@ -29,9 +29,9 @@ import pytest
 from gymnasium.utils.env_checker import check_env
 
 import piezotip  # noqa: F401 - registers the environments
+from piezotip.cosim.assembly import build_scene
 from piezotip.cosim.loop import REST_MAX_S
 from piezotip.cosim.rows import READOUT_STATUSES as STATUS_CODES  # what an agent sees
-from piezotip.cosim.scene import build_scene
 from piezotip.gym_env import MultimodePolicy
 from piezotip.gym_flat import GraspFlatEnv
 

@@ -1,7 +1,7 @@
 """The MuJoCo models and the pad mechanics (models/, cosim/pad_geometry.py, pad_model.py, pad_bridge.py).
 
 Objects are defined once, in the scenario library (scenarios/library.py); the one scene file,
-models/scene_grasp.xml, holds a placeholder that cosim.scene.build_scene replaces.
+models/scene_grasp.xml, holds a placeholder that cosim.assembly.build_scene replaces.
 
 * scene_grasp.xml is the only scene file, and its placeholder object is the ``grasp`` scenario's;
 * every registered scenario's scene steps a simulated second from home without warnings;
@@ -23,10 +23,11 @@ import numpy as np
 import pytest
 
 from piezotip import scenarios
+from piezotip.cosim.assembly import build_scene
 from piezotip.cosim.pad_bridge import PadBridge, _GelTable
 from piezotip.cosim.pad_geometry import DEFAULT_PAD_SEGMENTS, PAD_NAMES, PadGeometry
 from piezotip.cosim.pad_model import build_model, scene_names, scene_path
-from piezotip.cosim.scene import SCENE_FILE, build_scene, object_shape, reset_home
+from piezotip.cosim.scene import SCENE_FILE, object_shape, reset_home
 from piezotip.scenarios.config import RATED_MASS_KG
 from piezotip.sensor.gel import GelModel
 

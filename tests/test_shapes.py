@@ -13,8 +13,9 @@ import pytest
 
 from piezotip import scenarios
 from piezotip.cosim import scene
+from piezotip.cosim.assembly import build_scene
 from piezotip.cosim.loop import CoSimulation
-from piezotip.cosim.scene import build_scene, object_shape
+from piezotip.cosim.scene import object_shape
 from piezotip.scenarios import shapes
 from piezotip.scenarios.config import OBJECT_SHAPES, ObjectConfig
 from piezotip.scenarios.shapes import EGG_ASPECT, GEOM_TYPES, get_shape, register_shape, shape_names, unregister_shape

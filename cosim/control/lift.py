@@ -115,10 +115,13 @@ class LiftPlan:
 
         Not at what it carries now: by the lift, the pads may already carry part of the object's
         weight or press it into the table.  A linkage's fingertips swing along an arc as they
-        close and spring back (Robotiq's 2F-85: they fall 9 mm over the stroke), and pads that
-        grip move the object with them: a 1 g box read 0.9 mN of its 9.8 mN once carried, after
-        a tare that took 6.9 mN already on the pads for the gripper's own, and a 60 g egg's tare
-        caught +0.13 N of the squeeze still ringing in the linkage."""
+        close and spring back (tests/test_third_party_grippers.py::
+        test_robotiqs_pads_swing_down_their_arc_and_the_lift_braking_opens_them), and pads that
+        grip move the object with them: a tare taken then takes what the pads already carry for
+        the gripper's own, and the object reads light once carried
+        (tests/test_lift.py::test_the_tare_is_what_the_lift_carried_while_the_fingers_closed_freely), or
+        catches the squeeze still ringing in the linkage
+        (tests/test_third_party_grippers.py::test_robotiqs_four_bar_grasps_the_default_box[gentle-egg])."""
         free = self._free_loads
         zero_n = sum(free) / len(free) if free else self.raw_load_n
         self._baseline_n += zero_n
@@ -130,9 +133,10 @@ class LiftPlan:
         """The load the pads carry as they slide while held still, N, or None: the mean of the raw
         readings below the held load by more than the lift's acceleration explains, two or more in
         a row.  Stationary, the raw load is clean (the filter would cost 50 ms of sliding); the
-        mean, because single readings of a slide just begun scatter widely (stick-slip, the lift
-        recoiling: 0.23 then 0.80 N where the limit was 0.67 N), and the last one alone left a
-        box whose friction fell to 0.3 sliding at 4 % over its weight.  Once per period."""
+        mean, because single readings of a slide just begun scatter widely about the pads'
+        friction limit (stick-slip, the lift recoiling), and the grip the last one alone asks can
+        leave the object sliding (tests/test_lift.py::test_a_sliding_load_is_two_low_readings_in_a_row_and_their_mean,
+        tests/test_grasp_outcomes.py::test_a_slip_in_the_hold_is_felt_and_answered).  Once per period."""
         low = self.raw_load_n < (1.0 - 2.0 * self.load_noise_fraction) * self.held_load_n
         self._low_steps = self._low_steps + 1 if low else 0
         self._low_sum_n = self._low_sum_n + self.raw_load_n if low else 0.0
