@@ -804,6 +804,7 @@ class _FingertipHook:
         m, d, step = self.model, self.data, mujoco.mj_step
         if self not in mjhooks.hooks_of(d):
             raise RuntimeError("step: these fingertips were unbound (bind again)")
+        mjhooks.raise_failure(d, "step")
         _check_controls(m, d)
         start_s, before = d.time, _unstable_counts(d)
         prepare = self.gel.prepare if self.gel is not None else None
@@ -811,6 +812,7 @@ class _FingertipHook:
             if prepare is not None:
                 prepare(d)  # the discrete integrator's stiffness at this step's state (the hook's comes a step late)
             step(m, d)
+        mjhooks.raise_failure(d, "step")
         warned = [w.name for w, n0, n1 in zip(_UNSTABLE, before, _unstable_counts(d), strict=True) if n1 != n0]
         if warned or d.time <= start_s:
             raise SimulationDiverged(
@@ -828,6 +830,7 @@ class _FingertipHook:
     def readings(self) -> dict[str, TipReading]:
         """Each fingertip's :class:`TipReading` at the last sample (:meth:`step`'s end, or the
         last period ``mj_step`` reached), by name."""
+        mjhooks.raise_failure(self.data, "readings")
         if not self._sampled:
             raise RuntimeError("no readings yet: call step() (or mj_step for one period) first")
         if self._readings is None:

@@ -31,7 +31,7 @@ from typing import Protocol
 import mujoco
 import numpy as np
 
-__all__ = ["EXPLICIT_OMEGA_H", "GelPassive", "Hook", "hooks_of", "register", "unregister"]
+__all__ = ["EXPLICIT_OMEGA_H", "GelPassive", "Hook", "hooks_of", "raise_failure", "register", "unregister"]
 
 #: The strips' ring frequency times the step under an explicit integrator (:class:`GelPassive`'s
 #: mass scaling): a quarter of the explicit stability limit omega h < 2.  Measured at 2 ms on a
@@ -73,6 +73,8 @@ class _Bound:
     hooks: list[Hook]
     passive: list[Hook]
     sensor: list[Hook]
+    #: The first exception a hook raised inside MuJoCo's step, until :func:`raise_failure` takes it.
+    error: BaseException | None = None
 
 
 def _callbacks(hook: Hook) -> tuple[str, ...]:
@@ -80,6 +82,26 @@ def _callbacks(hook: Hook) -> tuple[str, ...]:
     if not set(needs) <= set(CALLBACKS):
         raise ValueError(f"a hook's callbacks must be among {CALLBACKS}, got {needs}")
     return needs
+
+
+def _failed(bound: _Bound, err: BaseException) -> None:
+    """A hook raised inside ``mj_step``, whose C cannot take a Python exception: ctypes prints it
+    and MuJoCo steps on.  The first is kept for :func:`raise_failure` (piezotip's own loop raises
+    it: a Ctrl-C that landed in the callback too); a plain loop sees it printed."""
+    if bound.error is None:
+        bound.error = err
+    raise err
+
+
+def raise_failure(data: mujoco.MjData, who: str) -> None:
+    """Raise, once, the exception a hook of ``data`` raised inside MuJoCo's step (RuntimeError
+    naming ``who`` and the exception, chained to it), if one did."""
+    bound = _bound(data._address)
+    if bound is not None and bound.error is not None:
+        err, bound.error = bound.error, None
+        if isinstance(err, KeyboardInterrupt):  # Ctrl-C (or SIGTERM, as piezotip raises it) in the callback
+            raise err
+        raise RuntimeError(f"{who}: the fingertips failed inside mj_step: {type(err).__name__}: {err}") from err
 
 
 #: The registered MjData by their mjData* address.
@@ -105,8 +127,11 @@ def _passive(model_address: int, data_address: int) -> None:
     bound = _bound(data_address)
     if bound is not None:
         data = bound.data()
-        for hook in bound.passive:
-            hook.passive(bound.model, data)
+        try:
+            for hook in bound.passive:
+                hook.passive(bound.model, data)
+        except BaseException as err:
+            _failed(bound, err)
 
 
 @_SENSOR_T
@@ -117,8 +142,11 @@ def _sensor(model_address: int, data_address: int, stage: int) -> None:
     bound = _bound(data_address)
     if bound is not None:
         data = bound.data()
-        for hook in bound.sensor:
-            hook.sensor(bound.model, data, stage)
+        try:
+            for hook in bound.sensor:
+                hook.sensor(bound.model, data, stage)
+        except BaseException as err:
+            _failed(bound, err)
 
 
 def _install(needs: tuple[str, ...] = CALLBACKS) -> None:

@@ -308,3 +308,48 @@ def test_the_readout_pass_refuses_what_it_cannot_read():
         readout.bind(np.zeros(4))
     readout.bind(np.zeros(6))
     readout.write()
+
+
+@pytest.mark.filterwarnings("ignore::pytest.PytestUnraisableExceptionWarning")
+def test_an_error_inside_mj_step_is_raised_by_the_fingertips_own_loop():
+    """MuJoCo's C cannot take a Python exception from its callback (ctypes prints it and steps
+    on): the fingertips keep it, and their own loop raises it, naming it, once."""
+    model, data, loop = bound()
+    hook = loop._hook
+    working = hook._pass
+
+    class Broken:
+        def sample(self, period_s):
+            raise ZeroDivisionError("a broken readout")
+
+        def write(self):
+            pass
+
+    hook._pass = Broken()
+    for _ in range(2 * hook.substeps):  # a plain loop: the callback's sample fails, printed
+        mujoco.mj_step(model, data)
+    with pytest.raises(RuntimeError, match="failed inside mj_step: ZeroDivisionError: a broken readout"):
+        loop.readings()
+    hook._pass = working
+    loop.step()  # taken: nothing pending
+    assert set(loop.readings()) == {"pressed", "free"}
+
+
+@pytest.mark.filterwarnings("ignore::pytest.PytestUnraisableExceptionWarning")
+def test_ctrl_c_inside_a_callback_reaches_the_fingertips_own_loop():
+    """A KeyboardInterrupt raised in the callback (Ctrl-C landing there) is printed and dropped by
+    ctypes inside ``mj_step``; the fingertips' own loop raises it as it ends its period."""
+    _, _, loop = bound()
+    hook = loop._hook
+    calls = []
+
+    def interrupted(model, data, stage):
+        if not calls:
+            calls.append(data.time)
+            raise KeyboardInterrupt
+
+    hook.sensor = interrupted
+    with pytest.raises(KeyboardInterrupt):
+        loop.step()
+    assert len(calls) == 1
+    loop.step()  # taken: nothing pending
