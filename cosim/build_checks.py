@@ -13,6 +13,7 @@ the command line and the sweeps refuse such a config before anything runs), and 
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 from typing import TYPE_CHECKING
 
@@ -33,7 +34,7 @@ def check_buildable(config: ScenarioConfig) -> ScenarioConfig:
     return config
 
 
-#: Per (sensor config, allowed modes, controller kind, whether it senses): None where the fingertip
+#: Per (sensor config but its noise seed, allowed modes, controller kind, whether it senses): None where the fingertip
 #: is one the run can build and its modes' ranges suit the controller, else why not (_check_fingertip).
 _FINGERTIPS: dict[tuple, str | None] = {}
 
@@ -48,7 +49,8 @@ def _check_fingertip(config: ScenarioConfig, senses: bool) -> None:
     Computed once per sensor configuration, with the selector's own ranges (cached on disk, so
     the run then finds them done); a ValueError naming the sensor's keys otherwise."""
     modes = tuple(sorted(config.controller.modes))
-    key = (config.sensor, modes, config.controller.kind, senses)
+    # The readout's noise seed builds no other fingertip (each Gym reset draws a new one): not a key.
+    key = (dataclasses.replace(config.sensor, seed=0), modes, config.controller.kind, senses)
     if key not in _FINGERTIPS:
         _FINGERTIPS[key] = _fingertip_problem(config, modes, senses)
     if _FINGERTIPS[key] is not None:

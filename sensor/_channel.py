@@ -32,6 +32,22 @@ _SETTLING, _SATURATED, _MODE_INVERSE = estimator._SETTLING, estimator._SATURATED
 #: What an estimate reads of a reading: its slots (compiled) or its attributes by name.
 _READING = ("mode", "v1", "iq")
 _READING_AT, _READING_GET = kh.slot_offsets(Reading, 3, _READING), attrgetter(*_READING)
+#: What a copy carries over of a core's state (the constructor's arguments rebuild the rest).
+_STATE = (
+    "mode",
+    "evaluations",
+    "envelope",
+    "time_in_mode_s",
+    "_noise",
+    "_clock_s",
+    "_dt_s",
+    "_inference",
+    "_inference_mode",
+    "_estimated_at",
+    "_last_estimate",
+    "_seed_a",
+    "_low_since_s",
+)
 
 
 class ChannelCore:
@@ -196,36 +212,10 @@ class ChannelCore:
         return reading, self.estimate(reading)
 
     def __reduce__(self):
-        state = (
-            self.mode,
-            self.evaluations,
-            self.envelope,
-            self.time_in_mode_s,
-            self._noise,
-            self._clock_s,
-            self._dt_s,
-            self._inference,
-            self._inference_mode,
-            self._estimated_at,
-            self._last_estimate,
-            self._seed_a,
-            self._low_since_s,
-        )
-        return type(self), (*self._args, self.mode, self.noise, self.rng), state
+        return type(self), (*self._args, self.mode, self.noise, self.rng), tuple([getattr(self, name) for name in _STATE])
 
     def __setstate__(self, state) -> None:
-        (
-            self.mode,
-            self.evaluations,
-            self.envelope,
-            self.time_in_mode_s,
-            self._noise,
-            self._clock_s,
-            self._dt_s,
-            self._inference,
-            self._inference_mode,
-            self._estimated_at,
-            self._last_estimate,
-            self._seed_a,
-            self._low_since_s,
-        ) = state
+        if len(state) != len(_STATE):
+            raise ValueError(f"a ChannelCore's state has {len(_STATE)} values, got {len(state)}")
+        for i in range(len(_STATE)):
+            setattr(self, _STATE[i], state[i])
