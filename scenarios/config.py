@@ -282,11 +282,12 @@ def unknown_key_message(config: ScenarioConfig, key: str) -> str:
     suggestions = close_keys(key, valid_keys(config))
     meant = f" (did you mean {' or '.join(suggestions)}?)" if suggestions else ""
 
-    def listed(what: str, keys: list[str], doc: str) -> str:
-        # the keys themselves when few, else how many and where they are documented
+    def listed(what: str, keys: list[str], cls: type) -> str:
+        # the keys themselves when few, else how many and where they are documented (the class's own module)
+        doc = f"{cls.__name__}'s docstring in {cls.__module__}"
         if len(keys) <= MAX_LISTED_KEYS:
-            return f"; {what}: {', '.join(keys)} (their units and ranges: {doc}'s docstring in scenarios/config.py)"
-        return f"; {what} ({len(keys)}), their units and ranges: {doc}'s docstring in scenarios/config.py"
+            return f"; {what}: {', '.join(keys)} (their units and ranges: {doc})"
+        return f"; {what} ({len(keys)}), their units and ranges: {doc}"
 
     if head == "controller" and name and "." not in name:
         from piezotip.cosim.control import registry as controllers
@@ -296,15 +297,15 @@ def unknown_key_message(config: ScenarioConfig, key: str) -> str:
         elsewhere = f" (the {', '.join(owners)} controller{'s have' if len(owners) > 1 else ' has'} it)" if owners else ""
         own = [f"controller.{k}" for k in valid_keys(c)]
         kind = type(c).__name__
-        return f"unknown key {_short(key)} for the {c.kind} controller ({kind}){elsewhere}{meant}{listed('its valid keys', own, kind)}"
+        return f"unknown key {_short(key)} for the {c.kind} controller ({kind}){elsewhere}{meant}{listed('its valid keys', own, type(c))}"
     part = getattr(config, head, None) if head in {f.name for f in dataclasses.fields(config)} else None
     if dataclasses.is_dataclass(part):
         own = [f"{head}.{k}" for k in valid_keys(part)]
-        return f"unknown key {_short(key)}{meant}{listed(f'the {head} keys', own, type(part).__name__)}"
+        return f"unknown key {_short(key)}{meant}{listed(f'the {head} keys', own, type(part))}"
     fields = dataclasses.fields(config)
     plain = [f.name for f in fields if not dataclasses.is_dataclass(getattr(config, f.name))]
     parts = [f"{f.name}.*" for f in fields if dataclasses.is_dataclass(getattr(config, f.name))]
     return (
         f"unknown key {_short(key)}{meant}; a key is one of {', '.join(plain)} or in {', '.join(parts)} "
-        f"(every key with its unit and range: the docstrings of {type(config).__name__} and its parts in scenarios/config.py)"
+        f"(every key with its unit and range: the docstrings of {type(config).__name__} and its parts, in {type(config).__module__})"
     )

@@ -54,7 +54,7 @@ def test_bad_input_is_one_line_naming_the_value(capsys, argv, words):
 @pytest.mark.parametrize(
     ("assignment", "words"),
     [
-        ("bogus.key=1", ["unknown key 'bogus.key'", "object.*", "scenarios/config.py"]),
+        ("bogus.key=1", ["unknown key 'bogus.key'", "object.*", "piezotip.cosim.config"]),
         ("controller.grip_safty=1.3", ["unknown key 'controller.grip_safty'", "did you mean controller.grip_safety?", "GentleConfig"]),
     ],
 )
