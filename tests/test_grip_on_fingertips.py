@@ -19,7 +19,7 @@ from test_third_party_grippers import ROBOSUITE, ROBOTIQ_2F85, SERVOS, SLIDE_GRI
 import piezotip
 from piezotip import scenarios
 from piezotip.cosim.control import Phase, phase_index
-from piezotip.cosim.control.gentle import FEEL_TOLERANCE
+from piezotip.cosim.control.gentle import CLOSING_GAIN, FEEL_TOLERANCE
 from piezotip.cosim.loop import CoSimulation
 
 #: Each finger slide's dry friction, N: robosuite's Panda and Rethink carry 1 N.
@@ -172,16 +172,108 @@ def test_the_pandas_grip_answers_a_load_change_on_its_fingertips():
 
 @pytest.mark.slow
 def test_a_friction_read_past_the_pads_highest_is_a_misread_said_and_read_again():
-    """Robotiq's 2F-85 reads light grips through its linkage up to 2x off: the probe read the
-    rubber ball's friction (1.2) past the pads' highest (1.5).  Taken as the cap, a misread
-    held Menagerie's 2F-85's box under its need; now each is an event, and the probe reads again."""
-    overrides = {**keys(_robotiq_2f85(), *ROBOTIQ_2F85), **_catalogue("rubber-ball-50g")}
+    """Robotiq's 2F-85 read the rubber ball's friction (1.2) past the pads' highest (1.5), its
+    drive reading the grip without what the load adds on the linkage's arc.  Taken as the cap, a
+    misread held Menagerie's 2F-85's box under its need; now each is an event, and the probe
+    reads again.  Since the friction read counts the load on the arc (gentle.py _load_closes_n)
+    it reads 1.07 there; the pads' highest set at 1.0 makes those reads the misreads here."""
+    overrides = {**keys(_robotiq_2f85(), *ROBOTIQ_2F85), **_catalogue("rubber-ball-50g"), "controller.friction_max": 1.0}
     result = piezotip.run("grasp", overrides=overrides, preset="fast")
     misreads = [e for e in result.events if e["kind"] == "friction_misread"]
     assert misreads and all("reading again" in e["message"] for e in misreads)
     assert result.outcome == "success", result.reason
-    assert 1.0 < result.grip_margin <= 1.6
+    assert 1.0 < result.grip_margin <= 2.5
     assert not math.isnan(result.summary["touch_peak_n"])
+
+
+@pytest.mark.slow
+def test_the_2f85s_friction_read_counts_the_load_on_its_arc_and_holds_menageries_box():
+    """Menagerie's 2F-85 on the 100 g box (friction 1.0): the drive read the grip 0.33 N where the
+    pads pressed 0.5-0.7 N (the box's weight pulls the pads down their arc, closing them: L dh/do,
+    the arc's slope 0.17 at 40 mm).  The friction read from it, 1.49 after two misreads, held the
+    box at 0.41 N of its 0.49 N: it slid 19 mm down the pads in the raise and landed at 0.10 m/s
+    (dropped).  Counted, the friction is read within the pads' highest and the box is carried."""
+    from test_third_party_grippers import menagerie_keys
+
+    result = piezotip.run("grasp", overrides=menagerie_keys("robotiq-2f85"), preset="fast")
+    assert result.outcome == "success", result.reason
+    assert not [e for e in result.events if e["kind"] == "friction_misread"]
+    assert result.grip_margin >= 1.0
+
+
+def test_the_load_closes_a_linkages_pads_by_its_arcs_slope_and_slides_not_at_all(controller):
+    """The grip the load L adds on the opening, L dh/do: 0 on slides; on the 2F-85 the slope of
+    the pads' rise along the free closing (0.17-0.19 at a 40 mm opening, steeper when open)."""
+    from types import SimpleNamespace
+
+    def opening(m: float):
+        return SimpleNamespace(opening_m=m)
+
+    assert controller._load_closes_n(opening(0.03), 1.0) == 0.0
+    robotiq = CoSimulation(scenarios.get("grasp", keys(_robotiq_2f85(), *ROBOTIQ_2F85), "fast")).controller
+    at_40mm = robotiq._load_closes_n(opening(0.040), 1.0)
+    assert 0.15 < at_40mm < 0.2
+    assert robotiq._load_closes_n(opening(0.040), 2.0) == pytest.approx(2.0 * at_40mm)
+    assert robotiq._load_closes_n(opening(0.060), 1.0) > at_40mm
+
+
+def test_a_rise_in_the_grip_wanted_is_paid_to_the_fingers_damping_for_a_period(controller):
+    """A grip wanted that rises past the felt (a load change's answer) closes the fingers at the
+    rise's rate: past the friction's band by c_j rise / (k dt) for that period (its impulse moves
+    damped fingers by rise / k), then no more; a grip already felt is not closed on."""
+    c, friction_n = controller, controller.robot.finger_friction_n
+    assert _drive(c, 0.1, 0.1, t=10.0)[0] == 0.1  # held
+    rise = 0.02
+    push = c.robot.finger_joint_damping_n_s_m * rise / (c.contact_stiffness_n_m * c.dt_s)
+    assert push > 0.0
+    closing = min(c._closing_drive_n(0.1 + rise, rise), c.cfg.grip_safety * (0.1 + rise) + friction_n)
+    limit_n, _ = _drive(c, 0.1, 0.1 + rise, t=10.005)
+    assert limit_n == pytest.approx(closing + push)
+    assert _drive(c, 0.1, 0.1 + rise, t=10.01)[0] == pytest.approx(closing)  # paid once
+    c._last_grip_n = 0.1  # a rise to a grip the fingertips already feel moves nothing
+    assert _drive(c, 0.125, 0.12, t=10.015)[0] == pytest.approx(max(0.12, 0.125 - friction_n))
+
+
+def test_the_shortfall_is_closed_through_the_fingers_damping_in_four_periods(controller):
+    """Damped fingers close at the force past the friction's band over their damping c_j: the
+    drive is grip + F_f + c_j off / (k 4 dt) (at least CLOSING_GAIN x off), no memory of the last."""
+    c = controller
+    tau_s = c.dt_s / CLOSING_GAIN
+    gain = max(CLOSING_GAIN, c.robot.finger_joint_damping_n_s_m / (c.contact_stiffness_n_m * tau_s))
+    friction_n = c.robot.finger_friction_n
+    assert c._closing_drive_n(0.1, 0.02) == pytest.approx(0.1 + friction_n + gain * 0.02)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("gripper", ["rethink", "panda"])
+def test_robosuites_grip_answers_a_load_change_in_time(gripper):
+    """``grasp-disturb`` on robosuite's slides (1 kg of armature, 100 N s/m of damping and 1 N of
+    dry friction a finger): the Rethink gripper dropped the box (51 mm; the pads' grip fell 0.67 ->
+    0.49 N while the drive rose to 1.84 N): the drive set the fingers closing by a quarter of the
+    shortfall past their friction, which their damping turned into 1 mm/s where the load used the
+    grip's margin in 15 ms; once the box slid, MuJoCo's sliding contact pushed the pads apart.
+    Closing at the rate the grip wanted rises (and the shortfall in four periods) it holds."""
+    file, tips, actuators = ROBOSUITE[gripper]
+    result = piezotip.run("grasp-disturb", overrides=keys(_robosuite_grippers() / file, tips, actuators), preset="fast")
+    s = result.summary
+    assert result.outcome == "success", result.reason
+    assert s["disturb_slip_mm"] <= 2.0
+    assert s["disturb_reaction_ms"] <= 40.0
+    assert s["disturb_grip_margin"] <= (1.5 if gripper == "rethink" else 1.7)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("gripper", ["dm_robotics", "menagerie"])
+def test_the_2f85s_grip_holds_through_a_load_change(gripper):
+    """``grasp-disturb`` on Robotiq's 2F-85 (no dry friction: the grip is the drive's): the box
+    slid 10 mm (dm_robotics') or fell (Menagerie's) under the weight again while the grip was held
+    from a friction read 1.1-1.5 for its 1.0; read with the load on the arc counted, it stays put."""
+    from test_third_party_grippers import menagerie_keys
+
+    overrides = keys(_robotiq_2f85(), *ROBOTIQ_2F85) if gripper == "dm_robotics" else menagerie_keys("robotiq-2f85")
+    result = piezotip.run("grasp-disturb", overrides=overrides, preset="fast")
+    assert result.outcome == "success", result.reason
+    assert result.summary["disturb_slip_mm"] <= 2.0
 
 
 def _catalogue(name: str) -> dict:

@@ -683,7 +683,9 @@ def test_robotiqs_falling_grip_reading_is_not_read_as_a_weight():
     overrides = keys(_robotiq_2f85(), *ROBOTIQ_2F85, **{"controller.kind": "gentle", **can})
     result = piezotip.run("grasp", overrides=overrides, preset="fast")
     assert result.outcome == "success", result.reason
-    assert result.grip_margin < 2.0
+    # 2.06x since the friction read counts the grip the load adds on the linkage's arc (gentle.py
+    # _load_closes_n; 1.0 read for its 1.1, where the drive's reading alone made it 1.3-1.5)
+    assert result.grip_margin < 2.5
 
 
 @pytest.mark.parametrize("kind", ["multimode", "gentle"])

@@ -42,7 +42,8 @@ The grip the probe reads is the drive's (the house gripper's finger servo reads 
 exactly); where the drive's joints carry dry friction, which takes up to that friction of the
 drive's force either way once the fingers stand still (robosuite's Panda and Rethink grippers:
 1 N a finger), the fingertips' readings are blended in by the inverse of the two variances
-(:func:`grip_read_n`): the pads' pressure times their area is the grip, to the readout's sigma.
+(:func:`grip_read_n`): the pads' pressure times their area is the grip, to the readout's sigma
+(tests/test_third_party_grippers.py::test_the_gentle_probe_reads_the_pandas_grip_on_its_fingertips).
 
 On such a drive the grip, once the object is carried, is closed on the fingertips
 (:meth:`GentleGrasp._drive_for_grip`): the felt grip held at the grip wanted by setting the
@@ -82,9 +83,10 @@ PACE_TOLERANCE = 0.1
 #: section 5's criterion) and room for the fingers' momentum as a pull stops: a grip held at
 #: grip_safety (1.25) x the need stays within 1.44x of it.
 FEEL_TOLERANCE = 0.15
-#: The share of the grip's shortfall a drive with dry friction closes on by each period, -: a
+#: The share of the grip's shortfall a drive with dry friction closes in each period, -: a
 #: quarter, so that the contact catches up within four periods (20 ms at 5 ms: a load change's
-#: answer) and the period or two the fingertips' reading lags adds at most half the shortfall.
+#: answer) and the period or two the fingertips' reading lags adds at most half the shortfall
+#: (GentleGrasp._closing_drive_n: through the fingers' damping, at the speed that does so).
 CLOSING_GAIN = 0.25
 #: The default touch bound in grip floors (``controller.touch_force_n`` None): the touch may add
 #: twice the gentlest grip the fingertip measures to the floor at which it is detected.
@@ -240,7 +242,7 @@ def grip_read_n(drive_n: float, drive_error_n: float, felt_n: float | None, felt
 @register("gentle", config=GentleConfig, experiment=True, senses=True)
 class GentleGrasp(MultimodeGrasp):
     """The multimode controller with the friction probe (the module docstring): the same
-    parameters, and the probe's (:class:`~scenarios.config.GentleConfig`: ``friction_max`` and
+    parameters, and the probe's (:class:`~piezotip.cosim.control.config.GentleConfig`: ``friction_max`` and
     ``probe_speed_m_s``).  Built as the multimode one is (its self-test first)."""
 
     shut_check_in_transfer = True
@@ -393,18 +395,18 @@ class GentleGrasp(MultimodeGrasp):
         While the target brakes, it leads the fingers by no more than what their servo needs at
         its speed (the lead per newton of drive force seen while the fingers cruised at the top
         pace, times the force their damping and dry friction need at the target's speed): a soft
-        servo's fingers close on at the lead they had at the top pace after the target has slowed
-        (robosuite's Panda, 7 mm behind its target at 50 mm/s, met the box at 24 mm/s, not at its
-        touch speed).  Inside the band the target runs free, so that a contact that stops the
+        servo's fingers close on at the lead they had at the top pace after the target has slowed,
+        far faster than the touch speed
+        (tests/test_gentle_touch.py::test_a_soft_servos_fingers_meet_the_object_at_the_touch_speed).
+        Inside the band the target runs free, so that a contact that stops the
         fingers raises the drive's force (:meth:`_joint_touch`)."""
         c, robot = self.cfg, self.robot
         top, accel = c.closing_speed_m_s, self.finger_accel_m_s2
         moved = (self._last_opening_m - obs.opening_m) / dt_s if math.isfinite(self._last_opening_m) else 0.0
         # The fingers' speed-up presses each pad's gel on its element with rho h0 a (a gel pulled
         # away presses nothing): the touch detector gets it back, so that a speed-up longer than
-        # the CUSUM's allowance lasts is not a touch (at the fast preset's steady readout, 1.5
-        # sigma a reading at 0.21 m/s^2 alarmed 0.14 s into the speed-up to 50 mm/s, and closing
-        # on sped up again into the next alarm: it never reached the object).
+        # the CUSUM's allowance lasts is not a touch: tests/test_gentle_touch.py::
+        # test_the_fingers_speed_up_is_not_a_touch_at_the_fast_presets_steady_readout.
         sped_up_m_s2 = (moved - self._moved_m_s) / dt_s
         self._pad_inertia_v1 = self._v1_per_pa * robot.pad_areal_mass_kg_m2 * max(sped_up_m_s2, 0.0)
         self._moved_m_s = moved
@@ -427,9 +429,10 @@ class GentleGrasp(MultimodeGrasp):
         only their target, at a steady pace) have closed at it (within PACE_TOLERANCE) with the force
         changing by less than the grip floor a period for a plateau window; a rise over it by
         more than the grip floor is a contact.  A plateau window, not one quiet period: at the
-        touch speed a friction drive's force creeps by a grip floor over tens of milliseconds
-        (robosuite's Rethink gripper, learned on its first quiet period, felt a "contact" 1.2 mm
-        wide of the box), and a soft servo's fingers are still slowing from the top pace when
+        touch speed a friction drive's force creeps by a grip floor over tens of milliseconds,
+        which learned on the first quiet period is felt as a contact wide of the object
+        (tests/test_gentle_touch.py::test_the_joints_learn_the_free_force_over_a_plateau_window),
+        and a soft servo's fingers are still slowing from the top pace when
         their target has reached the touch speed."""
         last, self._last_drive_n = self._last_drive_n, drive_n
         at_pace = self._steady and abs(self._moved_m_s - self._pace_m_s) <= PACE_TOLERANCE * self._pace_m_s
@@ -448,8 +451,9 @@ class GentleGrasp(MultimodeGrasp):
     def _grip_felt_n(self, obs: Observation) -> float:
         """The grip the probe reads, N per finger (:func:`grip_read_n`): the drive's, within its
         joints' dry friction F_f (``RobotLimits.finger_friction_n``: standing still, the friction
-        takes up to F_f of the drive's force either way, and robosuite's Panda carries 1 N a
-        finger where a 4 g raspberry needs 22 mN), and the fingertips' (each pad's trusted "ok"
+        takes up to F_f of the drive's force either way, far more than a light object's grip:
+        tests/test_third_party_grippers.py::test_the_gentle_probe_reads_the_pandas_grip_on_its_fingertips),
+        and the fingertips' (each pad's trusted "ok"
         estimate times the pad's area, a full-face contact, within its readout's sigma; their
         mean).  A drive without friction is read alone: the house gripper's, exactly."""
         friction_n = self.robot.finger_friction_n
@@ -457,6 +461,23 @@ class GentleGrasp(MultimodeGrasp):
         if felt is None:
             return obs.grip_force_n
         return grip_read_n(obs.grip_force_n, friction_n, *felt)
+
+    def _load_closes_n(self, obs: Observation, load_n: float) -> float:
+        """The grip the load the pads carry adds to the drive's on a linkage whose pads rise as
+        they open, N on the opening: the lift's load L (``load_n``: the pads' share of the object's
+        weight, pulling them down their arc) times the arc's slope dh/do at the fingers' opening
+        (``RobotLimits.pad_rise_m``: its virtual work, L dh/do, as the drive's G do).  None on
+        slides.  Without it a linkage's friction reads high by the share the load closes, and the
+        hold falls under the need (tests/test_grip_on_fingertips.py::
+        test_the_2f85s_friction_read_counts_the_load_on_its_arc_and_holds_menageries_box)."""
+        openings = self.robot.pad_rise_m[0]
+        if not openings:
+            return 0.0
+        opening_m = obs.opening_m
+        step_m = 0.5 * (openings[-1] - openings[0]) / max(len(openings) - 1, 1)
+        rise = self.robot.pads_height_m
+        slope = (rise(0.0, opening_m + step_m) - rise(0.0, opening_m - step_m)) / (2.0 * step_m)
+        return load_n * slope
 
     def _fingertips_grip_n(self) -> tuple[float, float] | None:
         """The grip the fingertips read, N per finger, and its sigma: each pad's trusted "ok"
@@ -527,14 +548,15 @@ class GentleGrasp(MultimodeGrasp):
         if elasticity >= 0.5:
             # The load grew with the grip: the pads slide at their friction limit, 2 mu G.  The
             # load is the lift servo's force less the gripper's inertia (RobotLimits.lift_load_n),
-            # so a sliding load reaches it without lag.  (A factor e^(-r kv/kp) for the servo's lag
-            # was divided out here while the hard pad contacts stuck and slipped: it made up for
-            # their 10-15 % lower mean friction, and read the smooth slide 9-18 % high.)
+            # so a sliding load reaches it without lag, and no lag is divided out of it: the
+            # friction read is the object's (tests/test_grip_economy.py::
+            # test_the_probe_says_carried_only_of_an_object_off_the_table, within 15 %).
             # Past the highest friction the pads can have, the reading is the grip's error, not
             # the object's (a mounted drive reads light grips through its levers, up to 2x off):
-            # a misread, said so, and read again over the next span, at a grip grown by it (the
-            # cap taken for the friction held Menagerie's 2F-85's box at 0.41 N of its 0.49: dropped).
-            read = load_n / (2.0 * grip_n)
+            # a misread, said so, and read again over the next span, at a grip grown by it; the
+            # cap taken for the friction would hold the object under its need
+            # (tests/test_grip_on_fingertips.py::test_a_friction_read_past_the_pads_highest_is_a_misread_said_and_read_again).
+            read = load_n / (2.0 * (grip_n + self._load_closes_n(obs, load_n)))
             if read > c.friction_max:
                 self._event(
                     t,
@@ -551,7 +573,8 @@ class GentleGrasp(MultimodeGrasp):
             # and the friction follows the touches, not the drive).  Still sliding.
             return
         # The weight is the load found steady, the last third's: the plateau window can still
-        # hold the stick-slip before it (the Panda's 270 g jar read 2.14 N of its 2.65 N there).
+        # hold the stick-slip before it, and read the weight low (tests/test_third_party_grippers.py::
+        # test_the_gentle_probe_reads_the_pandas_contact_creeping_down_from_the_touch[glass-jar-300g-0.27]).
         self._carry(obs, t, sum(last) / len(last), carried_from_n, grip_n)
 
     def _carry(self, obs: Observation, t: float, weight_n: float, carried_from_n: float, carried_mean_n: float) -> None:
@@ -564,21 +587,23 @@ class GentleGrasp(MultimodeGrasp):
         likewise).
 
         Fingers that coast past a control period (:attr:`brakes`) are brought down to that grip
-        at ``grip_rate_n_s`` over the raise (:meth:`_raise`), not in one step: the 2F-85's,
-        dropped from 22 to 5 N at once, sprang 3.8 mm open on their 0.74 kg and let a 270 g jar
-        fall back to the table."""
+        at ``grip_rate_n_s`` over the raise (:meth:`_raise`), not in one step: dropped at once,
+        their mass springs them open and the object falls back to the table
+        (tests/test_third_party_grippers.py::test_robotiqs_gentle_grip_holds_through_the_raise[glass-jar-270g])."""
         c = self.cfg
         if not self._slid:
-            self.friction = min(weight_n / (2.0 * carried_from_n), c.friction_max)
+            self.friction = min(weight_n / (2.0 * (carried_from_n + self._load_closes_n(obs, weight_n))), c.friction_max)
         held_n = max(self.grip_floor_n, c.grip_safety * weight_n / (2.0 * self.friction))
         if self._slid and held_n > self.grip_cap_n:
             # Before giving up for a grip past the cap: carried over the span, the friction is at
             # least load / 2 G at its mean grip, which the one measured while the pads slid must
-            # meet (their stick-slip reads it low: the Panda's 2.2 kg block, friction 0.9, slid
-            # at a measured 0.50, and the grip asked was past the rating).  Only then: a bound
-            # on a light grip is only as good as the drive's reading of it (the 2F-85's reads
-            # 0.012 N of a 0.02 N grip on the paper ball, and the bound made its 0.5 a 0.65).
-            self.friction = max(self.friction, min(weight_n / (2.0 * carried_mean_n), c.friction_max))
+            # meet (their stick-slip reads it low, and asks a grip past the rating:
+            # tests/test_third_party_grippers.py::test_the_probes_friction_is_at_least_what_carried_the_object).
+            # Only then: a bound on a light grip is only as good as the drive's reading of it,
+            # which a linkage reads low (tests/test_grip_economy.py::
+            # test_the_friction_bound_from_the_carried_grip_applies_only_past_the_cap).
+            closes_n = self._load_closes_n(obs, weight_n)
+            self.friction = max(self.friction, min(weight_n / (2.0 * (carried_mean_n + closes_n)), c.friction_max))
             held_n = max(self.grip_floor_n, c.grip_safety * weight_n / (2.0 * self.friction))
         if self._over_cap(t, held_n, weight_n, carried=True):
             return
@@ -599,13 +624,16 @@ class GentleGrasp(MultimodeGrasp):
 
         Standing still, such fingers press the object with anything within F_f of their drive's
         force: the contact the touch or the probe left stays where it is when the command falls
-        (robosuite's Panda held a 1 g box at 12.8x its need, the touch's 0.1 N, where its command
-        was 8 mN), and a command that rises by less than F_f moves nothing (a load change's
-        answer did not reach the Panda's or the Rethink's box: dropped).  So, where the felt grip
+        (tests/test_grip_on_fingertips.py::test_the_pandas_light_box_is_held_on_its_fingertips_not_at_the_touchs_leftover),
+        and a command that rises by less than F_f moves nothing, so a load change's answer would
+        not reach the pads (tests/test_grip_on_fingertips.py::test_the_pandas_grip_answers_a_load_change_on_its_fingertips).
+        So, where the felt grip
         is off the grip by more than its tolerance (2 sigma, and FEEL_TOLERANCE of the grip), the
         drive is set to move the fingers from the friction band's edge on their way: too light,
-        from felt + F_f on by CLOSING_GAIN of the shortfall a period (the contact catches up in
-        about four periods); too hard for ``persist`` readings, from felt - F_f (a negative force
+        past grip + F_f by the damping's force at the speed that closes the shortfall in four
+        periods (:meth:`_closing_drive_n`), and by the damping's impulse that raises the contact by
+        the grip's own rise (:meth:`_rise_push_n`: a load change's answer); too hard for
+        ``persist`` readings, from felt - F_f (a negative force
         pulls open: the opening target at home, the limit its size) on by the excess over a
         plateau window a period, so that the fingers ease the contact down about as fast as the
         fingertips see it; within the tolerance it is held at
@@ -613,17 +641,20 @@ class GentleGrasp(MultimodeGrasp):
         fingertips' slip watch waits while the drive pulls the pressure down."""
         if self.phase is Phase.PLACE:
             # Placing, the table takes the weight and the pads' pressure falls (read as a slip,
-            # whose raise must not reach the pads: it pressed the 60 g egg to 2.8 N as it landed).
+            # whose raise must not reach the pads: it would press the object as it lands;
+            # tests/test_grip_on_fingertips.py::test_placing_the_falling_pressure_is_not_closed_on).
             return grip_n, self.opening_target
         if grip_n > self._last_grip_n:  # raised (a slip's or a load change's answer): no pull for a while
             self._grip_rose_s = t
+        push_n, paid_n = self._rise_push_n(grip_n - self._last_grip_n), 0.0
         self._last_grip_n = grip_n
         felt = self._fingertips_grip_n()
         drive_n = grip_n if math.isnan(self._drive_n) else self._drive_n
         # The fingers are still where the last period left them (within a tenth of the touch
         # speed): a correction starts only then, as the friction's band is the one of fingers at
-        # rest (moving, the friction pushes with the drive the other way: a close started while
-        # a pull still opened the fingers snapped them shut, past the grip, and back again).
+        # rest (moving, the friction pushes with the drive the other way, and a close started
+        # while a pull still opens the fingers snaps them shut past the grip:
+        # tests/test_grip_on_fingertips.py::test_fingers_still_opening_are_held_not_closed_on_at_once).
         still = abs(obs.opening_m - self._held_opening_m) <= 0.1 * self.touch_speed_m_s * self.dt_s
         self._held_opening_m = obs.opening_m
         if felt is not None:
@@ -633,48 +664,85 @@ class GentleGrasp(MultimodeGrasp):
             # much under it, a margin over it for the fingers' momentum as a pull stops
             below, above = max(2.0 * sigma_n, 0.5 * FEEL_TOLERANCE * grip_n), max(2.0 * sigma_n, FEEL_TOLERANCE * grip_n)
             way = 1 if off_n > below else -1 if -off_n > above else 0
+            if way == 0 and push_n > 0.0 and off_n > 0.0:
+                way = 1  # the grip wanted rose past the felt (a load change's or a slip's answer): closed on at its rate
             self._over_periods = self._over_periods + 1 if way < 0 else 0
             if way == 0 or (way != self._moved_dir and not still):
                 # Held at the grip: in the middle of the friction's band about a contact there, and
                 # where the contact is near it the fingers creep to it (MuJoCo's dry friction is a
                 # soft constraint; held at the felt grip instead, a contact the element reads high,
-                # a sphere's, crept on closing into an ever higher reading: 8 N on a 2 g sphere).
+                # a sphere's, creeps on closing into an ever higher reading:
+                # tests/test_grip_on_fingertips.py::test_a_light_object_on_a_friction_drive_is_held_near_its_need[sphere-2g]).
                 # Moving the other way, friction brakes the fingers first.
                 # Never under the band's near edge about the contact felt, F_f under it: there the
                 # drive would throw the fingers open by the whole excess at once, not hold them.
                 # The probe leaves the contact up to twice the grip wanted (its last plateau window's
-                # growth and the grip that holds, grip_safety each): the Panda's jar, dropped from
-                # 9.3 to 5.2 N in one period as the raise began, opened its pads from 8.2 to 5.9 N in
-                # 50 ms and rocked between them off its pads.  At the edge the contact creeps down
+                # growth and the grip that holds, grip_safety each), and dropped to the grip in one
+                # period it throws the pads open and the object rocks off them
+                # (tests/test_grip_on_fingertips.py::test_a_grip_felt_far_over_is_held_at_the_friction_bands_near_edge).
+                # At the edge the contact creeps down
                 # toward the grip as the fingers are still (the soft friction above), or the pull
                 # below takes it down at its pace.
                 drive_n, self._moved_dir = max(grip_n, felt_n - self._friction_n), 0
                 if drive_n > grip_n and self._over_periods >= self.cfg.persist:
                     self._ease_down(t)
             elif way > 0:
-                # Too light: from the friction band's far edge, on by CLOSING_GAIN of the shortfall
-                # a period (a load change's answer cannot wait a plateau window).
+                # Too light (or the grip wanted rose past the felt): past the friction band's far
+                # edge at the speed that closes the shortfall in four periods (a load change's
+                # answer cannot wait a plateau window).
                 # At most what presses the contact to grip_safety x the grip once the fingers move
                 # (past the friction they close against): a contact beside the element's coverage
-                # reads low however hard it is pressed (a 2 g sphere on a slide gripper's narrow
-                # tips read 93 Pa while the drive, closing on it to make it read more, pressed 8 N).
+                # reads low however hard it is pressed, and closing on to make it read more would
+                # run away (tests/test_grip_on_fingertips.py::test_a_grip_felt_too_light_closes_the_fingers_past_their_friction_at_once).
                 most_n = self.cfg.grip_safety * grip_n + self._friction_n
-                drive_n = min(max(drive_n, grip_n + self._friction_n) + CLOSING_GAIN * off_n, most_n)
-                self._moved_dir = 1
+                drive_n = min(self._closing_drive_n(grip_n, off_n), most_n)
+                self._moved_dir, paid_n = 1, push_n
             elif self._over_periods >= self.cfg.persist and t - self._grip_rose_s >= 6.0 * self.cfg.load_filter_s:
                 # Too hard for ``persist`` readings (sliding pads' chatter reads high one period
                 # and low the next): pulled open from the band's near edge on by the excess over
                 # a plateau window a period, gently, so that the fingers' momentum does not open
-                # them past the grip (the Panda's 0.56 kg on the opening let go of a 1 g box).
+                # them past the grip and let go of a light object (tests/test_grip_on_fingertips.py::
+                # test_a_grip_felt_too_hard_is_eased_down_by_pulling_open_only_after_it_persists,
+                # ::test_the_pandas_light_box_is_held_on_its_fingertips_not_at_the_touchs_leftover).
                 if self._moved_dir >= 0:
                     drive_n = max(grip_n, felt_n - self._friction_n)  # from the band's near edge (held above)
                 drive_n -= 0.25 * FEEL_TOLERANCE * grip_n
                 self._moved_dir = -1
                 self._ease_down(t)
         self._drive_n = drive_n = min(self.grip_cap_n, max(-self.robot.finger_force_limit_n, drive_n))
+        # closing on, the grip's rise paid to the fingers' damping, this period only (not kept in the drive)
+        drive_n = min(self.grip_cap_n, drive_n + paid_n)
         if drive_n >= 0.0:
             return drive_n, self.opening_target
         return -drive_n, self.robot.home_opening_m
+
+    def _closing_drive_n(self, grip_n: float, off_n: float) -> float:
+        """The drive's force that closes fingers whose felt grip is ``off_n`` under ``grip_n``, N:
+        past the friction's far edge (grip + F_f) by what the fingers' joint damping c_j (on the
+        opening) takes at the speed that presses the pads' contact stiffness k by the shortfall
+        in dt / CLOSING_GAIN (four periods), c_j off / (k dt / CLOSING_GAIN), or by CLOSING_GAIN of
+        the shortfall where that is more (fingers with little damping).  Damped fingers move at
+        the force past the band over c_j: a share of the shortfall alone, added a period at a time,
+        closed robosuite's (50 N s/m on the opening, 480-768 N/m of pads) at about 1 mm/s, ten
+        times too slowly, and wound up to the cap past the grip meanwhile (a proportional answer
+        now: no memory of the drive's last force)."""
+        tau_s = self.dt_s / CLOSING_GAIN
+        gain = max(CLOSING_GAIN, self.robot.finger_joint_damping_n_s_m / (self.contact_stiffness_n_m * tau_s))
+        return grip_n + self._friction_n + gain * off_n
+
+    def _rise_push_n(self, rise_n: float) -> float:
+        """What the drive adds, for one period, to raise the felt grip by ``rise_n`` (N; none for a
+        fall) where the fingers close into the pads, N: their joints' damping c_j (on the opening,
+        outside the drive's force limit) times the closing speed that presses the pads' contact
+        stiffness k by the rise within the period, c_j rise / (k dt).  Its impulse, c_j rise / k,
+        moves damped fingers by rise / k from rest to rest whatever their mass.  Without it the
+        force past the friction's band was the shortfall's share alone, which the damping turns
+        into a speed k / c_j times slower than the load it answers (heavily damped fingers then
+        lose a load change's race: tests/test_grip_on_fingertips.py::
+        test_robosuites_grip_answers_a_load_change_in_time)."""
+        if not rise_n > 0.0 or not math.isfinite(rise_n):
+            return 0.0
+        return self.robot.finger_joint_damping_n_s_m * rise_n / (self.contact_stiffness_n_m * self.dt_s)
 
     def _ease_down(self, t: float) -> None:
         """The drive takes the contact down toward the grip wanted: a pressure pulled down is no
@@ -718,9 +786,9 @@ class GentleGrasp(MultimodeGrasp):
         the grip's margin, grown past the held weight by sqrt(grip_safety), is followed: safety
         x load / 2 mu at the probe's friction, never down.  Elsewhere not: while the lift moves,
         brakes and settles its load is the gripper's inertia as much as the object's weight.
-        Without it an extra load along the pads (``grasp-disturb``: the box's weight again)
-        leaves their pressure as it was, and the box slid out before the lift's slip check
-        answered."""
+        Without it an extra load along the pads leaves their pressure as it was, and the object
+        slides out before the lift's slip check answers (tests/test_disturb.py::
+        test_the_box_is_held_through_the_load_change[gentle], ::test_the_issues_goals_for_the_answer[gentle-slip])."""
         lift = self.lift
         if self.phase is not Phase.HOLD or t - self._t_phase < 6.0 * self.cfg.load_filter_s:
             return

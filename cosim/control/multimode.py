@@ -348,8 +348,6 @@ class MultimodeGrasp:
             # them it is left alone, as slides never feel it.  Once carried: the probe's lift
             # barely accelerates, and its grip is what the probe reads the friction by.
             grip_n += max(0.0, self.robot.lift_opens_n(obs.opening_m, lift.measured_accel_m_s2))
-        if self.phase is Phase.HOLD and hasattr(self, "_load_closes_n"):
-            grip_n = max(self.grip_floor_n, grip_n - self._load_closes_n(obs.opening_m, min(lift.load_n, lift.held_load_n)))
         if self.grips_on_fingertips and self.raising and self.phase in _CARRYING:
             # The grip closed on what the fingertips feel (gentle.py): the drive's force and its
             # direction that bring the pads' grip to grip_n.
