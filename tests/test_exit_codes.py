@@ -316,7 +316,7 @@ def test_the_fingertip_check_is_computed_once_per_sensor():
         ("piezotip", "piezotip"),
         (r"C:\venv\Scripts\piezotip.exe", "piezotip"),  # the console script on Windows
         ("run_sim.py", "run_sim.py"),
-        ("/work/piezotip/cli.py", "run_sim.py"),  # python -m piezotip.cli
+        ("/work/piezotip/cli/__main__.py", "run_sim.py"),  # python -m piezotip.cli
         ("", "run_sim.py"),
     ],
 )

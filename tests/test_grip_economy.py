@@ -11,7 +11,7 @@ import pytest
 
 from piezotip import api, scenarios
 from piezotip.analysis.referee import judge
-from piezotip.cosim.control.gentle import carried_nothing_at_first, grip_read_n, load_is_steady, probe_verdict
+from piezotip.cosim.control.gentle import carried_nothing_at_first, grip_read_n, lifted_off_friction, load_is_steady, probe_verdict
 from piezotip.cosim.loop import CoSimulation
 
 SAFETY = 1.25
@@ -180,6 +180,25 @@ def test_the_friction_bound_from_the_carried_grip_applies_only_past_the_cap():
     weight_n = heavy.grip_cap_n  # asks 1.25 x the cap at 0.5
     heavy._carry(obs, 5.0, weight_n, 0.5 * weight_n, weight_n / 1.5)  # carried at a mean grip of W / 1.5: at least 0.75
     assert heavy.friction == pytest.approx(0.75) and any(e.kind == "carried" for e in heavy.events)
+
+
+def test_the_friction_read_over_the_lift_off_is_a_lower_bound():
+    """The span a carried verdict follows is the one the object left the table in: its load
+    stopped at the weight while the grip grew on, so its load / 2 G is under the friction (a
+    bound, by Coulomb's law), and the span before it, which slid all through, stands where it
+    read more.  Never more than the larger of the two: a slide further back, at a lighter grip,
+    is read least surely, and the last read stands where it is the larger."""
+    from types import SimpleNamespace
+
+    assert lifted_off_friction(0.80, 0.99) == 0.99  # robosuite's Panda on the 100 g box: 0.80 read over the lift-off
+    assert lifted_off_friction(1.01, 0.97) == 1.01
+    assert lifted_off_friction(0.6, 0.0) == 0.6  # one slide only
+    obs = SimpleNamespace(time_s=5.0, lift_pos_m=0.05)
+    c = CoSimulation(scenarios.get("grasp")).controller
+    c._slid, c.friction, c._read_before = True, 0.80, 0.99
+    c._carry(obs, 5.0, 0.981, 0.3, 0.4)
+    assert c.friction == 0.99 and c._grip_goal_n == pytest.approx(SAFETY * 0.981 / (2 * 0.99))
+    assert "friction 0.99 measured while the pads slid" in c.events[-1].message
 
 
 def test_a_friction_read_above_the_pads_highest_is_a_misread_said_and_read_again():

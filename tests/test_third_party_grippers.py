@@ -582,14 +582,22 @@ def test_the_gentle_probe_reads_the_pandas_contact_creeping_down_from_the_touch(
     assert weight_n == pytest.approx(obj["object.mass_kg"] * 9.81, rel=0.05)
 
 
-def test_the_gentle_probe_reads_the_pandas_grip_on_its_fingertips():
+@pytest.mark.parametrize("mass_kg", [0.1, 0.03])
+def test_the_gentle_probe_reads_the_pandas_grip_on_its_fingertips(mass_kg):
     """The Panda's slides carry 1 N of dry friction a finger: its drive's reading of a light grip
     is off by up to that, and the probe held the 100 g box at 4.6x its need reading it.  Read
-    with the fingertips, blended by the two variances, under 2.5x."""
+    with the fingertips, blended by the two variances, the slides read the box's friction (1) at
+    0.97-1.01; the last one, the span the box left the table in, read 0.80 (0.56 at 30 g), and
+    taken for the friction it held them at 1.88x and 2.23x.  That read is a lower bound
+    (gentle.lifted_off_friction): within 10 % of the friction, within 1.5x of the need (1.29x,
+    1.39x)."""
     file, tips, actuators = ROBOSUITE["panda"]
-    result = piezotip.run("grasp", overrides=keys(_robosuite_grippers() / file, tips, actuators), preset="fast")
+    overrides = keys(_robosuite_grippers() / file, tips, actuators, **{"object.mass_kg": mass_kg})
+    result = piezotip.run("grasp", overrides=overrides, preset="fast")
     assert_carried_and_felt(result)
-    assert result.grip_margin < 2.5
+    carried = next(e["message"] for e in result.events if e["kind"] == "carried")
+    assert float(re.search(r"friction ([0-9.e+-]+) measured while the pads slid", carried).group(1)) == pytest.approx(1.0, rel=0.1)
+    assert result.grip_margin <= 1.5
 
 
 @pytest.mark.parametrize("gripper", sorted(ROBOSUITE))

@@ -670,6 +670,3 @@ def _write_traceback(text: str, out: str | None) -> Path | None:
             continue
     return None
 
-
-if __name__ == "__main__":
-    sys.exit(main())
