@@ -183,19 +183,26 @@ def test_the_friction_bound_from_the_carried_grip_applies_only_past_the_cap():
 
 
 def test_the_friction_read_over_the_lift_off_is_a_lower_bound():
-    """The span a carried verdict follows is the one the object left the table in: its load
-    stopped at the weight while the grip grew on, so its load / 2 G is under the friction (a
-    bound, by Coulomb's law), and the span before it, which slid all through, stands where it
-    read more.  Never more than the larger of the two: a slide further back, at a lighter grip,
-    is read least surely, and the last read stands where it is the larger."""
+    """A span whose load reached the weight carried the object over part of it: its load stopped
+    at the weight while the grip grew on, so its load / 2 G is under the friction (a bound, by
+    Coulomb's law).  The last span before the carried verdict is one whatever its load read;
+    the object is carried at the largest read back to the last span before it whose load stayed
+    under the weight, never one from before that, where a lighter grip is read less surely."""
     from types import SimpleNamespace
 
-    assert lifted_off_friction(0.80, 0.99) == 0.99  # robosuite's Panda on the 100 g box: 0.80 read over the lift-off
-    assert lifted_off_friction(1.01, 0.97) == 1.01
-    assert lifted_off_friction(0.6, 0.0) == 0.6  # one slide only
+    weight_n, fraction = 0.981, 0.006
+    # robosuite's Panda on the 100 g box: 0.80 read over the lift-off, 0.99 before it
+    assert lifted_off_friction([(1.2, 0.3), (0.99, 0.9), (0.80, 0.985)], weight_n, fraction) == 0.99
+    # dm_robotics' 2F-85 on the box: the stick-slip's peaks reached the weight a span before the lift-off's
+    assert lifted_off_friction([(1.2, 0.2), (0.97, 0.5), (0.86, 0.81), (0.84, 0.99), (0.60, 0.98)], weight_n, fraction) == 0.86
+    assert lifted_off_friction([(1.2, 0.2), (0.97, 0.5), (0.86, 0.99), (0.84, 0.99), (0.60, 0.98)], weight_n, fraction) == 0.97
+    assert lifted_off_friction([(0.9, 0.5), (1.01, 0.985)], weight_n, fraction) == 1.01  # the last read stands where it is the larger
+    assert lifted_off_friction([(0.6, 0.98)], weight_n, fraction) == 0.6  # one slide only
+    # the last is a bound whatever its highest load read (the verdict found the object off the table after it)
+    assert lifted_off_friction([(1.1, 0.3), (0.9, 0.5), (0.8, 0.9), (0.7, 0.9)], weight_n, fraction) == 0.8
     obs = SimpleNamespace(time_s=5.0, lift_pos_m=0.05)
     c = CoSimulation(scenarios.get("grasp")).controller
-    c._slid, c.friction, c._read_before = True, 0.80, 0.99
+    c._slid, c.friction, c._slides = True, 0.80, [(0.99, 0.5), (0.80, 0.981)]
     c._carry(obs, 5.0, 0.981, 0.3, 0.4)
     assert c.friction == 0.99 and c._grip_goal_n == pytest.approx(SAFETY * 0.981 / (2 * 0.99))
     assert "friction 0.99 measured while the pads slid" in c.events[-1].message
