@@ -274,3 +274,43 @@ def test_the_gentle_grasp_holds_the_catalogue_gentler_than_the_multimode_one():
     gentle = api.run("grasp", overrides={"controller.kind": "gentle"}, plot=False).summary
     assert multimode["success"] and gentle["success"]
     assert gentle["grip_margin"] <= 1.5 < multimode["grip_margin"]
+
+
+def _unnamed_objects(seed: int, n: int) -> list[dict]:
+    """``n`` objects no test names, drawn from ``seed``: 1.5 g to 2 kg (log-uniform), four
+    shapes, friction 0.4-1.3, 20-70 mm, each crushing at 0.03 N or more and at 1.6-6x the least
+    grip that holds it (feasible with the hold's 1.25x and its sigma)."""
+    import numpy as np
+
+    rng = np.random.default_rng(seed)
+    out = []
+    for _ in range(n):
+        shape = str(rng.choice(["box", "cylinder", "sphere", "egg"]))
+        mass_kg = float(np.exp(rng.uniform(np.log(0.0015), np.log(2.0))))
+        friction, size_m = float(rng.uniform(0.4, 1.3)), float(rng.uniform(0.02, 0.07))
+        need_n = mass_kg * 9.81 / (2.0 * friction)
+        crush_n = max(0.03, need_n * float(rng.uniform(1.6, 6.0)))
+        out.append(
+            {
+                "object.shape": shape,
+                "object.mass_kg": mass_kg,
+                "object.friction": friction,
+                "object.size_m": size_m,
+                "object.crush_force_n": crush_n,
+            }
+        )
+    return out
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("obj", _unnamed_objects(2026, 12), ids=lambda o: f"{o['object.shape']}-{1e3 * o['object.mass_kg']:.3g}g")
+def test_objects_no_test_tunes_on_are_held_within_one_and_a_half_of_their_need_and_never_crushed(obj):
+    """Issue 43's measure on the house gripper, at default settings: success (up, held, put back,
+    as the referee judges it from the record), the hold within 1.5x of the least grip, and the
+    fingers' force from the touch to the release under the object's crush force.  (Twenty such
+    objects, drawn as here, held at 1.16-1.34x: docs/cosimulation.md, "Grip economy".)"""
+    result = api.run("grasp", overrides=obj)
+    s = result.summary
+    assert result.outcome == "success", result.reason
+    assert 1.0 < s["grip_margin"] <= 1.5
+    assert s["peak_contact_n"] < obj["object.crush_force_n"]
