@@ -669,4 +669,3 @@ def _write_traceback(text: str, out: str | None) -> Path | None:
         except OSError:
             continue
     return None
-
