@@ -687,7 +687,7 @@ class _FingertipHook:
         self._sensordata, self._sensordata_of = data.sensordata, weakref.ref(data)
         try:
             self._readers = {
-                pad.name: TouchReader(int(model.sensor(sensor_name(pad.name, TOUCH_FIELD)).adr[0]), pad.area_m2, data)
+                pad.name: TouchReader(int(model.sensor(sensor_name(pad.name, TOUCH_FIELD)).adr[0]), pad.area_m2)
                 if pad.kind == "touch"
                 else strip_reader(self.bridges[pad.name], pad.geometry, self._layouts[pad.name][1], data)
                 for pad in tips.pads
@@ -713,7 +713,6 @@ class _FingertipHook:
         edges = {name: layout[0] for name, layout in self._layouts.items()}
         self.channels: dict[str, SensorChannel] = make_channels(config, fingertip, self._unit, edges)
         self._readings: dict[str, TipReading] | None = None
-        self._sampled = False
         self._pass = self._new_pass(ReadoutPass)
         self._last_s = self.data.time
         self._next_s = self.data.time + self.period_s
@@ -780,7 +779,6 @@ class _FingertipHook:
         """Every fingertip's pressures, sensor and readout, once (one period since the last):
         the sensors' values now, the :class:`TipReading` objects when :meth:`readings` asks."""
         self._pass.sample(self.period_s)
-        self._sampled = True
         self._readings = None  # made from the pass's records when asked
 
     def _write(self, data: mujoco.MjData) -> None:
@@ -831,7 +829,7 @@ class _FingertipHook:
         """Each fingertip's :class:`TipReading` at the last sample (:meth:`step`'s end, or the
         last period ``mj_step`` reached), by name."""
         mjhooks.raise_failure(self.data, "readings")
-        if not self._sampled:
+        if self._pass.readings[0] is None:  # (one record a fingertip, from the first period on)
             raise RuntimeError("no readings yet: call step() (or mj_step for one period) first")
         if self._readings is None:
             p = self._pass
@@ -945,22 +943,16 @@ def touch_layout(fingertip, unit) -> tuple[np.ndarray, list, list[float]]:
 
 
 class TouchReader:
-    """A touch pad's per-period read, bound to ``data``: its zone's normal force (MuJoCo's
-    ``touch`` sensor at ``adr`` of ``sensordata``, N) over the pad's area ``area_m2`` (m^2), the
-    pressure pressing the element uniformly, Pa; as :func:`strip_reader`'s ``read``: the element
-    profile and the coverage cells, one value each."""
+    """Where a touch pad is read: its zone's normal force (MuJoCo's ``touch`` sensor at ``adr`` of
+    ``sensordata``, N) over the pad's area ``area_m2`` (m^2) is the pressure pressing the element
+    uniformly, Pa (the readout pass reads it in C once a period: cosim/_readout.py)."""
 
-    def __init__(self, adr: int, area_m2: float, data: mujoco.MjData) -> None:
+    def __init__(self, adr: int, area_m2: float) -> None:
         self.adr, self.area_m2 = adr, float(area_m2)
-        self._sensordata = data.sensordata  # a view kept: an MjData attribute builds a new one at each access
 
     def force_n(self, data: mujoco.MjData) -> float:
         """The zone's normal force now, N (``data``'s: the one bound, or another of the model's)."""
         return float(data.sensordata[self.adr])
-
-    def read(self) -> tuple[tuple[list[float]], tuple[list[float]]]:
-        pressure_pa = float(self._sensordata[self.adr]) / self.area_m2
-        return ([pressure_pa],), ([pressure_pa],)
 
 
 def strip_reader(bridge: PadBridge, geometry: PadGeometry, cell_weights: list, data: mujoco.MjData):

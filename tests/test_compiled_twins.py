@@ -527,7 +527,7 @@ def drive_readout(kernel, perturb: bool = False) -> list:
         hook = loop._hook
         if perturb and pad == "touch":
             hook._readers[sites[0]].area_m2 *= ULP  # the first pad's area one ulp up
-        hook._new_pass = functools.partial(lambda hook, _kind: type(hook)._new_pass(hook, kernel.ReadoutPass), hook)
+        hook._new_pass = lambda _kind, hook=hook: type(hook)._new_pass(hook, kernel.ReadoutPass)
         hook._start()
         box = model.body("box").id
         for k in range(900):
