@@ -16,12 +16,12 @@ import math
 import re
 import subprocess
 import sys
-import warnings
 from pathlib import Path
 
 import gymnasium
 import numpy as np
 import pytest
+from gym_checks import registered_entry_point, stable_baselines3_warnings
 from gymnasium.utils.env_checker import check_env
 from test_gym_learn import _episode  # one episode under a policy(obs, env), as GraspLearn-v0's tests run it
 
@@ -47,14 +47,7 @@ def _random_policy(seed, scale=1.0):
 
 
 def test_registered_and_gymnasium_check_env():
-    result = subprocess.run(
-        [sys.executable, "-c", f"import piezotip, gymnasium; print(gymnasium.spec({ASSIST_ID!r}).entry_point)"],
-        cwd=ROOT,
-        capture_output=True,
-        text=True,
-        timeout=120,
-    )
-    assert result.stdout.strip() == "piezotip.gym_learn:GraspAssistEnv", result.stderr
+    assert registered_entry_point(ASSIST_ID) == "piezotip.gym_learn:GraspAssistEnv"
     env = gymnasium.make(ASSIST_ID, preset="fast", randomize=True)
     u = env.unwrapped
     assert isinstance(u, GraspAssistEnv) and isinstance(u, GraspLearnEnv)
@@ -69,14 +62,7 @@ def test_registered_and_gymnasium_check_env():
 
 def test_stable_baselines3_check_env():
     pytest.importorskip("stable_baselines3")
-    from stable_baselines3.common.env_checker import check_env as sb3_check_env
-
-    env = GraspAssistEnv(preset="fast", randomize=True)
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
-        sb3_check_env(env, warn=True, skip_render_check=True)
-    env.close()
-    messages = [str(w.message) for w in caught if "stable_baselines3" in w.filename]
+    messages = stable_baselines3_warnings(GraspAssistEnv(preset="fast", randomize=True))
     assert not messages, messages
 
 

@@ -22,6 +22,7 @@ from pathlib import Path
 import gymnasium
 import numpy as np
 import pytest
+from gym_checks import registered_entry_point
 from gymnasium.utils.env_checker import check_env
 
 import piezotip
@@ -46,11 +47,7 @@ def test_import_piezotip_does_not_import_gymnasium():
 
 @pytest.mark.parametrize("first", ["piezotip", "gymnasium"])
 def test_registered_whichever_is_imported_first(first):
-    second = "gymnasium" if first == "piezotip" else "piezotip"
-    code = f"import {first}, {second}, gymnasium; spec = gymnasium.spec({ENV_ID!r}); print(spec.entry_point)"
-    result = _python(code)
-    assert result.returncode == 0, result.stderr
-    assert result.stdout.strip() == "piezotip.gym_env:GraspEnv"
+    assert registered_entry_point(ENV_ID, first) == "piezotip.gym_env:GraspEnv"
 
 
 def test_make_and_gymnasium_check_env():

@@ -20,12 +20,12 @@ import importlib.util
 import re
 import subprocess
 import sys
-import warnings
 from pathlib import Path
 
 import gymnasium
 import numpy as np
 import pytest
+from gym_checks import registered_entry_point, stable_baselines3_warnings
 from gymnasium.utils.env_checker import check_env
 
 import piezotip  # noqa: F401 - registers the environments
@@ -52,10 +52,8 @@ def _python(code: str, *args: str) -> subprocess.CompletedProcess:
 
 
 def test_registered_with_gymnasium_in_either_import_order():
-    for first, second in (("piezotip", "gymnasium"), ("gymnasium", "piezotip")):
-        result = _python(f"import {first}, {second}, gymnasium; print(gymnasium.spec({FLAT_ID!r}).entry_point)")
-        assert result.returncode == 0, result.stderr
-        assert result.stdout.strip() == "piezotip.gym_flat:GraspFlatEnv"
+    for first in ("piezotip", "gymnasium"):
+        assert registered_entry_point(FLAT_ID, first) == "piezotip.gym_flat:GraspFlatEnv"
 
 
 def test_make_and_gymnasium_check_env():
@@ -68,16 +66,7 @@ def test_make_and_gymnasium_check_env():
 
 @pytest.mark.skipif(not HAVE_SB3, reason="stable-baselines3 is not installed (the 'rl' extra)")
 def test_stable_baselines3_check_env():
-    from stable_baselines3.common.env_checker import check_env as sb3_check_env
-
-    env = GraspFlatEnv(preset="fast", overrides={"duration_s": 1.0})
-    # SB3's checker warns about what its algorithms would trip on (unbounded or unnormalized
-    # spaces, ...): none may be raised.
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
-        sb3_check_env(env, warn=True, skip_render_check=True)
-    env.close()
-    messages = [str(w.message) for w in caught if "stable_baselines3" in w.filename]
+    messages = stable_baselines3_warnings(GraspFlatEnv(preset="fast", overrides={"duration_s": 1.0}))
     assert not messages, messages
 
 

@@ -21,12 +21,12 @@ import os
 import re
 import subprocess
 import sys
-import warnings
 from pathlib import Path
 
 import gymnasium
 import numpy as np
 import pytest
+from gym_checks import registered_entry_point, stable_baselines3_warnings
 from gymnasium.utils.env_checker import check_env
 
 import piezotip  # noqa: F401 - registers the environments
@@ -105,14 +105,7 @@ def _grip_rate_to(env, grip_n):
 
 
 def test_registered_and_gymnasium_check_env():
-    result = subprocess.run(
-        [sys.executable, "-c", f"import piezotip, gymnasium; print(gymnasium.spec({LEARN_ID!r}).entry_point)"],
-        cwd=ROOT,
-        capture_output=True,
-        text=True,
-        timeout=120,
-    )
-    assert result.stdout.strip() == "piezotip.gym_learn:GraspLearnEnv", result.stderr
+    assert registered_entry_point(LEARN_ID) == "piezotip.gym_learn:GraspLearnEnv"
     env = gymnasium.make(LEARN_ID, preset="fast", randomize=True)
     assert isinstance(env.unwrapped, GraspLearnEnv)
     assert len(env.unwrapped.observation_names) == env.observation_space.shape[0] == 31
@@ -122,14 +115,7 @@ def test_registered_and_gymnasium_check_env():
 
 @pytest.mark.skipif(not HAVE_SB3, reason="stable-baselines3 is not installed (the 'rl' extra)")
 def test_stable_baselines3_check_env():
-    from stable_baselines3.common.env_checker import check_env as sb3_check_env
-
-    env = GraspLearnEnv(preset="fast", randomize=True)
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
-        sb3_check_env(env, warn=True, skip_render_check=True)
-    env.close()
-    messages = [str(w.message) for w in caught if "stable_baselines3" in w.filename]
+    messages = stable_baselines3_warnings(GraspLearnEnv(preset="fast", randomize=True))
     assert not messages, messages
 
 
