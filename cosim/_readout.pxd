@@ -12,13 +12,25 @@ cdef Py_ssize_t _ESTIMATE_AT[3]
 @cython.final
 cdef class ReadoutPass:
     cdef Py_ssize_t _n
-    cdef list _samples, _cores, _readers, _fractions
+    cdef list _samples, _cores, _readers, _fractions, _records
     cdef long[::1] _touch_adr, _sensor_adr
-    cdef double[::1] _areas, _values, _sensordata
+    cdef double[::1] _areas, _values, _sensordata, _code_at, _truths
+    cdef signed char[::1] _pasts
     cdef double _gel_valid, _backstop
     cdef dict _codes
     cdef long _outside
-    cdef public list readings, estimates, truths, pasts
+    cdef long _clock_adr
+    cdef Py_ssize_t _size
+    cdef int _stage
+    cdef double _period, _half, _last_s, _next_s
+    cdef readonly Py_ssize_t periods
+
+    cpdef set_clock(self, long clock_adr, int stage, double period_s, double timestep_s, double start_s)
+
+    @cython.locals(t=double, half=double, sampled=int)
+    cpdef int tick(self, int stage) except? -2
+
+    cpdef sample_now(self, double t)
 
     @cython.locals(i=Py_ssize_t, size=Py_ssize_t)
     cpdef bind(self, double[::1] sensordata)
@@ -26,7 +38,7 @@ cdef class ReadoutPass:
     @cython.locals(
         k=Py_ssize_t, i=Py_ssize_t, j=Py_ssize_t, adr=long, n_cells=Py_ssize_t, p=double, peak=double, q=double, truth=double,
         past=bint, c=sc.ChannelCore, fractions=list, values="double[::1]", sensordata="double[::1]",
-        gel_valid=double, backstop=double,
+        gel_valid=double, backstop=double, share=double, mode=int, pressure=double, sigma=double, status=int, code=double,
     )
     cpdef sample(self, double period_s)
 

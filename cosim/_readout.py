@@ -20,6 +20,7 @@ import math
 from array import array
 from operator import attrgetter
 
+from piezotip.sensor import _estimator as se
 from piezotip.sensor import _kernel_helpers as kh
 from piezotip.sensor._channel import ChannelCore
 from piezotip.sensor.estimator import Estimate
@@ -55,22 +56,30 @@ class ReadoutPass:
     __slots__ = (
         "_areas",
         "_backstop",
+        "_clock_adr",
+        "_code_at",
         "_codes",
         "_cores",
         "_fractions",
         "_gel_valid",
+        "_half",
+        "_last_s",
         "_n",
+        "_next_s",
         "_outside",
+        "_pasts",
+        "_period",
         "_readers",
+        "_records",
         "_samples",
         "_sensor_adr",
         "_sensordata",
+        "_size",
+        "_stage",
         "_touch_adr",
+        "_truths",
         "_values",
-        "estimates",
-        "pasts",
-        "readings",
-        "truths",
+        "periods",
     )
 
     def __init__(
@@ -96,13 +105,57 @@ class ReadoutPass:
         self._values = array("d", map(float, first))
         self._gel_valid, self._backstop = float(gel_valid_pa), float(backstop_pa)
         self._codes, self._outside = dict(status_codes), int(outside_code)
-        self._sensordata = None
-        # The last period's records, by fingertip (None before the first): what readings() makes
-        # its TipReading objects from.
-        self.readings = [None] * n
-        self.estimates = [None] * n
-        self.truths = [math.nan] * n
-        self.pasts = [False] * n
+        # Each status's code by the index a core's estimate carries (sensor._estimator.STATUSES).
+        self._code_at = array("d", [float(self._codes.get(name, -1)) for name in se.STATUSES])
+        self._sensordata, self._size = None, 0  # (bind)
+        # The last period's reading and estimate by fingertip: a channel's own records, or None
+        # where its core keeps them as values (made when asked: readings, estimates).
+        self._records = [None] * n
+        self.periods = 0  # periods sampled
+        self._truths = array("d", [math.nan] * n)
+        self._pasts = array("b", [False] * n)
+        # The per-step clock (set_clock): none yet.
+        self._clock_adr, self._stage, self._period, self._half = -1, -1, math.nan, math.nan
+        self._last_s = self._next_s = math.nan
+
+    def set_clock(self, clock_adr: int, stage: int, period_s: float, timestep_s: float, start_s: float) -> None:
+        """Sample once a period of ``period_s`` s from ``start_s`` s (the first at ``start_s`` +
+        ``period_s``), at MuJoCo's sensor ``stage``, the time read from a ``clock`` sensor at
+        ``clock_adr`` in ``sensordata`` (:meth:`tick`); ``timestep_s`` the model's step, s."""
+        self._clock_adr, self._stage = int(clock_adr), int(stage)
+        self._period, self._half = float(period_s), 0.5 * float(timestep_s)
+        self._last_s = float(start_s)
+        self._next_s = self._last_s + self._period
+
+    def tick(self, stage: int) -> int:
+        """MuJoCo's sensor callback at ``stage``: at the pass's stage, the time from the clock
+        sensor; a period on since the last sample (within half a step): :meth:`sample`; the
+        values into ``sensordata`` (MuJoCo zeroes ``user`` sensors at every step).  1: sampled,
+        0: written or another stage, -1: the time went back (a reset, nothing done)."""
+        if stage != self._stage:
+            return 0
+        if not 0 <= self._clock_adr < self._size:
+            raise RuntimeError("tick: the readout pass has no clock in its sensordata (set_clock, bind)")
+        t = self._sensordata[self._clock_adr]
+        half = self._half
+        if t < self._last_s - half:
+            return -1
+        self._last_s = t
+        sampled = 0
+        if t >= self._next_s - half:
+            self.sample(self._period)
+            self._next_s = t + self._period
+            sampled = 1
+        self.write()
+        return sampled
+
+    def sample_now(self, t: float) -> None:
+        """A period's end at ``t`` s in piezotip's own loop: :meth:`sample` and :meth:`write` now
+        (the next step's callback, at this same time, only writes)."""
+        self._last_s = t
+        self.sample(self._period)
+        self._next_s = t + self._period
+        self.write()
 
     def bind(self, sensordata) -> None:
         """Read and write ``sensordata`` (an MjData's, float64, contiguous) from now on."""
@@ -113,7 +166,7 @@ class ReadoutPass:
         for i in range(self._n):
             if self._touch_adr[i] >= size:
                 raise ValueError(f"a touch pad's sensor address lies outside sensordata ({size} values)")
-        self._sensordata = sensordata
+        self._sensordata, self._size = sensordata, size
 
     def sample(self, period_s: float) -> None:
         """Every fingertip's pressures, reading and estimate after ``period_s`` s, and its
@@ -137,28 +190,59 @@ class ReadoutPass:
             n_cells = len(cells)
             if n_cells != len(fractions):
                 raise ValueError(f"fingertip {k}: {n_cells} coverage cells read for {len(fractions)} shares")
-            if n_cells == 1:
+            if adr >= 0:
+                share = fractions[0]
+                truth = p * share
+            elif n_cells == 1:
                 truth = cells[0] * fractions[0]
             else:
                 truth = math.fsum([cells[j] * fractions[j] for j in range(n_cells)])
             core = self._cores[k]
             if core is not None:
                 c = core  # (a C call, compiled)
-                reading, estimate = c.sample(cells, period_s)
+                mode, pressure, sigma, status = c.advance(cells, period_s)
+                code = self._code_at[status]
             else:
                 reading, estimate = self._samples[k](cells, period_s)
+                self._records[k] = (reading, estimate)
+                pressure, sigma, name = kh.fields(estimate, Estimate, _ESTIMATE_AT, 3, _ESTIMATE_GET)
+                mode = reading.mode
+                code = float(self._codes.get(name, -1))
             # Past where the model holds (a strip over the element past the gel's valid strain,
             # the element on its backstop), whatever the readout said: the simulator knows.
             past = truth > backstop or peak > gel_valid
-            self.readings[k], self.estimates[k], self.truths[k], self.pasts[k] = reading, estimate, truth, past
-            pressure, sigma, status = kh.fields(estimate, Estimate, _ESTIMATE_AT, 3, _ESTIMATE_GET)
-            mode = reading.mode
+            self._truths[k], self._pasts[k] = truth, past
             i = VALUES_PER_TIP * k
-            values[i] = float(pressure)
-            values[i + 1] = float(sigma)
-            values[i + 2] = float(self._outside if past else self._codes.get(status, -1))
+            values[i] = pressure
+            values[i + 1] = sigma
+            values[i + 2] = float(self._outside) if past else code
             values[i + 3] = float(mode)
             values[i + 4] = truth
+        self.periods += 1
+
+    @property
+    def truths(self) -> list:
+        """The last period's true mean pressure over each fingertip's coverage, Pa (NaN before the first)."""
+        return [self._truths[k] for k in range(self._n)]
+
+    @property
+    def pasts(self) -> list:
+        """Whether each fingertip's last period lay past where the model holds."""
+        return [bool(self._pasts[k]) for k in range(self._n)]
+
+    @property
+    def readings(self) -> list:
+        """The last period's readings, by fingertip (None before the first period)."""
+        if not self.periods:
+            return [None] * self._n
+        return [self._cores[k].last_reading() if self._cores[k] is not None else self._records[k][0] for k in range(self._n)]
+
+    @property
+    def estimates(self) -> list:
+        """The last period's estimates, by fingertip (None before the first period)."""
+        if not self.periods:
+            return [None] * self._n
+        return [self._cores[k].last_estimate() if self._cores[k] is not None else self._records[k][1] for k in range(self._n)]
 
     def write(self) -> None:
         """The last values into ``sensordata`` (at every step: MuJoCo zeroes ``user`` sensors)."""

@@ -487,11 +487,7 @@ def attach(
         for strip in pad.strips:
             spec.add_exclude(name=f"{strip}_exclude", bodyname1=pad.body, bodyname2=strip)
         _set_pad_collision(spec, pad, before, pads)
-    for pad in pads:  # filled by the readout inside mj_step (FingertipLoop.sensor), from the positions
-        for field in SENSOR_FIELDS:
-            spec.add_sensor(
-                name=sensor_name(pad.name, field), type=mujoco.mjtSensor.mjSENS_USER, dim=1, needstage=mujoco.mjtStage.mjSTAGE_POS
-            )
+    _add_readout_sensors(spec, pads)  # filled by the readout inside mj_step, from the positions
     try:
         after = spec.compile()
     except Exception as err:
@@ -506,8 +502,13 @@ def attach(
 
 def _attach_touch(spec: mujoco.MjSpec, pads: list[AttachedPad], patches: list[_Patch], settings: ScenarioConfig, fingertip) -> Fingertips:
     """``attach(..., pad="touch")``: per fingertip, its zone (a body's: a site on the face), a
-    ``touch`` sensor on it and the readout's user sensors, computed at the acceleration stage
-    (after the contact forces that ``touch`` sums); nothing else of the spec changes."""
+    ``touch`` sensor on it and the readout's user sensors; nothing else of the spec changes.
+
+    The user sensors are of the position stage, as a gel pad's: the readout samples the zone's
+    ``touch`` as the last step left it (the contact forces of the state that step started from,
+    what piezotip's own loop reads at a period's end).  At the acceleration stage (after this
+    step's contact forces) they would cost every step MuJoCo's ``mj_rnePostConstraint``, which
+    MuJoCo runs for any acceleration-stage ``user`` sensor (engine_sensor.c, ``mj_sensorAcc``)."""
     for tip, patch in zip(pads, patches, strict=True):
         if tip.zone != tip.name:  # a body's face: the zone a box the pad's size, h0 either side of the face
             rotation = patch.axes.ravel().copy()
@@ -524,16 +525,23 @@ def _attach_touch(spec: mujoco.MjSpec, pads: list[AttachedPad], patches: list[_P
         spec.add_sensor(
             name=sensor_name(tip.name, TOUCH_FIELD), type=mujoco.mjtSensor.mjSENS_TOUCH, objtype=mujoco.mjtObj.mjOBJ_SITE, objname=tip.zone
         )
-    for tip in pads:
-        for field in SENSOR_FIELDS:
-            spec.add_sensor(
-                name=sensor_name(tip.name, field), type=mujoco.mjtSensor.mjSENS_USER, dim=1, needstage=mujoco.mjtStage.mjSTAGE_ACC
-            )
+    _add_readout_sensors(spec, pads)
     try:
         spec.compile()
     except Exception as err:
         raise ValueError(f"attach: the model does not compile with its fingertips: {err}") from err
     return Fingertips(tuple(pads), settings, fingertip)
+
+
+def _add_readout_sensors(spec: mujoco.MjSpec, pads: list[AttachedPad]) -> None:
+    """Each fingertip's ``user`` sensors (:data:`SENSOR_FIELDS`, of the position stage) and the
+    readout's ``clock`` (:data:`CLOCK_SENSOR`)."""
+    for pad in pads:
+        for field in SENSOR_FIELDS:
+            spec.add_sensor(
+                name=sensor_name(pad.name, field), type=mujoco.mjtSensor.mjSENS_USER, dim=1, needstage=mujoco.mjtStage.mjSTAGE_POS
+            )
+    spec.add_sensor(name=CLOCK_SENSOR, type=mujoco.mjtSensor.mjSENS_CLOCK)
 
 
 def _name_list(what: str, names: Sequence[str] | None) -> list[str]:
@@ -615,6 +623,9 @@ STATUS_CODES = {"ok": 0, "below_detection": 1, "saturated": 2, "settling": 3, "o
 SENSOR_FIELDS = ("pressure_pa", "sigma_pa", "status", "mode", "true_pressure_pa")
 #: A ``"touch"`` pad's MuJoCo ``touch`` sensor, ``piezotip/TIP/touch_n``: its zone's normal force, N.
 TOUCH_FIELD = "touch_n"
+#: The readout's clock, a MuJoCo ``clock`` sensor (``data.time`` at the position stage, s): the
+#: compiled readout pass reads the time there at every step, no Python object of the MjData made.
+CLOCK_SENSOR = f"{PREFIX}clock"
 
 
 def sensor_name(tip: str, field: str) -> str:
@@ -663,10 +674,10 @@ class _FingertipHook:
         self._unit = make_unit(config)  # the physical unit the channels run, when not the nominal design
         self.bridges: dict[str, PadBridge] = {}
         self._layouts = {}
-        # A touch pad reads MuJoCo's touch sensor, computed at the acceleration stage (after the
-        # contact forces); a gel pad reads its strips' positions.
+        # The readout runs at the position stage: a gel pad reads its strips' positions, a touch
+        # pad the touch sensor as the last step left it (_attach_touch).
         # (A plain int: comparing MuJoCo's enum costs a microsecond at every step.)
-        self._stage = int(mujoco.mjtStage.mjSTAGE_ACC if kind == "touch" else mujoco.mjtStage.mjSTAGE_POS)
+        self._stage = int(mujoco.mjtStage.mjSTAGE_POS)
         for pad in tips.pads:
             if pad.kind == "touch":
                 self._layouts[pad.name] = touch_layout(fingertip, self._unit)
@@ -682,9 +693,10 @@ class _FingertipHook:
             self._sensor_adr = np.array(
                 [int(model.sensor(sensor_name(pad.name, field)).adr[0]) for pad in tips.pads for field in SENSOR_FIELDS]
             )
+            self._clock_adr = int(model.sensor(CLOCK_SENSOR).adr[0])
         except KeyError as err:
             raise ValueError(f"bind: the model lacks the fingertips' sensor {err} (compile the spec given to attach)") from None
-        self._sensordata, self._sensordata_of = data.sensordata, weakref.ref(data)
+        self._sensordata = data.sensordata
         try:
             self._readers = {
                 pad.name: TouchReader(int(model.sensor(sensor_name(pad.name, TOUCH_FIELD)).adr[0]), pad.area_m2)
@@ -714,8 +726,10 @@ class _FingertipHook:
         self.channels: dict[str, SensorChannel] = make_channels(config, fingertip, self._unit, edges)
         self._readings: dict[str, TipReading] | None = None
         self._pass = self._new_pass(ReadoutPass)
-        self._last_s = self.data.time
-        self._next_s = self.data.time + self.period_s
+        self._pass.set_clock(self._clock_adr, self._stage, self.period_s, self.timestep_s, self.data.time)
+        self._readings_at = 0  # the pass's period _readings were made at
+        if self in mjhooks.hooks_of(self.data):  # a reset: the dispatcher's fast path is the new pass's
+            mjhooks.refresh(self.data)
 
     def _new_pass(self, kind: type) -> ReadoutPass:
         """Every fingertip's pad read, channel and sensor values in one pass a period (``kind``:
@@ -764,30 +778,18 @@ class _FingertipHook:
         return None
 
     def sensor(self, model: mujoco.MjModel, data: mujoco.MjData, stage: int) -> None:
-        if stage != self._stage:
-            return
-        t, half = data.time, 0.5 * self.timestep_s
-        if t < self._last_s - half:  # time went back: a reset
+        # The pass keeps the clock: once a period every fingertip's pressures, sensor and
+        # readout, at every step the sensors' values into sensordata (the TipReading objects
+        # when readings() asks).
+        if self._pass.tick(stage) < 0:  # time went back: a reset
             self._start()
-        self._last_s = t
-        if t >= self._next_s - half:
-            self._sample()
-            self._next_s = t + self.period_s
-        self._write(data)
+            self._pass.tick(stage)
 
-    def _sample(self) -> None:
-        """Every fingertip's pressures, sensor and readout, once (one period since the last):
-        the sensors' values now, the :class:`TipReading` objects when :meth:`readings` asks."""
-        self._pass.sample(self.period_s)
-        self._readings = None  # made from the pass's records when asked
-
-    def _write(self, data: mujoco.MjData) -> None:
-        # MuJoCo zeroes user sensors at every step: written every step, through a view kept
-        # while the same MjData comes back (an MjData attribute builds a new view at each access).
-        if data is not self._sensordata_of():
-            self._sensordata, self._sensordata_of = data.sensordata, weakref.ref(data)
-            self._pass.bind(self._sensordata)
-        self._pass.write()
+    def fast_sensor(self):
+        """What MuJoCo's sensor callback may call at each step instead of :meth:`sensor` (the
+        compiled pass's :meth:`~cosim._readout.ReadoutPass.tick`: no Python object of the MjData
+        made; where it returns < 0, :meth:`sensor` runs: :mod:`cosim.mjhooks`)."""
+        return self._pass.tick
 
     # -- piezotip's own loop ---------------------------------------------------------------
 
@@ -820,19 +822,17 @@ class _FingertipHook:
         if not finite_state(d):
             raise SimulationDiverged(f"simulation diverged at t = {d.time:.4f} s: non-finite state (timestep {m.opt.timestep:g} s)")
         # The period's end: sample now (the next step's sensor callback, at this same time, only writes).
-        self._last_s = d.time
-        self._sample()
-        self._next_s = d.time + self.period_s
-        self._write(d)
+        self._pass.sample_now(d.time)
 
     def readings(self) -> dict[str, TipReading]:
         """Each fingertip's :class:`TipReading` at the last sample (:meth:`step`'s end, or the
         last period ``mj_step`` reached), by name."""
         mjhooks.raise_failure(self.data, "readings")
-        if self._pass.readings[0] is None:  # (one record a fingertip, from the first period on)
+        if not self._pass.periods:
             raise RuntimeError("no readings yet: call step() (or mj_step for one period) first")
-        if self._readings is None:
-            p = self._pass
+        p = self._pass
+        if self._readings is None or self._readings_at != p.periods:
+            self._readings_at = p.periods
             self._readings = {
                 name: TipReading(
                     estimate.pressure_pa,

@@ -106,6 +106,11 @@ def raise_failure(data: mujoco.MjData, who: str) -> None:
 
 #: The registered MjData by their mjData* address.
 _BOUND: dict[int, _Bound] = {}
+#: Of the registered MjData whose sensor hooks are one hook with a fast path (its
+#: ``fast_sensor()``: a callable of the stage, compiled, that reads the time itself and returns
+#: < 0 where the hook's own ``sensor`` must run), that path by address: the sensor dispatcher
+#: calls it before anything else of the MjData is looked up or made (no Python object of it).
+_FAST: dict[int, Callable[[int], int]] = {}
 #: The callbacks found before the dispatchers were installed (C function pointers, called first,
 #: for every model).
 _PREVIOUS: dict[str, Callable | None] = {"passive": None, "sensor": None}
@@ -139,6 +144,13 @@ def _sensor(model_address: int, data_address: int, stage: int) -> None:
     previous = _PREVIOUS["sensor"]
     if previous is not None:
         previous(model_address, data_address, stage)
+    fast = _FAST.get(data_address)
+    if fast is not None:
+        try:
+            if fast(stage) >= 0:
+                return
+        except BaseException as err:
+            _failed(_BOUND[data_address], err)
     bound = _bound(data_address)
     if bound is not None:
         data = bound.data()
@@ -186,11 +198,13 @@ def register(data: mujoco.MjData, model: mujoco.MjModel, hook: Hook) -> None:
         def forget(ref: weakref.ref, address: int = address) -> None:  # the MjData is gone: so are its hooks
             if (entry := _BOUND.get(address)) is not None and entry.data is ref:
                 del _BOUND[address]
+                _FAST.pop(address, None)
 
         bound = _BOUND[address] = _Bound(weakref.ref(data, forget), model, [], [], [])
     bound.hooks.append(hook)
     for name in needs:
         getattr(bound, name).append(hook)
+    _refresh(address)
 
 
 def unregister(data: mujoco.MjData, hook: Hook) -> None:
@@ -201,6 +215,25 @@ def unregister(data: mujoco.MjData, hook: Hook) -> None:
         for hooks in (bound.passive, bound.sensor):
             if hook in hooks:
                 hooks.remove(hook)
+        _refresh(data._address)
+
+
+def refresh(data: mujoco.MjData) -> None:
+    """Take the fast path of ``data``'s sensor hook anew (a hook whose ``fast_sensor()`` changed
+    calls it: :data:`_FAST`)."""
+    _refresh(data._address)
+
+
+def _refresh(address: int) -> None:
+    bound = _bound(address)
+    fast = None
+    if bound is not None and len(bound.sensor) == 1:
+        make = getattr(bound.sensor[0], "fast_sensor", None)
+        fast = make() if make is not None else None
+    if fast is None:
+        _FAST.pop(address, None)
+    else:
+        _FAST[address] = fast
 
 
 def hooks_of(data: mujoco.MjData) -> tuple[Hook, ...]:

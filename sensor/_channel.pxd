@@ -8,8 +8,12 @@ cimport piezotip.sensor._sampler as sm
 
 cdef Py_ssize_t _NOISE_BLOCK
 cdef double _MAX_GAIN
-cdef object _SETTLING, _SATURATED, _MODE_INVERSE, _READING_GET
+cdef object _SETTLING, _SATURATED, _MODE_INVERSE, _READING_GET, _ESTIMATE_GET
 cdef Py_ssize_t _READING_AT[3]
+cdef Py_ssize_t _ESTIMATE_AT[3]
+cdef dict _STATUS_INDEX
+cdef int _SATURATED_AT, _SETTLING_AT
+cdef double _NAN
 
 
 @cython.final
@@ -21,17 +25,49 @@ cdef class ChannelCore:
     cdef object _inverse_seen
     cdef se.InverseCore _core_of
     # The envelope and the seed as written (a physical unit's may be numpy complex numbers).
-    cdef public object noise, rng, mode, envelope, _seed_a, _inference, _inference_mode, _last_estimate, _low_since_s
-    cdef public list _noise
+    cdef public object noise, rng, mode, envelope, _seed_a, _inference, _inference_mode, _low_since_s
+    # The last estimate's values, and its record once made (the _last_estimate property).
+    cdef double _last_p, _last_sigma
+    cdef int _last_status
+    cdef object _last_record, _a_record
+    # The last reading's values, and its record once made (last_reading).
+    cdef int _r_mode
+    cdef double complex _r_iq, _r_envelope
+    cdef double _r_v1, _r_v1_true, _r_t, _r_tau, _r_kappa, _r_gamma
+    cdef bint _r_settled
+    cdef object _r_record
+    cdef double[::1] _draws
+    cdef Py_ssize_t _left
     cdef public Py_ssize_t evaluations
     cdef public double time_in_mode_s, _clock_s, _dt_s, _estimated_at
 
+    @cython.locals(j=Py_ssize_t)
+    cdef double complex _draw(self) except *
+
     cpdef object iq_noise(self)
 
-    @cython.locals(t=double, s=sm.ModeSampler, out=tuple)
+    @cython.locals(
+        t=double, s=sm.ModeSampler, noisy=bint, draw="double complex",
+        iq="double complex", envelope="double complex", v1_true=double, tau=double, settled=bint, kappa=double, gamma=double,
+    )
+    cdef int _read(self, pressure_cells_pa, double dt_s) except -1
+
+    cpdef object last_reading(self)
+
     cpdef object update(self, pressure_cells_pa, double dt_s)
 
-    @cython.locals(t=double, gain=double, trusted=bint, a_ss="double complex", inf=si.SteadyInference, core=se.InverseCore)
+    @cython.locals(
+        t=double, gain=double, trusted=bint, a_ss="double complex", inf=si.SteadyInference, core=se.InverseCore,
+        p=double, sigma=double, status=int, low=double,
+    )
+    cdef (double, double, int, bint) _estimate_of(self, int mode, double complex iq) except *
+
+    @cython.locals(kept=bint)
     cpdef object estimate(self, reading)
 
     cpdef tuple sample(self, pressure_cells_pa, double dt_s)
+
+    @cython.locals(mode=int, v1=double, p=double, sigma=double, status=int, kept=bint)
+    cpdef (int, double, double, int) advance(self, pressure_cells_pa, double dt_s) except *
+
+    cpdef object last_estimate(self)

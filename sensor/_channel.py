@@ -22,6 +22,7 @@ from piezotip.sensor import _inference as si
 from piezotip.sensor import _kernel_helpers as kh
 from piezotip.sensor import _sampler as sm
 from piezotip.sensor import estimator, inference
+from piezotip.sensor.estimator import Estimate
 from piezotip.sensor.resonator import Reading
 
 #: Noise is drawn in blocks (one generator call per block, not per reading; even: I and Q pair up).
@@ -32,6 +33,13 @@ _SETTLING, _SATURATED, _MODE_INVERSE = estimator._SETTLING, estimator._SATURATED
 #: What an estimate reads of a reading: its slots (compiled) or its attributes by name.
 _READING = ("mode", "v1", "iq")
 _READING_AT, _READING_GET = kh.slot_offsets(Reading, 3, _READING), attrgetter(*_READING)
+#: What is read of an estimate, likewise.
+_ESTIMATE = ("pressure_pa", "uncertainty_pa", "status")
+_ESTIMATE_AT, _ESTIMATE_GET = kh.slot_offsets(Estimate, 3, _ESTIMATE), attrgetter(*_ESTIMATE)
+#: An estimate's status by its name, as the index the kernels carry (sensor._estimator.STATUSES).
+_STATUS_INDEX = {name: i for i, name in enumerate(se.STATUSES)}
+_SATURATED_AT, _SETTLING_AT = se.SATURATED, se.SETTLING
+_NAN = math.nan  # (compiled, a C double: no lookup of math's)
 #: What a copy carries over of a core's state (the constructor's arguments rebuild the rest).
 _STATE = (
     "mode",
@@ -71,19 +79,35 @@ class ChannelCore:
     """
 
     __slots__ = (
+        "_a_record",
         "_args",
         "_clock_s",
         "_core_of",
+        "_draws",
         "_dt_s",
         "_estimated_at",
         "_inference",
         "_inference_mode",
         "_inverse",
         "_inverse_seen",
-        "_last_estimate",
+        "_last_p",
+        "_last_record",
+        "_last_sigma",
+        "_last_status",
+        "_left",
         "_low_amplitude",
         "_low_since_s",
-        "_noise",
+        "_r_envelope",
+        "_r_gamma",
+        "_r_iq",
+        "_r_kappa",
+        "_r_mode",
+        "_r_record",
+        "_r_settled",
+        "_r_t",
+        "_r_tau",
+        "_r_v1",
+        "_r_v1_true",
         "_samplers",
         "_saturation_s",
         "_seed_a",
@@ -112,7 +136,9 @@ class ChannelCore:
         # The instrument has been running unloaded before the scene starts: steady, settled.
         self.envelope = 1 + 0j
         self.time_in_mode_s = math.inf
-        self._noise = []  # the lock-in's noise drawn ahead, taken from the end
+        # The lock-in's noise drawn ahead (a block of the generator's draws, I and Q in pairs),
+        # and how many readings' worth are left, taken from the end.
+        self._draws, self._left = np.zeros(_NOISE_BLOCK), 0
         # The readout's own clock: time since the channel started or last switched, s.
         self._clock_s = 0.0
         self._dt_s = 0.005  # the last sample period, s (for the settled history before the scene)
@@ -126,50 +152,91 @@ class ChannelCore:
         # Since when (readout clock, s) every reading has stayed under its mode's low amplitude
         # (sensor.channel.SATURATION_TAUS); None while the last one did not.
         self._low_since_s = None
+        # The last reading's values (_read) and its record once made (or another sampler's);
+        # the last advance's estimate's record where it is not the last estimate (advance).
+        self._r_mode, self._r_iq, self._r_envelope, self._r_v1, self._r_v1_true = mode, 0j, 0j, math.nan, math.nan
+        self._r_t, self._r_tau, self._r_settled, self._r_kappa, self._r_gamma = math.nan, math.nan, False, math.nan, math.nan
+        self._r_record, self._a_record = None, None
+
+    def _draw(self) -> complex:
+        """The lock-in's noise on one reading: independent standard normal draws on I and Q,
+        from a block drawn ahead (the generator's draws taken in pairs from the block's end: its
+        last two draws, Q then I, make the first reading's)."""
+        if self._left == 0:
+            self._draws = self.rng.standard_normal(_NOISE_BLOCK)
+            self._left = _NOISE_BLOCK // 2
+        self._left -= 1
+        j = 2 * self._left
+        return kh.cx(self._draws[j + 1], self._draws[j])
 
     def iq_noise(self) -> complex:
-        """The lock-in's noise on one reading: independent standard normal draws on I and Q,
-        from a block drawn ahead (the generator's draws taken in pairs, I first)."""
-        if not self._noise:
-            draws = self.rng.standard_normal(_NOISE_BLOCK)
-            # Taken from the end: the block's last two draws (I, then Q) make the first reading's.
-            # complex(draws[k + 1], draws[k]) for even k, each made by numpy's copy, not Python's.
-            block = np.empty(_NOISE_BLOCK // 2, dtype=complex)
-            block.real, block.imag = draws[1::2], draws[0::2]
-            self._noise = block.tolist()
-        return self._noise.pop()
+        """:meth:`_draw`, as a Python complex."""
+        return self._draw()
 
-    def update(self, pressure_cells_pa, dt_s: float) -> Reading:
-        """:meth:`sensor.channel.SensorChannel.update_trusted` of a channel with samplers: the
-        reading after ``dt_s`` s under the cells' pressures (Pa, unchecked)."""
+    @property
+    def _noise(self) -> list:
+        """The noise drawn ahead and not yet taken (complex), the next one last."""
+        return [kh.cx(self._draws[2 * i + 1], self._draws[2 * i]) for i in range(self._left)]
+
+    @_noise.setter
+    def _noise(self, values) -> None:
+        draws = np.zeros(max(_NOISE_BLOCK, 2 * len(values)))
+        for i, z in enumerate(values):
+            draws[2 * i + 1], draws[2 * i] = z.real, z.imag
+        self._draws, self._left = draws, len(values)
+
+    def _read(self, pressure_cells_pa, dt_s: float) -> None:
+        """The reading after ``dt_s`` s under the cells' pressures (Pa, unchecked), its values
+        kept (:meth:`last_reading` makes its record when asked)."""
         mode = self.mode
         self.evaluations += 1
         sampler = self._samplers[mode]
         self.time_in_mode_s = t = self.time_in_mode_s + dt_s
         self._clock_s += dt_s
         self._dt_s = dt_s
-        if self.noise:
-            noise = self._noise.pop() if self._noise else self.iq_noise()
-        else:
-            noise = None
+        noisy = bool(self.noise)
+        draw = self._draw() if noisy else 0j
         if type(sampler) is sm.ModeSampler:
             s = sampler  # (a C call, compiled)
-            out = s.sample(pressure_cells_pa, self.envelope, dt_s, t, noise)
-        else:  # another sampler class (a test's): through Python
-            out = sampler.sample(pressure_cells_pa, self.envelope, dt_s, t, noise)
-        reading, self.envelope = out
-        return reading
+            iq, envelope, v1_true, tau, settled, kappa, gamma = s.advance(pressure_cells_pa, self.envelope, dt_s, t, noisy, draw)
+            self.envelope = envelope
+            self._r_mode, self._r_iq, self._r_envelope, self._r_v1_true, self._r_t = mode, iq, envelope, v1_true, t
+            self._r_tau, self._r_settled, self._r_kappa, self._r_gamma = tau, settled, kappa, gamma
+            self._r_record = None
+        else:  # another sampler class (a test's): through Python, its record kept
+            reading, self.envelope = sampler.sample(pressure_cells_pa, self.envelope, dt_s, t, draw if noisy else None)
+            self._r_mode, self._r_v1, self._r_iq = kh.fields(reading, Reading, _READING_AT, 3, _READING_GET)
+            self._r_record = reading
 
-    def estimate(self, reading: Reading):
-        """:meth:`sensor.channel.SensorChannel.estimate` of a readout that does not re-zero, with
-        "steady" or "envelope" dynamics (see there): the pressure estimate of ``reading``."""
-        mode, v1, iq = kh.fields(reading, Reading, _READING_AT, 3, _READING_GET)
-        inverse = self._inverse[mode]
-        if self._steady:
-            return inverse(v1)
+    def last_reading(self) -> Reading:
+        """The record of the last reading (:meth:`update`'s, :meth:`advance`'s)."""
+        if self._r_record is None:
+            self._r_record = sm.reading(
+                self._r_mode,
+                self._r_iq,
+                self._r_envelope,
+                self._r_v1_true,
+                self._r_t,
+                self._r_tau,
+                self._r_settled,
+                self._r_kappa,
+                self._r_gamma,
+            )
+        return self._r_record
+
+    def update(self, pressure_cells_pa, dt_s: float) -> Reading:
+        """:meth:`sensor.channel.SensorChannel.update_trusted` of a channel with samplers: the
+        reading after ``dt_s`` s under the cells' pressures (Pa, unchecked)."""
+        self._read(pressure_cells_pa, dt_s)
+        return self.last_reading()
+
+    def _estimate_of(self, mode: int, iq: complex) -> tuple:
+        """The estimate's values of a reading of ``mode`` whose lock-in output is ``iq``, with
+        "envelope" dynamics (:meth:`estimate`'s rules): (pressure_pa, uncertainty_pa, its status's
+        index in :data:`sensor._estimator.STATUSES`, whether it is the kept :attr:`_last_estimate`)."""
         t = self._clock_s
         if t == self._estimated_at:  # this reading's estimate again
-            return self._last_estimate
+            return self._last_p, self._last_sigma, self._last_status, True
         if self._inference is None:
             # The instrument ran unloaded and settled before the scene: a settled history.  Of
             # the class sensor.channel names now, as select_mode's (a test may swap it).
@@ -179,37 +246,86 @@ class ChannelCore:
             self._inference.seed(self._seed_a, t - self._dt_s, self._dt_s)
             self._inference_mode = self.mode
         if mode != self._inference_mode:  # a reading of a mode no longer driven
-            return _SETTLING
+            return _NAN, _NAN, _SETTLING_AT, False
         if type(self._inference) is si.SteadyInference:
             inf = self._inference  # (a C call, compiled)
             a_ss, gain, trusted = inf.step(t, iq)
         else:
             a_ss, gain, trusted = self._inference.step(t, iq)
-        if kh.cabs(iq) < self._low_amplitude[mode]:
+        low = self._low_amplitude[mode]
+        if kh.cabs(iq) < low:
             if self._low_since_s is None:
                 self._low_since_s = t
         else:
             self._low_since_s = None
+        record = None
         if trusted and gain <= _MAX_GAIN:
+            inverse = self._inverse[mode]
             if inverse is not self._inverse_seen:
                 found = inverse._core if type(inverse) is _MODE_INVERSE else None
                 self._inverse_seen, self._core_of = inverse, found if type(found) is se.InverseCore else None
             if self._core_of is not None:
-                core = self._core_of  # ModeInverse.inferred's own call (a C call, compiled)
-                est = core.inferred(kh.cabs(a_ss), gain)
+                core = self._core_of  # ModeInverse.inferred's own values (a C call, compiled)
+                p, sigma, status = core.infer(kh.cabs(a_ss), gain)
             else:
-                est = inverse.inferred(kh.cabs(a_ss), gain)
+                record = inverse.inferred(kh.cabs(a_ss), gain)
+                p, sigma, name = kh.fields(record, Estimate, _ESTIMATE_AT, 3, _ESTIMATE_GET)
+                status = _STATUS_INDEX[name]
         elif self._low_since_s is not None and t - self._low_since_s >= self._saturation_s:
-            est = _SATURATED  # past P_max, as the readings show (SATURATION_TAUS)
+            p, sigma, status, record = _NAN, _NAN, _SATURATED_AT, _SATURATED  # past P_max, as the readings show (SATURATION_TAUS)
         else:
-            est = _SETTLING
-        self._estimated_at, self._last_estimate = t, est
-        return est
+            p, sigma, status, record = _NAN, _NAN, _SETTLING_AT, _SETTLING
+        self._estimated_at = t
+        self._last_p, self._last_sigma, self._last_status, self._last_record = p, sigma, status, record
+        return p, sigma, status, True
+
+    @property
+    def _last_estimate(self):
+        """The last estimate (a reading estimated twice gets it again), made when asked."""
+        if self._last_record is None:
+            self._last_record = se.estimate(self._last_p, self._last_sigma, self._last_status)
+        return self._last_record
+
+    @_last_estimate.setter
+    def _last_estimate(self, record) -> None:
+        p, sigma, name = kh.fields(record, Estimate, _ESTIMATE_AT, 3, _ESTIMATE_GET)
+        self._last_p, self._last_sigma, self._last_status, self._last_record = p, sigma, _STATUS_INDEX[name], record
+
+    def estimate(self, reading: Reading):
+        """:meth:`sensor.channel.SensorChannel.estimate` of a readout that does not re-zero, with
+        "steady" or "envelope" dynamics (see there): the pressure estimate of ``reading``."""
+        mode, v1, iq = kh.fields(reading, Reading, _READING_AT, 3, _READING_GET)
+        if self._steady:
+            return self._inverse[mode](v1)
+        kept = self._estimate_of(mode, iq)[3]
+        return self._last_estimate if kept else _SETTLING
 
     def sample(self, pressure_cells_pa, dt_s: float) -> tuple:
         """(:meth:`update`, its :meth:`estimate`): one control period's reading and estimate."""
         reading = self.update(pressure_cells_pa, dt_s)
         return reading, self.estimate(reading)
+
+    def advance(self, pressure_cells_pa, dt_s: float) -> tuple:
+        """:meth:`sample`'s reading and estimate as values, their records made only when asked
+        (:meth:`last_reading`, :meth:`last_estimate`): what a readout pass over many fingertips
+        calls.  (mode, pressure_pa, uncertainty_pa, the status's index in
+        :data:`sensor._estimator.STATUSES`)."""
+        self._read(pressure_cells_pa, dt_s)
+        mode = self._r_mode
+        if self._steady:
+            # Another sampler's record: its v1 as it says.
+            v1 = self._r_v1 if self._r_record is not None else kh.cabs(self._r_iq)
+            record = self._inverse[mode](v1)
+            p, sigma, name = kh.fields(record, Estimate, _ESTIMATE_AT, 3, _ESTIMATE_GET)
+            self._a_record = record
+            return mode, p, sigma, _STATUS_INDEX[name]
+        p, sigma, status, kept = self._estimate_of(mode, self._r_iq)
+        self._a_record = None if kept else _SETTLING
+        return mode, p, sigma, status
+
+    def last_estimate(self):
+        """The record of the last :meth:`advance`'s estimate."""
+        return self._last_estimate if self._a_record is None else self._a_record
 
     def __reduce__(self):
         return type(self), (*self._args, self.mode, self.noise, self.rng), tuple([getattr(self, name) for name in _STATE])

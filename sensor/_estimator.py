@@ -19,6 +19,12 @@ from piezotip.sensor.estimator import Estimate
 _GAIN_FLOOR = inference.GAIN_FLOOR
 #: Where each field of an Estimate is written (pressure_pa, uncertainty_pa, status).
 _ESTIMATE_AT = kh.slot_offsets(Estimate, 3)
+#: An estimate's statuses (:class:`sensor.estimator.Estimate`), by the index the kernels carry.
+STATUSES = ("ok", "below_detection", "saturated", "settling")
+OK, BELOW_DETECTION, SATURATED, SETTLING = range(4)
+# (The same, as this kernel's own C ints where compiled: the names above stay Python's.)
+_OK, _BELOW, _SATURATED_AT = OK, BELOW_DETECTION, SATURATED
+_NAN, _INF = math.nan, math.inf  # (compiled, C doubles: no lookup of math's)
 
 
 class InverseCore:
@@ -43,24 +49,36 @@ class InverseCore:
         self._sigma, self._p_min, self._p_max = float(sigma), float(p_min_pa), float(p_max_pa)
         self._three_sigma = 3.0 * self._sigma
 
-    def inferred(self, v1: float, gain: float) -> Estimate:
-        """:meth:`sensor.estimator.ModeInverse.inferred` (see there): the estimate of an
-        inferred steady reading ``v1`` whose noise is ``gain`` times a reading's."""
+    def infer(self, v1: float, gain: float) -> tuple[float, float, int]:
+        """:meth:`inferred`'s values, no record made: (pressure_pa, uncertainty_pa, the status's
+        index in :data:`STATUSES`)."""
         drop = 1.0 - v1
         below_scale = gain if gain > 1.0 else 1.0
         if drop < self._three_sigma * below_scale:
-            return kh.record3(Estimate, _ESTIMATE_AT, max(drop, 0.0) / self._slope0, self._p_min * below_scale, "below_detection")
+            return max(drop, 0.0) / self._slope0, self._p_min * below_scale, _BELOW
         g = gain if gain > _GAIN_FLOOR else _GAIN_FLOOR
         if v1 <= self._v_last:
-            return kh.record3(Estimate, _ESTIMATE_AT, math.nan, math.nan, "saturated")
+            return _NAN, _NAN, _SATURATED_AT
         if v1 >= self._v_first:
-            return kh.record3(Estimate, _ESTIMATE_AT, drop / self._slope0, g * self._sigma / self._slope0, "ok")
+            return drop / self._slope0, g * self._sigma / self._slope0, _OK
         log_p = kh.interp(-v1, self._neg_v, self._log_p)
         p = kh.exp(log_p)
         if not p <= self._p_max:
-            return kh.record3(Estimate, _ESTIMATE_AT, math.nan, math.nan, "saturated")
+            return _NAN, _NAN, _SATURATED_AT
         slope = abs(kh.interp(log_p, self._log_p, self._dv_dlogp)) / p
-        return kh.record3(Estimate, _ESTIMATE_AT, p, g * self._sigma / slope if slope > 0 else math.inf, "ok")
+        return p, g * self._sigma / slope if slope > 0 else _INF, _OK
+
+    def inferred(self, v1: float, gain: float) -> Estimate:
+        """:meth:`sensor.estimator.ModeInverse.inferred` (see there): the estimate of an
+        inferred steady reading ``v1`` whose noise is ``gain`` times a reading's."""
+        p, sigma, status = self.infer(v1, gain)
+        return estimate(p, sigma, status)
 
     def __reduce__(self):
         return type(self), self._args
+
+
+def estimate(pressure_pa: float, uncertainty_pa: float, status: int) -> Estimate:
+    """The :class:`sensor.estimator.Estimate` of an estimate's values (:meth:`InverseCore.infer`'s;
+    ``status`` an index in :data:`STATUSES`)."""
+    return kh.record3(Estimate, _ESTIMATE_AT, pressure_pa, uncertainty_pa, STATUSES[status])

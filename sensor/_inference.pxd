@@ -7,6 +7,7 @@ cdef double WINDOW_S, MIN_WINDOW_S, RAMP_WINDOW_FRACTION, _RAMP_CHI2, RAMP_SUSPE
 cdef double CHANGE_STAT, SUSPECT_STAT, _SUSPECT_STAT_LONGEST, _INTEGRATED_NOISE, _MAX_REL_SQ, _REBASE_S, _TWELFTH
 cdef tuple _SCALE_TURNS, _SCALES
 cdef Py_ssize_t _LONGEST, _MIN_SAMPLES
+cdef double _INF
 cdef object _NAN_ENVELOPE
 
 
@@ -14,7 +15,7 @@ cdef object _NAN_ENVELOPE
 @cython.freelist(64)
 cdef class _Sample:
     cdef double t, s11, s22
-    cdef double complex a, x1, x2, y, s1, s2, sy, s12, s1y, s2y
+    cdef double complex a, s1, s2, sy, s12, s1y, s2y
 
 @cython.locals(s=_Sample)
 cdef _Sample _zero_sample()
@@ -81,7 +82,7 @@ cdef class SteadyInference:
         worst=double, stat=double, q=double, inv_n=double, i11=double, i22=double, n0=double, n1=double, n2=double,
         n_fit=double, load=double, w_ramp=double, w_target=double,
     )
-    cpdef tuple step(self, double t, double complex a)
+    cpdef (double complex, double, bint) step(self, double t, double complex a) except *
 
     @cython.locals(t=double, a="double complex")
     cdef int _replay(self, list readings) except -1

@@ -35,22 +35,22 @@ from piezotip.sensor.inference import (
 
 #: The change test's longest look-back, readings.
 _LONGEST = _SCALES[-1]
+_INF = math.inf  # (compiled, a C double: no lookup of math's)
 
 
 class _Sample:
-    """One reading in the window: its time t (s) and envelope a, its integrals X1, X2 and Y
-    (:meth:`SteadyInference._integrate`), and the running sums since the segment's start of X1,
-    X2, Y, |X1|^2, |X2|^2, conj(X1) X2, conj(X1) Y and conj(X2) Y (s1 ... s2y): the window's
-    sums are its newest sample's less its base's (the sample before the window).  Not changed
-    once made."""
+    """One reading in the window: its time t (s) and envelope a, and the running sums since the
+    segment's start of its integrals X1, X2, Y (:meth:`SteadyInference._integrate`), |X1|^2,
+    |X2|^2, conj(X1) X2, conj(X1) Y and conj(X2) Y (s1 ... s2y): the window's sums are its
+    newest sample's less its base's (the sample before the window).  Not changed once made."""
 
-    __slots__ = ("a", "s1", "s1y", "s2", "s2y", "s11", "s12", "s22", "sy", "t", "x1", "x2", "y")
+    __slots__ = ("a", "s1", "s1y", "s2", "s2y", "s11", "s12", "s22", "sy", "t")
 
 
 def _zero_sample() -> _Sample:
     """The sums before any reading (a segment's first base)."""
     s = _Sample.__new__(_Sample)
-    s.t, s.a, s.x1, s.x2, s.y = 0.0, 0j, 0j, 0j, 0j
+    s.t, s.a = 0.0, 0j
     s.s1, s.s2, s.sy, s.s11, s.s22, s.s12, s.s1y, s.s2y = 0j, 0j, 0j, 0.0, 0.0, 0j, 0j, 0j
     return s
 
@@ -272,7 +272,7 @@ class SteadyInference:
         s = self._sample(-1) if self._size() else self.base
         c1, c2 = x1.conjugate(), x2.conjugate()
         new = _Sample.__new__(_Sample)
-        new.t, new.a, new.x1, new.x2, new.y = t, a, x1, x2, y
+        new.t, new.a = t, a
         new.s1, new.s2, new.sy = s.s1 + x1, s.s2 + x2, s.sy + y
         new.s11 = s.s11 + (x1.real * x1.real + x1.imag * x1.imag)
         new.s22 = s.s22 + (x2.real * x2.real + x2.imag * x2.imag)
@@ -389,7 +389,7 @@ class SteadyInference:
                 keep = [(self._sample(k).t, self._sample(k).a) for k in range(n_s - worst_m + 1, n_s)] if worst_m > 1 else []
                 keep.append((t, a))
                 self._replay(keep)
-                return _NAN_ENVELOPE, math.inf, False
+                return _NAN_ENVELOPE, _INF, False
             trusted = worst <= (SUSPECT_STAT if worst_m < _LONGEST else _SUSPECT_STAT_LONGEST)
         self._add(t, a, x1, x2, y)  # the reading into the window's running sums
         w_target = self.w_target
@@ -399,7 +399,7 @@ class SteadyInference:
         fit = self._fit(t)
         self._add_fit(fit)
         if fit is None:
-            return _NAN_ENVELOPE, math.inf, False
+            return _NAN_ENVELOPE, _INF, False
         if fit.ramp_chi2 > RAMP_SUSPECT_CHI2:
             trusted = False  # the load changes under this reading (RAMP_SUSPECT_CHI2)
         # Shorten the window while the load ramps (see RAMP_WINDOW_FRACTION).
@@ -410,7 +410,7 @@ class SteadyInference:
         elif w_target != WINDOW_S:
             self.w_target = WINDOW_S
         if not fit.var_mu < _MAX_REL_SQ * fit.mu_sq:
-            return (kh.cquot(1.0, fit.mu) if fit.mu_sq > 0 else _NAN_ENVELOPE), math.inf, False
+            return (kh.cquot(1.0, fit.mu) if fit.mu_sq > 0 else _NAN_ENVELOPE), _INF, False
         return kh.cquot(1.0, fit.mu), kh.sqrt(fit.var_mu) / (fit.mu_sq * self.sigma), trusted
 
     def _replay(self, readings: list[tuple[float, complex]]) -> None:

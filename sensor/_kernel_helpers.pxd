@@ -43,6 +43,11 @@ cdef inline double complex _cx(double re, double im) noexcept:
     return z
 
 
+cdef inline double complex cx(double re, double im) noexcept:
+    """complex(re, im) of two floats."""
+    return _cx(re, im)
+
+
 cdef inline double complex as_complex(double complex z) noexcept:
     """complex(z): the argument's conversion to a C complex (of a Python complex, a NumPy
     complex128, any number) made it; nothing is left to do."""

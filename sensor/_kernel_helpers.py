@@ -31,6 +31,7 @@ __all__ = [
     "cabs",
     "cexp",
     "cquot",
+    "cx",
     "exp",
     "fields",
     "interp",
@@ -56,6 +57,11 @@ def cquot(a: complex, b: complex) -> complex:
 def cabs(z: complex) -> float:
     """``abs(z)`` of a complex z: CPython's ``_Py_c_abs`` (OverflowError past the largest float)."""
     return abs(z)
+
+
+def cx(re: float, im: float) -> complex:
+    """``complex(re, im)`` of two floats (NumPy's too): a Python complex."""
+    return complex(re, im)
 
 
 # complex(z): a Python complex of the number z (a NumPy complex128 too), what a kernel's C

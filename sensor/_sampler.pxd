@@ -27,7 +27,22 @@ cdef class ModeSampler:
     cdef (double complex, double complex, double) _response(self, double kappa, double gamma) except *
 
     @cython.locals(
-        i=Py_ssize_t, k_e=double, c_e=double, kappa=double, gamma=double, tau=double, settled=bint, v1_true=double, phase=double,
-        steady="double complex", rate="double complex", decay="double complex", noise="double complex", iq="double complex",
+        i=Py_ssize_t, k_e=double, c_e=double, kappa=double, gamma=double, tau=double, settled=bint, v1_true=double,
+        steady="double complex", rate="double complex", decay="double complex", iq="double complex",
+    )
+    cpdef (double complex, double complex, double, double, bint, double, double) advance(
+        self, pressure_cells_pa, double complex envelope, double dt_s, double time_in_mode_s, bint noisy, double complex noise
+    ) except *
+
+    @cython.locals(
+        noisy=bint, draw="double complex", iq="double complex", v1_true=double,
+        tau=double, settled=bint, kappa=double, gamma=double,
     )
     cpdef tuple sample(self, pressure_cells_pa, double complex envelope, double dt_s, double time_in_mode_s, noise_iq)
+
+
+@cython.locals(phase=double)
+cpdef object reading(
+    int mode, double complex iq, double complex envelope, double v1_true, double time_in_mode_s, double tau_s, bint settled,
+    double kappa, double gamma,
+)

@@ -111,11 +111,13 @@ class ModeSampler:
         rate = (c + gamma) / (2.0 * self._rho_a) - kh.cquot(jk, 2.0 * omega * self._rho_a)
         return steady, rate, 1.0 / rate.real
 
-    def sample(self, pressure_cells_pa, envelope: complex, dt_s: float, time_in_mode_s: float, noise_iq):
-        """(the reading, the new envelope) after ``dt_s`` s under the cells' pressures (Pa, one
-        finite non-negative float per weight, unchecked) from the envelope ``envelope``; the
-        drive has been in this mode ``time_in_mode_s`` s at the sample; ``noise_iq`` is the
-        lock-in's unit normal draw on I + jQ (None: a noiseless reading)."""
+    def advance(self, pressure_cells_pa, envelope: complex, dt_s: float, time_in_mode_s: float, noisy: bool, noise: complex) -> tuple:
+        """One reading's values, no record made (:meth:`sample`'s arithmetic; what a readout pass
+        over many fingertips calls, :class:`sensor._channel.ChannelCore`):
+        (iq, the new envelope, v1_true, tau_s, settled, kappa, gamma) after ``dt_s`` s under the
+        cells' pressures (Pa, one finite non-negative float per weight, unchecked) from the
+        envelope ``envelope``; the drive has been in this mode ``time_in_mode_s`` s at the sample;
+        ``noise`` is the lock-in's unit normal draw on I + jQ, added where ``noisy``."""
         self.lookups += self._n
         if self._n == 1:
             k_e, c_e = self._at(pressure_cells_pa[0])
@@ -147,17 +149,38 @@ class ModeSampler:
             envelope, settled = steady, True
         v1_true = kh.cabs(envelope)
         # The lock-in's in-phase and quadrature outputs each carry the readout's noise.
-        if noise_iq is None:
-            iq = envelope
-        else:
-            noise = noise_iq  # (a C complex, compiled)
-            iq = envelope + noise * self._sigma
-        phase = -kh.atan2(envelope.imag, envelope.real) if v1_true > 0 else 0.0
-        reading = kh.record10(Reading, _READING_AT, self.mode, kh.cabs(iq), v1_true, phase, time_in_mode_s, tau, settled, kappa, gamma, iq)
-        return reading, envelope
+        iq = envelope + noise * self._sigma if noisy else envelope
+        return iq, envelope, v1_true, tau, settled, kappa, gamma
+
+    def sample(self, pressure_cells_pa, envelope: complex, dt_s: float, time_in_mode_s: float, noise_iq):
+        """(the reading, the new envelope) after ``dt_s`` s under the cells' pressures (Pa, one
+        finite non-negative float per weight, unchecked) from the envelope ``envelope``; the
+        drive has been in this mode ``time_in_mode_s`` s at the sample; ``noise_iq`` is the
+        lock-in's unit normal draw on I + jQ (None: a noiseless reading)."""
+        noisy = noise_iq is not None
+        draw = noise_iq if noisy else 0j
+        iq, envelope, v1_true, tau, settled, kappa, gamma = self.advance(pressure_cells_pa, envelope, dt_s, time_in_mode_s, noisy, draw)
+        return reading(self.mode, iq, envelope, v1_true, time_in_mode_s, tau, settled, kappa, gamma), envelope
 
     def __reduce__(self):  # the unloaded decay is recomputed by the copy, the same
         return type(self), self._args, (self.lookups, self.unloaded_samples)
 
     def __setstate__(self, state) -> None:
         self.lookups, self.unloaded_samples = state
+
+
+def reading(
+    mode: int,
+    iq: complex,
+    envelope: complex,
+    v1_true: float,
+    time_in_mode_s: float,
+    tau_s: float,
+    settled: bool,
+    kappa: float,
+    gamma: float,
+) -> Reading:
+    """The :class:`sensor.resonator.Reading` of one sample's values (:meth:`ModeSampler.advance`'s):
+    its magnitude |iq| and the envelope's phase (0 for a zero envelope) derived here."""
+    phase = -kh.atan2(envelope.imag, envelope.real) if v1_true > 0 else 0.0
+    return kh.record10(Reading, _READING_AT, mode, kh.cabs(iq), v1_true, phase, time_in_mode_s, tau_s, settled, kappa, gamma, iq)

@@ -192,6 +192,21 @@ def test_step_and_a_plain_loop_read_the_same():
     assert sim.readings() == plain.readings()
 
 
+@pytest.mark.parametrize("pad", ["gel", "touch"])
+def test_the_fingertips_sensors_cost_mujoco_no_acceleration_stage_pass(pad):
+    """The fingertips' ``user`` sensors are of the position stage: MuJoCo runs
+    ``mj_rnePostConstraint`` (cacc, cfrc_int, cfrc_ext) at every step for a ``user`` sensor of
+    the acceleration stage, and for nothing the fingertips add, so it leaves ``cacc`` unset."""
+    model, data, _ = bound(pad=pad)
+    users = model.sensor_type == mujoco.mjtSensor.mjSENS_USER
+    assert users.sum() == 2 * len(SENSOR_FIELDS)
+    assert set(model.sensor_needstage[users].tolist()) == {int(mujoco.mjtStage.mjSTAGE_POS)}
+    for _ in range(10):
+        mujoco.mj_step(model, data)
+    assert sensors(data, "pressed")["status"] == STATUS_CODES["settling"] or np.isfinite(sensors(data, "pressed")["true_pressure_pa"])
+    assert not data.cacc.any()
+
+
 def test_a_python_callback_already_set_is_refused_and_a_c_one_is_kept():
     calls = []
     try:
@@ -319,36 +334,45 @@ def test_an_error_inside_mj_step_is_raised_by_the_fingertips_own_loop():
     working = hook._pass
 
     class Broken:
-        def sample(self, period_s):
+        periods = 0
+
+        def tick(self, stage):
             raise ZeroDivisionError("a broken readout")
 
-        def write(self):
-            pass
-
     hook._pass = Broken()
+    mjhooks.refresh(data)  # the dispatcher's fast path: the broken pass's
     for _ in range(2 * hook.substeps):  # a plain loop: the callback's sample fails, printed
         mujoco.mj_step(model, data)
     with pytest.raises(RuntimeError, match="failed inside mj_step: ZeroDivisionError: a broken readout"):
         loop.readings()
     hook._pass = working
+    mjhooks.refresh(data)
     loop.step()  # taken: nothing pending
     assert set(loop.readings()) == {"pressed", "free"}
 
 
 @pytest.mark.filterwarnings("ignore::pytest.PytestUnraisableExceptionWarning")
-def test_ctrl_c_inside_a_callback_reaches_the_fingertips_own_loop():
+@pytest.mark.parametrize("path", ["fast", "python"])
+def test_ctrl_c_inside_a_callback_reaches_the_fingertips_own_loop(path):
     """A KeyboardInterrupt raised in the callback (Ctrl-C landing there) is printed and dropped by
-    ctypes inside ``mj_step``; the fingertips' own loop raises it as it ends its period."""
-    _, _, loop = bound()
+    ctypes inside ``mj_step``; the fingertips' own loop raises it as it ends its period.  In the
+    dispatcher's fast path (the compiled pass's tick) and in the hook's own ``sensor``."""
+    _, data, loop = bound()
     hook = loop._hook
     calls = []
 
-    def interrupted(model, data, stage):
+    def interrupted(*args):
         if not calls:
-            calls.append(data.time)
+            calls.append(args)
             raise KeyboardInterrupt
+        return 0
 
-    hook.sensor = interrupted
+    if path == "fast":
+        hook.fast_sensor = lambda: interrupted
+    else:
+        hook.fast_sensor = lambda: None
+        hook.sensor = interrupted
+    mjhooks.refresh(data)
     with pytest.raises(KeyboardInterrupt):
         loop.step()
     assert len(calls) == 1

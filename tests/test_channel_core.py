@@ -67,6 +67,63 @@ def test_the_state_is_the_core_s_read_and_written_through_the_channel(dynamics):
     assert math.isnan(ch._core._estimated_at) and ch._core._inference is ch._inference
 
 
+class _Through:
+    """A sampler's or an inverse's calls through Python (not the core's C path): the records
+    their own methods make (ModeSampler.sample, ModeInverse.inferred)."""
+
+    def __init__(self, inner) -> None:
+        self.inner = inner
+
+    def __getattr__(self, name):
+        return getattr(self.inner, name)
+
+    def __call__(self, *args):
+        return self.inner(*args)
+
+
+@pytest.mark.parametrize("dynamics", ["envelope", "steady"])
+@pytest.mark.parametrize("noise", [True, False])
+def test_advance_gives_sample_s_reading_and_estimate_as_values_and_their_records_when_asked(dynamics, noise):
+    """The readout pass's path (ChannelCore.advance: values, the records made only when asked)
+    against the records the sampler's and the inverse's own methods make (a twin channel whose
+    samplers and inverses are called through Python), through load steps, saturation and a
+    mode switch."""
+    from piezotip.sensor._estimator import STATUSES
+
+    eager, lazy = (SensorChannel(Fingertip(), dynamics=dynamics, noise=noise, rng=np.random.default_rng(5)) for _ in range(2))
+    for table in (eager._core._samplers, eager._core._inverse):
+        for mode in table:
+            table[mode] = _Through(table[mode])
+    seen = set()
+    for k in range(600):
+        if k == 400:
+            eager.select_mode(3)
+            lazy.select_mode(3)
+        p = (0.0, 1500.0, 2.0e5, 40.0)[(k // 100) % 4]
+        reading, estimate = eager._core.sample([p], 0.005)
+        mode, pressure, sigma, status = lazy._core.advance([p], 0.005)
+        assert _bits((mode, pressure, sigma, STATUSES[status])) == _bits(
+            (reading.mode, estimate.pressure_pa, estimate.uncertainty_pa, estimate.status)
+        )
+        assert _bits(lazy._core.last_reading()) == _bits(reading), k
+        assert _bits(lazy._core.last_estimate()) == _bits(estimate), k
+        assert _bits(lazy._core._last_estimate) == _bits(eager._core._last_estimate), k
+        seen.add(estimate.status)
+    assert seen >= ({"ok", "below_detection", "settling"} if dynamics == "envelope" else {"ok", "below_detection", "saturated"})
+
+
+def test_the_noise_drawn_ahead_is_state_a_copy_takes():
+    """The lock-in's noise drawn ahead (a block of the generator's draws) reads and writes as the
+    list of what is left, the next one last; a core given that list goes on with the same draws."""
+    ch = SensorChannel(Fingertip(), rng=np.random.default_rng(7))
+    _run(ch, 3)
+    left = ch._noise
+    assert len(left) == 2048 - 3 and all(isinstance(z, complex) for z in left)
+    twin = SensorChannel(Fingertip(), rng=np.random.default_rng(99))
+    twin._noise = left
+    assert [twin._core.iq_noise() for _ in range(5)] == [ch._core.iq_noise() for _ in range(5)]
+
+
 def test_copies_of_a_channel_go_on_as_it_does():
     ch = SensorChannel(Fingertip(), rng=np.random.default_rng(3))
     _run(ch, 250)

@@ -107,3 +107,26 @@ def test_a_touch_skin_leaves_the_model_s_physics_bit_for_bit_as_it_was():
     assert sum(touch) == pytest.approx(BOX_KG * 9.81, rel=1e-6)
     # the truth the readout was given at its last period (a step or so ago; the box is at rest)
     assert data.sensor(sensor_name("tip0_0", "true_pressure_pa")).data[0] == pytest.approx(touch[0] / PAD_AREA_M2, rel=1e-6)
+
+
+def test_a_touch_skin_reads_the_same_in_its_own_loop_and_in_a_plain_one():
+    """While the box lands (its load changing every step): a touch pad's readout samples the
+    ``touch`` sensor as the last step left it, in a plain ``mj_step`` loop (at the next step's
+    position stage) as in the fingertips' own loop (at the period's end)."""
+    names = [f"tip{i}_{j}" for i in range(ROWS) for j in range(COLS)]
+    loops = []
+    for _ in range(2):
+        spec = mujoco.MjSpec.from_string(skin_xml(ROWS, COLS))
+        tips = attach(spec, sites=names, pad="touch")
+        model = spec.compile()
+        data = mujoco.MjData(model)
+        loops.append((model, data, tips.bind(model, data)))
+    (_, _, own), (model, data, plain) = loops
+    seen = set()
+    for period in range(60):
+        own.step()
+        for _ in range(plain.substeps + (period == 0)):  # the plain loop samples one step later
+            mujoco.mj_step(model, data)
+        assert own.readings() == plain.readings(), period
+        seen.add(round(own.readings()["tip0_0"].true_pressure_pa, 3))
+    assert len(seen) > 10  # the load changed while the two were compared
