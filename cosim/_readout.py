@@ -176,9 +176,9 @@ class ReadoutPass:
         for k in range(self._n):
             fractions = fractions_of[k]
             adr = self._touch_adr[k]
-            if adr >= 0:  # a touch pad: its zone's force over its area, uniform
+            if adr >= 0:  # a touch pad: its zone's force over its area, uniform (one cell)
                 p = float(sensordata[adr]) / self._areas[k]
-                cells = [p]
+                cells = None
                 peak = p
             else:
                 (profile,), (cells,) = self._readers[k]()
@@ -187,10 +187,10 @@ class ReadoutPass:
                     if q > peak:
                         peak = q
             # The coverage's mean pressure (one cell: fsum of one value is that value).
-            n_cells = len(cells)
+            n_cells = 1 if cells is None else len(cells)
             if n_cells != len(fractions):
                 raise ValueError(f"fingertip {k}: {n_cells} coverage cells read for {len(fractions)} shares")
-            if adr >= 0:
+            if cells is None:
                 share = fractions[0]
                 truth = p * share
             elif n_cells == 1:
@@ -200,10 +200,13 @@ class ReadoutPass:
             core = self._cores[k]
             if core is not None:
                 c = core  # (a C call, compiled)
-                mode, pressure, sigma, status = c.advance(cells, period_s)
+                if cells is None:
+                    mode, pressure, sigma, status = c.advance_one(p, period_s)
+                else:
+                    mode, pressure, sigma, status = c.advance(cells, period_s)
                 code = self._code_at[status]
             else:
-                reading, estimate = self._samples[k](cells, period_s)
+                reading, estimate = self._samples[k]([p] if cells is None else cells, period_s)
                 self._records[k] = (reading, estimate)
                 pressure, sigma, name = kh.fields(estimate, Estimate, _ESTIMATE_AT, 3, _ESTIMATE_GET)
                 mode = reading.mode

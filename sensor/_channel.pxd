@@ -36,6 +36,10 @@ cdef class ChannelCore:
     cdef double _r_v1, _r_v1_true, _r_t, _r_tau, _r_kappa, _r_gamma
     cdef bint _r_settled
     cdef object _r_record
+    # The driven mode's sampler and the last reading's mode's low amplitude, as last looked up.
+    cdef object _mode_seen, _mode_sampler
+    cdef int _low_mode
+    cdef double _low
     cdef double[::1] _draws
     cdef Py_ssize_t _left
     cdef public Py_ssize_t evaluations
@@ -50,7 +54,7 @@ cdef class ChannelCore:
         t=double, s=sm.ModeSampler, noisy=bint, draw="double complex",
         iq="double complex", envelope="double complex", v1_true=double, tau=double, settled=bint, kappa=double, gamma=double,
     )
-    cdef int _read(self, pressure_cells_pa, double dt_s) except -1
+    cdef int _read(self, pressure_cells_pa, double pressure_pa, double dt_s) except -1
 
     cpdef object last_reading(self)
 
@@ -67,7 +71,11 @@ cdef class ChannelCore:
 
     cpdef tuple sample(self, pressure_cells_pa, double dt_s)
 
-    @cython.locals(mode=int, v1=double, p=double, sigma=double, status=int, kept=bint)
     cpdef (int, double, double, int) advance(self, pressure_cells_pa, double dt_s) except *
+
+    cpdef (int, double, double, int) advance_one(self, double pressure_pa, double dt_s) except *
+
+    @cython.locals(mode=int, v1=double, p=double, sigma=double, status=int, kept=bint)
+    cdef (int, double, double, int) _estimated(self) except *
 
     cpdef object last_estimate(self)

@@ -95,8 +95,12 @@ class ChannelCore:
         "_last_sigma",
         "_last_status",
         "_left",
+        "_low",
         "_low_amplitude",
+        "_low_mode",
         "_low_since_s",
+        "_mode_sampler",
+        "_mode_seen",
         "_r_envelope",
         "_r_gamma",
         "_r_iq",
@@ -157,6 +161,8 @@ class ChannelCore:
         self._r_mode, self._r_iq, self._r_envelope, self._r_v1, self._r_v1_true = mode, 0j, 0j, math.nan, math.nan
         self._r_t, self._r_tau, self._r_settled, self._r_kappa, self._r_gamma = math.nan, math.nan, False, math.nan, math.nan
         self._r_record, self._a_record = None, None
+        # The driven mode's sampler and the last reading's mode's low amplitude, as last looked up.
+        self._mode_seen, self._mode_sampler, self._low_mode, self._low = None, None, -1, math.nan
 
     def _draw(self) -> complex:
         """The lock-in's noise on one reading: independent standard normal draws on I and Q,
@@ -185,12 +191,14 @@ class ChannelCore:
             draws[2 * i + 1], draws[2 * i] = z.real, z.imag
         self._draws, self._left = draws, len(values)
 
-    def _read(self, pressure_cells_pa, dt_s: float) -> None:
-        """The reading after ``dt_s`` s under the cells' pressures (Pa, unchecked), its values
-        kept (:meth:`last_reading` makes its record when asked)."""
+    def _read(self, pressure_cells_pa, pressure_pa: float, dt_s: float) -> None:
+        """The reading after ``dt_s`` s under the cells' pressures (Pa, unchecked; None: one cell,
+        at ``pressure_pa``), its values kept (:meth:`last_reading` makes its record when asked)."""
         mode = self.mode
         self.evaluations += 1
-        sampler = self._samplers[mode]
+        if mode is not self._mode_seen:  # the mode's sampler, looked up once a switch, not each reading
+            self._mode_seen, self._mode_sampler = mode, self._samplers[mode]
+        sampler = self._mode_sampler
         self.time_in_mode_s = t = self.time_in_mode_s + dt_s
         self._clock_s += dt_s
         self._dt_s = dt_s
@@ -198,13 +206,17 @@ class ChannelCore:
         draw = self._draw() if noisy else 0j
         if type(sampler) is sm.ModeSampler:
             s = sampler  # (a C call, compiled)
-            iq, envelope, v1_true, tau, settled, kappa, gamma = s.advance(pressure_cells_pa, self.envelope, dt_s, t, noisy, draw)
+            if pressure_cells_pa is None:
+                iq, envelope, v1_true, tau, settled, kappa, gamma = s.advance_one(pressure_pa, self.envelope, dt_s, t, noisy, draw)
+            else:
+                iq, envelope, v1_true, tau, settled, kappa, gamma = s.advance(pressure_cells_pa, self.envelope, dt_s, t, noisy, draw)
             self.envelope = envelope
             self._r_mode, self._r_iq, self._r_envelope, self._r_v1_true, self._r_t = mode, iq, envelope, v1_true, t
             self._r_tau, self._r_settled, self._r_kappa, self._r_gamma = tau, settled, kappa, gamma
             self._r_record = None
         else:  # another sampler class (a test's): through Python, its record kept
-            reading, self.envelope = sampler.sample(pressure_cells_pa, self.envelope, dt_s, t, draw if noisy else None)
+            cells = [pressure_pa] if pressure_cells_pa is None else pressure_cells_pa
+            reading, self.envelope = sampler.sample(cells, self.envelope, dt_s, t, draw if noisy else None)
             self._r_mode, self._r_v1, self._r_iq = kh.fields(reading, Reading, _READING_AT, 3, _READING_GET)
             self._r_record = reading
 
@@ -227,7 +239,7 @@ class ChannelCore:
     def update(self, pressure_cells_pa, dt_s: float) -> Reading:
         """:meth:`sensor.channel.SensorChannel.update_trusted` of a channel with samplers: the
         reading after ``dt_s`` s under the cells' pressures (Pa, unchecked)."""
-        self._read(pressure_cells_pa, dt_s)
+        self._read(pressure_cells_pa, 0.0, dt_s)
         return self.last_reading()
 
     def _estimate_of(self, mode: int, iq: complex) -> tuple:
@@ -252,8 +264,9 @@ class ChannelCore:
             a_ss, gain, trusted = inf.step(t, iq)
         else:
             a_ss, gain, trusted = self._inference.step(t, iq)
-        low = self._low_amplitude[mode]
-        if kh.cabs(iq) < low:
+        if mode != self._low_mode:  # the mode's low amplitude, looked up once a switch
+            self._low_mode, self._low = mode, self._low_amplitude[mode]
+        if kh.cabs(iq) < self._low:
             if self._low_since_s is None:
                 self._low_since_s = t
         else:
@@ -310,7 +323,16 @@ class ChannelCore:
         (:meth:`last_reading`, :meth:`last_estimate`): what a readout pass over many fingertips
         calls.  (mode, pressure_pa, uncertainty_pa, the status's index in
         :data:`sensor._estimator.STATUSES`)."""
-        self._read(pressure_cells_pa, dt_s)
+        self._read(pressure_cells_pa, 0.0, dt_s)
+        return self._estimated()
+
+    def advance_one(self, pressure_pa: float, dt_s: float) -> tuple:
+        """:meth:`advance` of a channel of one cell under ``pressure_pa`` (Pa), no list made."""
+        self._read(None, pressure_pa, dt_s)
+        return self._estimated()
+
+    def _estimated(self) -> tuple:
+        """The last reading's estimate as values (:meth:`advance`'s)."""
         mode = self._r_mode
         if self._steady:
             # Another sampler's record: its v1 as it says.

@@ -33,7 +33,7 @@ cdef class _Fit:
 cdef class SteadyInference:
     cdef readonly double tau0, tau0_sq, sigma
     cdef double sig_sq, sig_sq_tau0, sig_sq_tau0_sq, half_sig_sq
-    cdef list samples, fits
+    cdef list samples, fits, spare_fits, spare_samples
     cdef Py_ssize_t first
     cdef _Sample base
     cdef int turn

@@ -166,6 +166,8 @@ class SteadyInference:
         "sig_sq_tau0",
         "sig_sq_tau0_sq",
         "sigma",
+        "spare_fits",
+        "spare_samples",
         "tau0",
         "tau0_sq",
         "tr",
@@ -186,6 +188,9 @@ class SteadyInference:
         self.first = 0
         self.turn = 0  # which of the longer look-backs the change test takes this reading
         self.fits = []  # the fit made after each of the last readings (_Fit, or None; _add_fit)
+        # Fits and readings that have left the window, made again in place of new ones (no
+        # allocation a reading: _fit, _add); nothing else holds them.
+        self.spare_fits, self.spare_samples = [], []
         self.restart(0.0, None)
 
     def restart(self, t_ref: float, a_start: complex | None = None) -> None:
@@ -233,6 +238,7 @@ class SteadyInference:
         + 1 (the change test looks back at most _LONGEST), older ones dropped now and then."""
         self.fits.append(fit)
         if len(self.fits) > 2 * (_LONGEST + 1):
+            self.spare_fits.extend([f for f in self.fits[: _LONGEST + 1] if f is not None])
             del self.fits[: _LONGEST + 1]
 
     def _drop_oldest(self) -> None:
@@ -240,6 +246,7 @@ class SteadyInference:
         self.base = self.samples[self.first]
         self.first += 1
         if self.first >= 64 and 2 * self.first >= len(self.samples):  # the readings before the window go
+            self.spare_samples.extend(self.samples[: self.first - 1])  # (not the base, the last of them)
             del self.samples[: self.first]
             self.first = 0
 
@@ -271,7 +278,7 @@ class SteadyInference:
         """Add an integrated reading to the window."""
         s = self._sample(-1) if self._size() else self.base
         c1, c2 = x1.conjugate(), x2.conjugate()
-        new = _Sample.__new__(_Sample)
+        new = self.spare_samples.pop() if self.spare_samples else _Sample.__new__(_Sample)
         new.t, new.a = t, a
         new.s1, new.s2, new.sy = s.s1 + x1, s.s2 + x2, s.sy + y
         new.s11 = s.s11 + (x1.real * x1.real + x1.imag * x1.imag)
@@ -324,7 +331,7 @@ class SteadyInference:
         mu_sq = mu.real * mu.real + mu.imag * mu.imag
         sig_sq = self.sig_sq
         s2_res = sig_sq * (self.tau0_sq + _INTEGRATED_NOISE * mu_sq * width * width)
-        f = _Fit.__new__(_Fit)
+        f = self.spare_fits.pop() if self.spare_fits else _Fit.__new__(_Fit)
         f.mu, f.mu_sq = mu, mu_sq
         f.var_mu = s2_res * (c22 + d * d * c11 - 2.0 * d * c12.real) * inv_det
         f.b2_sq = b2.real * b2.real + b2.imag * b2.imag

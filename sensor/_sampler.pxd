@@ -26,12 +26,25 @@ cdef class ModeSampler:
     @cython.locals(omega=double, c=double, jk="double complex", steady="double complex", rate="double complex")
     cdef (double complex, double complex, double) _response(self, double kappa, double gamma) except *
 
+    @cython.locals(i=Py_ssize_t, k_e=double, c_e=double, kappa=double, gamma=double)
+    cdef (double, double) _load(self, pressure_cells_pa) except *
+
     @cython.locals(
-        i=Py_ssize_t, k_e=double, c_e=double, kappa=double, gamma=double, tau=double, settled=bint, v1_true=double,
+        tau=double, settled=bint, v1_true=double,
         steady="double complex", rate="double complex", decay="double complex", iq="double complex",
     )
+    cdef (double complex, double complex, double, double, bint, double, double) _step(
+        self, double kappa, double gamma, double complex envelope, double dt_s, double t_s, bint noisy, double complex noise
+    ) except *
+
+    @cython.locals(kappa=double, gamma=double)
     cpdef (double complex, double complex, double, double, bint, double, double) advance(
         self, pressure_cells_pa, double complex envelope, double dt_s, double time_in_mode_s, bint noisy, double complex noise
+    ) except *
+
+    @cython.locals(k_e=double, c_e=double)
+    cpdef (double complex, double complex, double, double, bint, double, double) advance_one(
+        self, double pressure_pa, double complex envelope, double dt_s, double time_in_mode_s, bint noisy, double complex noise
     ) except *
 
     @cython.locals(

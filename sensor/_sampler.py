@@ -111,25 +111,25 @@ class ModeSampler:
         rate = (c + gamma) / (2.0 * self._rho_a) - kh.cquot(jk, 2.0 * omega * self._rho_a)
         return steady, rate, 1.0 / rate.real
 
-    def advance(self, pressure_cells_pa, envelope: complex, dt_s: float, time_in_mode_s: float, noisy: bool, noise: complex) -> tuple:
-        """One reading's values, no record made (:meth:`sample`'s arithmetic; what a readout pass
-        over many fingertips calls, :class:`sensor._channel.ChannelCore`):
-        (iq, the new envelope, v1_true, tau_s, settled, kappa, gamma) after ``dt_s`` s under the
-        cells' pressures (Pa, one finite non-negative float per weight, unchecked) from the
-        envelope ``envelope``; the drive has been in this mode ``time_in_mode_s`` s at the sample;
-        ``noise`` is the lock-in's unit normal draw on I + jQ, added where ``noisy``."""
+    def _load(self, pressure_cells_pa) -> tuple[float, float]:
+        """The modal load (kappa N/m^2, gamma N s/m^2) of the cells' pressures (Pa, one finite
+        non-negative float per weight, unchecked): step 1 of :mod:`sensor.sampler`."""
         self.lookups += self._n
         if self._n == 1:
             k_e, c_e = self._at(pressure_cells_pa[0])
-            kappa, gamma = k_e * self._weights[0], c_e * self._weights[0]
-        else:
-            if len(pressure_cells_pa) != self._n:
-                raise ValueError(f"{len(pressure_cells_pa)} pressure cells for {self._n} weights")
-            kappa = gamma = 0.0
-            for i in range(self._n):
-                k_e, c_e = self._at(pressure_cells_pa[i])
-                kappa += k_e * self._weights[i]
-                gamma += c_e * self._weights[i]
+            return k_e * self._weights[0], c_e * self._weights[0]
+        if len(pressure_cells_pa) != self._n:
+            raise ValueError(f"{len(pressure_cells_pa)} pressure cells for {self._n} weights")
+        kappa = gamma = 0.0
+        for i in range(self._n):
+            k_e, c_e = self._at(pressure_cells_pa[i])
+            kappa += k_e * self._weights[i]
+            gamma += c_e * self._weights[i]
+        return kappa, gamma
+
+    def _step(self, kappa: float, gamma: float, envelope: complex, dt_s: float, t_s: float, noisy: bool, noise: complex) -> tuple:
+        """:meth:`advance` under the modal load (kappa, gamma): steps 2 to 5 of :mod:`sensor.sampler`
+        (``t_s``: the time in this mode, s)."""
         if kappa == 0.0 and gamma == 0.0 and self._skip_unloaded:  # no load: the unloaded resonator's
             self.unloaded_samples += 1
             steady, rate, tau = self._u_steady, self._u_rate, self._u_tau
@@ -144,13 +144,32 @@ class ModeSampler:
                 decay = kh.cexp(-rate * dt_s)
         if self._envelope:
             envelope = steady + (envelope - steady) * decay  # resonator._step, its decay factor given
-            settled = time_in_mode_s >= tau * _SETTLE_TAUS
+            settled = t_s >= tau * _SETTLE_TAUS
         else:
             envelope, settled = steady, True
         v1_true = kh.cabs(envelope)
         # The lock-in's in-phase and quadrature outputs each carry the readout's noise.
         iq = envelope + noise * self._sigma if noisy else envelope
         return iq, envelope, v1_true, tau, settled, kappa, gamma
+
+    def advance(self, pressure_cells_pa, envelope: complex, dt_s: float, time_in_mode_s: float, noisy: bool, noise: complex) -> tuple:
+        """One reading's values, no record made (:meth:`sample`'s arithmetic; what a readout pass
+        over many fingertips calls, :class:`sensor._channel.ChannelCore`):
+        (iq, the new envelope, v1_true, tau_s, settled, kappa, gamma) after ``dt_s`` s under the
+        cells' pressures (Pa, one finite non-negative float per weight, unchecked) from the
+        envelope ``envelope``; the drive has been in this mode ``time_in_mode_s`` s at the sample;
+        ``noise`` is the lock-in's unit normal draw on I + jQ, added where ``noisy``."""
+        kappa, gamma = self._load(pressure_cells_pa)
+        return self._step(kappa, gamma, envelope, dt_s, time_in_mode_s, noisy, noise)
+
+    def advance_one(self, pressure_pa: float, envelope: complex, dt_s: float, time_in_mode_s: float, noisy: bool, noise: complex) -> tuple:
+        """:meth:`advance` of a sampler of one cell under the pressure ``pressure_pa`` (Pa), no list
+        made (a touch pad's: its zone's force over its area)."""
+        if self._n != 1:
+            raise ValueError(f"one pressure for {self._n} weights")
+        self.lookups += 1
+        k_e, c_e = self._at(pressure_pa)
+        return self._step(k_e * self._weights[0], c_e * self._weights[0], envelope, dt_s, time_in_mode_s, noisy, noise)
 
     def sample(self, pressure_cells_pa, envelope: complex, dt_s: float, time_in_mode_s: float, noise_iq):
         """(the reading, the new envelope) after ``dt_s`` s under the cells' pressures (Pa, one

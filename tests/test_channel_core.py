@@ -112,6 +112,19 @@ def test_advance_gives_sample_s_reading_and_estimate_as_values_and_their_records
     assert seen >= ({"ok", "below_detection", "settling"} if dynamics == "envelope" else {"ok", "below_detection", "saturated"})
 
 
+def test_one_pressure_reads_as_a_list_of_one_cell():
+    """A touch pad's path (ChannelCore.advance_one: one pressure, no list) against a list of one
+    cell, on twin channels through load steps and a mode switch: the same bits."""
+    one, listed = (SensorChannel(Fingertip(), rng=np.random.default_rng(11)) for _ in range(2))
+    for k in range(500):
+        if k == 300:
+            one.select_mode(2)
+            listed.select_mode(2)
+        p = (0.0, 900.0, 3.0e4, 15.0)[(k // 75) % 4]
+        assert _bits(one._core.advance_one(p, 0.005)) == _bits(listed._core.advance([p], 0.005)), k
+        assert _bits(one._core.last_reading()) == _bits(listed._core.last_reading()), k
+
+
 def test_the_noise_drawn_ahead_is_state_a_copy_takes():
     """The lock-in's noise drawn ahead (a block of the generator's draws) reads and writes as the
     list of what is left, the next one last; a core given that list goes on with the same draws."""
