@@ -103,10 +103,10 @@ class PhysicsConfig(_CheckedOnConstruction):
         5 ms (200 Hz): a gripper controller's rate and a lock-in amplifier's output bandwidth;
         the envelope update is exact over any period, so it costs no sensor accuracy.
     pad_contact : "compliant" (models/gripper.xml's pad contacts: their impedance ramped over
-        the first 30 um of depth, friction rows stiffened by impratio 100; sliding pads do not
+        the first 30 um of depth, friction rows stiffened by impratio 1000; sliding pads do not
         chatter), "hard" (MuJoCo's maximum impedance from first touch, the model before: sliding
-        pads chatter), or "auto": compliant on the house gripper, hard on a ``gripper.mjcf``
-        gripper (where it is measured to work; models/README.md); cosim.pad_model.
+        pads chatter), or "auto": compliant, on the house gripper and a ``gripper.mjcf`` one
+        alike (cosim.pad_model.resolve_pad_contact; models/README.md).
     """
 
     timestep_s: float = 0.001

@@ -201,6 +201,33 @@ def test_the_2f85s_friction_read_counts_the_load_on_its_arc_and_holds_menageries
     assert result.grip_margin >= 1.0
 
 
+@pytest.mark.slow
+@pytest.mark.parametrize("obj", ["box-100g", "can-500g"])
+def test_a_linkage_holds_the_grip_wanted_on_its_pads_not_on_its_drive(obj):
+    """dm_robotics' 2F-85 (a four-bar, no dry friction) on the catalogue's box and can (the
+    mounted grippers' compliant pad contact): the drive held the grip wanted while the weight's pull along the pads'
+    arc (W dh/do) pressed them 0.17 W more, 1.60x and 1.80x the need; the weight's closing taken off
+    the drive, the pads hold the grip wanted, 1.25x."""
+    overrides = {**keys(_robotiq_2f85(), *ROBOTIQ_2F85), **_catalogue(obj)}
+    result = piezotip.run("grasp", overrides=overrides, preset="fast")
+    assert result.outcome == "success", result.reason
+    assert 1.0 <= result.grip_margin <= 1.4
+
+
+@pytest.mark.slow
+def test_a_linkages_damping_push_answers_the_controllers_grip_not_the_lifts_braking_term():
+    """dm_robotics' 2F-85 on the 2 g wafer (crushes at 0.05 N, needs 0.025 N): the push that pays
+    a rise in the grip to the fingers' damping was paid on every rise of the grip the drive was
+    given, which carries the lift's braking term (``RobotLimits.lift_opens_n``, jittering with
+    the lift's measured acceleration); the pads closed to 1.6x and crushed it.  Paid on the
+    controller's own grip, it is held at about 1.3x, whole."""
+    from piezotip.reports.gripper_tables import WAFER
+
+    result = piezotip.run("grasp", overrides={**keys(_robotiq_2f85(), *ROBOTIQ_2F85), **WAFER}, preset="fast")
+    assert result.outcome == "success", result.reason
+    assert result.grip_margin <= 1.4
+
+
 def test_the_load_closes_a_linkages_pads_by_its_arcs_slope_and_slides_not_at_all(controller):
     """The grip the load L adds on the opening, L dh/do: 0 on slides; on the 2F-85 the slope of
     the pads' rise along the free closing (0.17-0.19 at a 40 mm opening, steeper when open)."""
@@ -265,15 +292,23 @@ def test_robosuites_grip_answers_a_load_change_in_time(gripper):
 @pytest.mark.slow
 @pytest.mark.parametrize("gripper", ["dm_robotics", "menagerie"])
 def test_the_2f85s_grip_holds_through_a_load_change(gripper):
-    """``grasp-disturb`` on Robotiq's 2F-85 (no dry friction: the grip is the drive's): the box
-    slid 10 mm (dm_robotics') or fell (Menagerie's) under the weight again while the grip was held
-    from a friction read 1.1-1.5 for its 1.0; read with the load on the arc counted, it stays put."""
+    """``grasp-disturb`` on Robotiq's 2F-85 (no dry friction; a four-bar whose pads the load
+    closes): the box slid 10 mm (dm_robotics') or fell (Menagerie's) under the weight again while
+    the grip was held from a friction read 1.1-1.5 for its 1.0; read with the load on the arc
+    counted, it stays put.  Held at the grip wanted on the pads (the load's closing taken off the
+    drive, never for more load than the grip answers: taken for the load at once, the box slid
+    14-16 mm while the grip rose), the answer paid to the fingers' damping (without: 75-95 ms),
+    and the raised grip's ring not read as a slip (read as one, it raised the new hold to
+    1.8x), the issue's goals: slip <= 2 mm, reaction <= 40 ms, the new hold within 1.5x."""
     from test_third_party_grippers import menagerie_keys
 
     overrides = keys(_robotiq_2f85(), *ROBOTIQ_2F85) if gripper == "dm_robotics" else menagerie_keys("robotiq-2f85")
     result = piezotip.run("grasp-disturb", overrides=overrides, preset="fast")
+    s = result.summary
     assert result.outcome == "success", result.reason
-    assert result.summary["disturb_slip_mm"] <= 2.0
+    assert s["disturb_slip_mm"] <= 2.0
+    assert s["disturb_reaction_ms"] <= 40.0
+    assert s["disturb_grip_margin"] <= 1.5
 
 
 def _catalogue(name: str) -> dict:

@@ -541,6 +541,49 @@ def test_the_pandas_friction_check_tells_sliding_pads_from_a_weight(name):
     assert result.outcome == "success", result.reason
 
 
+@pytest.mark.parametrize("name", ["glass-jar-300g", "egg-60g"])
+def test_the_pandas_friction_check_reads_the_pads_grip_on_the_fingertips(name):
+    """Issue 43, on the compliant pad contact (the house pads', whose slide does not stick and
+    slip): the Panda's check raised the drive's force 0.091 -> 0.115 N against its 1 N of dry
+    friction, the pads pressed 0.126 -> 0.124 N (the fingertips) and slid up the jar under a
+    steady 0.075 N of its 2.9 N, which did not follow the drive: "carried", and the lift left it
+    behind (the egg the same: never lifted, both lost).  On a drive with dry friction the gain a
+    sliding load must follow is now the pads' grip's on the fingertips
+    (MultimodeGrasp._pads_grip_gain): a check whose change did not reach them gives no
+    verdict, and "carried" comes at the weight.  The friction the checks that found it on the
+    table read is over the pads' grip too (MultimodeGrasp._pads_grip_n): the egg's (0.6) read
+    0.44-0.48 over it, 0.50 falling to 0.20 over the drive's (which held it at 3.6 N, 7.4x its
+    need; 1.7 N, 3.5x, now)."""
+    file, tips, actuators = ROBOSUITE["panda"]
+    obj = {f"object.{key}": value for key, value in dataclasses.asdict(scenarios.OBJECTS[name]).items()}
+    overrides = keys(_robosuite_grippers() / file, tips, actuators, **{"controller.kind": "multimode", **obj})
+    overrides["physics.pad_contact"] = "compliant"
+    result = piezotip.run("grasp", overrides=overrides, preset="fast")
+    assert result.outcome == "success", result.reason
+    weight_n = obj["object.mass_kg"] * 9.81
+    carried = next(e for e in result.events if e["kind"] == "carried")
+    assert float(re.search(r"load ([0-9.e+-]+) N", carried["message"]).group(1)) > 0.9 * weight_n, carried["message"]
+    sim = CoSimulation(config(overrides))
+    while not sim.controller.finished:
+        sim.advance()
+    assert sim.controller._sliding_ratio > 0.5 * obj["object.friction"]
+
+
+def test_the_pandas_friction_check_follows_the_pads_grip_down():
+    """The 2 g paper ball (crushed at 0.1 N) on the hard pad contact, multimode: the drive's 1 N
+    of dry friction held the pads at the touch's grip, which crept down 0.118 -> 0.094 N over
+    five checks while the drive's force rose 0.021 -> 0.083 N, under the ball's steady 0.0196 N.
+    A check that took only a rise of the pads' grip as one gave no verdict there, the drive rose
+    on to 0.10 N and the pads crushed the ball at its touchdown (0.105 N; 4 of its 7 runs).  A
+    sliding load follows the pads' grip down as well as up: one that did not follow a fall is
+    carried (MultimodeGrasp._pads_grip_gain), and the ball is held at 2.5x its need."""
+    file, tips, actuators = ROBOSUITE["panda"]
+    overrides = keys(_robosuite_grippers() / file, tips, actuators, **{"controller.kind": "multimode", **PAPER_BALL})
+    overrides["physics.pad_contact"] = "hard"
+    result = piezotip.run("grasp", overrides=overrides, preset="fast")
+    assert result.outcome == "success", result.reason
+
+
 def test_the_probes_friction_is_at_least_what_carried_the_object():
     """The Panda's pads stick and slip as they slide: the probe measured the 2.2 kg block's
     friction (0.9) as 0.50 and asked 26.8 N, past the 20 N rating (``over_limit``).  Carried over
@@ -597,6 +640,54 @@ def test_the_gentle_probe_reads_the_pandas_grip_on_its_fingertips(mass_kg):
     assert_carried_and_felt(result)
     carried = next(e["message"] for e in result.events if e["kind"] == "carried")
     assert float(re.search(r"friction ([0-9.e+-]+) measured while the pads slid", carried).group(1)) == pytest.approx(1.0, rel=0.1)
+    assert result.grip_margin <= 1.5
+
+
+def _pad_contact_dropouts(sim: CoSimulation) -> list[float]:
+    """Run ``sim`` to its end; the times of every physics step at which a pad strip that
+    touched the object the step before and the step after did not (one-step dropouts)."""
+    from piezotip.cosim.pad_model import pad_geom_ids
+
+    model = sim.model
+    obj, strips = model.body("object").id, set(pad_geom_ids(model))
+    touching: list[tuple[float, frozenset]] = []
+
+    def before(m, d):
+        seen = set()
+        for i in range(d.ncon):
+            c = d.contact[i]
+            pair = {int(c.geom1), int(c.geom2)}
+            if c.exclude == 0 and obj in (m.geom_bodyid[c.geom1], m.geom_bodyid[c.geom2]):
+                seen |= pair & strips
+        touching.append((float(d.time), frozenset(seen)))
+
+    sim.watch_mj_step(before)
+    while not sim.controller.finished:
+        sim.advance()
+    return [t for (_, a), (t, now), (_, b) in zip(touching[:-2], touching[1:-1], touching[2:], strict=True) if (a & b) - now]
+
+
+@pytest.mark.slow
+def test_the_pads_hard_contact_lets_go_of_a_sliding_jar_for_a_step_and_the_compliant_one_does_not():
+    """Issue 43: the Panda's gentle grip dropped the 330 g jar (friction 0.3) as it eased toward
+    1.25x its need.  Measured per physics step: the left pad at its friction limit (2.31 N along
+    the jar at 7.70 N, the right pad 0.92 N), the jar began to pivot about the right pad, and the
+    left pad's sliding contacts (MuJoCo's convex contact separates a sliding one at mu |v_t|, 13,
+    32, 53 nm a step) rose out of the hard contact's 0.14 um depth in four steps: gone for a step,
+    the gel threw the strips 0.9 mm into the jar, which tumbled.  Not the cylinder: the hard
+    contact lets go of the sliding box and can too.  The compliant contact (the house pads',
+    models/README.md "Sliding pads") rests 12-25 um deep, keeps every contact, and holds the jar
+    at its 1.25x: the mounted grippers' default now ("auto")."""
+    file, tips, actuators = ROBOSUITE["panda"]
+    jar = {**GLASS_JAR, "object.mass_kg": 0.33, "controller.kind": "gentle"}
+
+    def overrides(contact: str) -> dict:
+        return keys(_robosuite_grippers() / file, tips, actuators, **{**jar, "physics.pad_contact": contact})
+
+    assert _pad_contact_dropouts(CoSimulation(config(overrides("hard"))))  # the count is not vacuous
+    assert _pad_contact_dropouts(CoSimulation(config(overrides("auto")))) == []
+    result = piezotip.run("grasp", overrides=overrides("auto"), preset="fast")
+    assert result.outcome == "success", result.reason
     assert result.grip_margin <= 1.5
 
 
@@ -733,12 +824,13 @@ def test_pads_that_read_nothing_even_at_the_grip_cap_give_up_clearly(tmp_path):
     they read nothing even at the cap (here the cap is the grip floor), the controller says so
     (``unfelt_contact``) instead of squeezing on until the scenario's time runs out (multimode: it
     closes at 20 mm/s, and the touch's load springs the linkage's pads back off the cube; the
-    gentle controller's bounded touch leaves them on it)."""
+    gentle controller's bounded touch leaves them on it).  On the hard pad contact, whose pads
+    spring back off the cube (the compliant one, the default since 2026-11-29, leaves them on it)."""
     from piezotip.cosim.control import Phase
     from piezotip.cosim.recorder import Recorder
 
     cube = {f"object.{key}": value for key, value in dataclasses.asdict(scenarios.OBJECTS["cube-3g"]).items()}
-    cube.update({"object.friction": 0.88, "object.mass_kg": 0.0027, "controller.kind": "multimode"})
+    cube.update({"object.friction": 0.88, "object.mass_kg": 0.0027, "controller.kind": "multimode", "physics.pad_contact": "hard"})
     sim = CoSimulation(config(keys(_robotiq_2f85(), *ROBOTIQ_2F85, **cube)))
     c = sim.controller
 
@@ -770,8 +862,10 @@ def test_a_give_up_with_nothing_carried_opens_where_the_lift_is():
     """The 4.4 g raspberry at friction 0.81, multimode: never lifted (the 2F-85 holds it on its
     pads' lower guards), the controller gave up and lowered the lift back to where it started
     first, its fingers closed over the raspberry's top: it pressed it into the table past its
-    1.5 N.  Where the lift carries nothing of the object the fingers now open where they are."""
-    raspberry = {**RASPBERRY, "object.friction": 0.81, "object.mass_kg": 0.0044}
+    1.5 N.  Where the lift carries nothing of the object the fingers now open where they are.  (On
+    the hard pad contact: on the compliant one, the default since 2026-11-29, it is carried, and
+    crushed at the place, 1.66 N: docs/grippers.md.)"""
+    raspberry = {**RASPBERRY, "object.friction": 0.81, "object.mass_kg": 0.0044, "physics.pad_contact": "hard"}
     overrides = keys(_robotiq_2f85(), *ROBOTIQ_2F85, **{"controller.kind": "multimode", **raspberry})
     result = piezotip.run("grasp", overrides=overrides, preset="fast")
     assert result.outcome == "never_lifted", result.reason
@@ -783,8 +877,10 @@ def test_robotiqs_pads_close_on_again_when_they_sprang_back_off_the_object():
     stored touch against the 6 mN floor), and the grip, following a load that never came, stayed
     at the floor until the transfer timed out.  Pads that both read nothing for lost_s now close
     on by the safety factor per plateau window.  (It is held by the pads' lower guards, 11.6 mm
-    above its centre, beside the element: docs/grippers.md.)"""
-    overrides = keys(_robotiq_2f85(), *ROBOTIQ_2F85, **{"controller.kind": "multimode", **RASPBERRY})
+    above its centre, beside the element: docs/grippers.md.)  On the hard pad contact: on the
+    compliant one, the default since 2026-11-29, the pads slide up over it and the multimode
+    controller never lifts it (docs/grippers.md)."""
+    overrides = keys(_robotiq_2f85(), *ROBOTIQ_2F85, **{"controller.kind": "multimode", "physics.pad_contact": "hard", **RASPBERRY})
     result = piezotip.run("grasp", overrides=overrides, preset="fast")
     assert result.outcome == "success", result.reason
     assert result.grip_margin < 3.0

@@ -304,7 +304,9 @@ class GentleGrasp(MultimodeGrasp):
         #: (:meth:`_drive_for_grip`): on a drive with dry friction, whose force is the pads' only to
         #: within that friction once the fingers stand still, and whose grip the probe read on the
         #: fingertips too (:func:`grip_read_n`), so that the friction it measured is theirs.
-        self.grips_on_fingertips = robot.finger_friction_n > 0.0
+        #: A linkage's pads (``RobotLimits.pad_rise_m``) hold the weight's pull along their arc on
+        #: top of the drive's force (:meth:`_linkage_drive_n`), so its drive is set for the pads too.
+        self.grips_on_fingertips = robot.finger_friction_n > 0.0 or bool(robot.pad_rise_m[0])
         self._drive_n = math.nan  # the drive's force on the closing, N (negative: pulling open)
         self._friction_n = robot.finger_friction_n  # the drive's dry friction on the opening, N
         self._moved_dir = 0  # the way the drive is moving the fingers: +1 closing, -1 opening, 0 holding
@@ -512,20 +514,6 @@ class GentleGrasp(MultimodeGrasp):
         slope = (rise(0.0, opening_m + step_m) - rise(0.0, opening_m - step_m)) / (2.0 * step_m)
         return load_n * slope
 
-    def _fingertips_grip_n(self) -> tuple[float, float] | None:
-        """The grip the fingertips read, N per finger, and its sigma: each pad's trusted "ok"
-        estimate times the pad's area (a full-face contact), their mean; None unless every pad
-        has one."""
-        area, felt_n, variance = self.robot.pad_area_m2, 0.0, 0.0
-        for pad in self.pads:
-            sel = self.selectors[pad]
-            if not (sel.trusted and sel.status == "ok" and math.isfinite(sel.uncertainty_pa)):
-                return None
-            felt_n += sel.estimate_pa * area
-            variance += (sel.uncertainty_pa * area) ** 2
-        n = len(self.pads)
-        return felt_n / n, math.sqrt(variance) / n
-
     def _transfer(self, obs: Observation, t: float, dt_s: float) -> None:
         """Find the grip that holds, then hand the weight to it (the module docstring's probe).
 
@@ -645,7 +633,7 @@ class GentleGrasp(MultimodeGrasp):
         if self._over_cap(t, held_n, weight_n, carried=True):
             return
         self._grip_goal_n = min(held_n, self.grip_cap_n)
-        if not self.brakes or self.grips_on_fingertips or self._grip_goal_n > self.grip_n:  # up at once; down over the raise
+        if not self.brakes or self._friction_n > 0.0 or self._grip_goal_n > self.grip_n:  # up at once; down over the raise
             self.grip_n = self._grip_goal_n  # (a grip closed on the fingertips is eased down by _drive_for_grip)
         self.lift.goal_m = obs.lift_pos_m  # the raise feeds the sag forward from where the lift is
         self.lift.load_n = self._weight_n = weight_n
@@ -657,7 +645,8 @@ class GentleGrasp(MultimodeGrasp):
     def _drive_for_grip(self, obs: Observation, t: float, grip_n: float) -> tuple[float, float]:
         """The drive's force limit (N) and opening target (m) that bring the grip the fingertips feel
         (each pad's trusted "ok" estimate times its area, their mean, with its sigma) to
-        ``grip_n``, on a drive with dry friction F_f (:attr:`grips_on_fingertips`).
+        ``grip_n``, on a drive with dry friction F_f (:attr:`grips_on_fingertips`; a linkage
+        without it: :meth:`_linkage_drive_n`).
 
         Standing still, such fingers press the object with anything within F_f of their drive's
         force: the contact the touch or the probe left stays where it is when the command falls
@@ -676,6 +665,8 @@ class GentleGrasp(MultimodeGrasp):
         fingertips see it; within the tolerance it is held at
         the felt grip, in the middle of the band (a push or pull under F_f moves nothing).  The
         fingertips' slip watch waits while the drive pulls the pressure down."""
+        if self._friction_n <= 0.0:
+            return self._linkage_drive_n(obs, grip_n), self.opening_target
         if self.phase is Phase.PLACE:
             # Placing, the table takes the weight and the pads' pressure falls (read as a slip,
             # whose raise must not reach the pads: it would press the object as it lands;
@@ -752,6 +743,26 @@ class GentleGrasp(MultimodeGrasp):
         if drive_n >= 0.0:
             return drive_n, self.opening_target
         return -drive_n, self.robot.home_opening_m
+
+    def _linkage_drive_n(self, obs: Observation, grip_n: float) -> float:
+        """The drive's force that brings the pads of a linkage without dry friction to ``grip_n``,
+        N: the grip the load L the pads carry adds on their arc, L dh/do (:meth:`_load_closes_n`,
+        the virtual work the probe's friction read counts), taken off the drive's, so that the
+        pads, not the drive, hold the grip wanted; and a rise in the controller's grip
+        (:attr:`grip_n`) paid to the fingers' damping for a period (:meth:`_rise_push_n`: a load
+        change's answer; not the lift's braking term ``grip_n`` carries here, whose jitter paid at
+        every rise closed light objects' pads to 1.6x: the 2 g wafer crushed).  L is the
+        lift's load, but never more than the grip wanted holds (2 mu G / grip_safety at the
+        friction read): a load that grows pulls the pads down their arc only as they slide, and
+        taken off the drive ahead of the grip that answers it, it left them short while the
+        object slid (tests/test_grip_on_fingertips.py::test_the_2f85s_grip_holds_through_a_load_change).
+        Without it the drive's force was the grip and the pads held L dh/do more: Robotiq's
+        2F-85s carried the catalogue's objects at 1.6-1.9x their need (tests/test_grip_on_fingertips.py::
+        test_a_linkage_holds_the_grip_wanted_on_its_pads_not_on_its_drive)."""
+        push_n = self._rise_push_n(self.grip_n - self._last_grip_n)
+        self._last_grip_n = self.grip_n
+        load_n = min(self.lift.load_n, 2.0 * self.friction * grip_n / self.cfg.grip_safety)
+        return min(self.grip_cap_n, max(self.grip_floor_n, grip_n - self._load_closes_n(obs, load_n)) + push_n)
 
     def _closing_drive_n(self, grip_n: float, off_n: float) -> float:
         """The drive's force that closes fingers whose felt grip is ``off_n`` under ``grip_n``, N:
@@ -833,7 +844,15 @@ class GentleGrasp(MultimodeGrasp):
         if load_n > math.sqrt(self.cfg.grip_safety) * lift.held_load_n:
             wanted = grip_for_load_n(load_n, self.friction, self.cfg.grip_safety, self.grip_floor_n)
             if not self._over_cap(t, wanted, load_n, carried=True):
-                self.grip_n = ratchet_grip_n(self.grip_n, wanted, self.grip_cap_n, self.grip_rate_n_s, dt_s)
+                raised_n = ratchet_grip_n(self.grip_n, wanted, self.grip_cap_n, self.grip_rate_n_s, dt_s)
+                if raised_n > self.grip_n:
+                    # A raised grip rings in the fingers and a ring's trough is no slip (as after a
+                    # slip's answer, multimode._slip_check): the fingertips' slip references wait
+                    # until it has settled.  Read as one, it raised Robotiq's 2F-85s' grip past the
+                    # new need by a quarter (tests/test_grip_on_fingertips.py::
+                    # test_the_2f85s_grip_holds_through_a_load_change).
+                    self._slip_watch_from_s = t + 6.0 * self.cfg.load_filter_s
+                self.grip_n = raised_n
 
 
 __all__ = ["GentleGrasp", "carried_nothing_at_first", "grip_read_n", "lifted_off_friction", "load_is_steady", "probe_verdict"]

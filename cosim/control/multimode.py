@@ -25,7 +25,9 @@ Phases (:class:`Phase`), one method each::
   load / (2 mu)), so the weight moves from the table onto the pads.  When the load stops
   growing with the goal, the object has left the table *or* the pads are sliding on it (the
   load then sits at the friction limit 2 mu grip): a *friction check* raises the grip by the
-  safety factor and watches whether the load follows it.  If it does, the pads were
+  safety factor and watches whether the load follows it (on a drive with dry friction, the
+  pads' grip as the fingertips read it, which the drive's force reaches only past its
+  friction: a check whose change did not reach them says nothing).  If it does, the pads were
   sliding: the friction measured there replaces the assumption and the transfer goes on.
   If not, the object is *carried*: raise it at ``lift_speed_m_s`` (ramped), the servo's sag
   under the load compensated (the robot knows its gain).
@@ -286,6 +288,7 @@ class MultimodeGrasp:
         self.grip_n = self.moving_force_n
         self._check: tuple[float, float, float] | None = None  # (t0, G0, L0)
         self._check_pace = 0.0
+        self._check_felt: tuple[float, float] | None = None  # the fingertips' grip as the check began (_pads_grip_gain)
         self._reference_pa: dict[str, float] = {}
         self._empty_s = 0.0
         self._off_s = 0.0  # how long both pads have read nothing while the weight moves onto them
@@ -610,25 +613,36 @@ class MultimodeGrasp:
             if follows and applied > 0.0:
                 self._check = (t, applied, lift.window_load_n())
                 self._check_pace = lift.pace()
+                self._check_felt = self._fingertips_grip_n()
             return
         t0, g0, l0 = self._check
-        grip_gain = applied / g0 - 1.0
-        risen = grip_gain >= 0.5 * (c.grip_safety - 1.0) or self.grip_n >= self.grip_cap_n
+        risen = self._grip_risen(g0, applied)
+        grip_gain = self._pads_grip_gain(g0, applied) if risen else None
         window_load = lift.window_load_n()
-        if risen and window_load > l0 * (1.0 + 0.5 * grip_gain):
-            # The load grew with the grip: the object still rests on the table, held or
-            # sliding.  The grip keeps the raise (a ratchet), so every check that finds the
-            # object on the table leaves the grip higher by the safety factor: a friction below
+        if grip_gain is not None and math.copysign(1.0, grip_gain) * (window_load - l0 * (1.0 + 0.5 * grip_gain)) > 0.0:
+            # The load followed the grip by half its gain or more (sliding pads' load is 2 mu
+            # times their grip, whichever way it changes; on a friction drive the pads' grip may
+            # fall while the drive's rises: _pads_grip_gain): the object still rests on the
+            # table, held or sliding.  The grip keeps the raise (a ratchet), so every check that
+            # finds the object on the table leaves the grip higher by the safety factor: a friction below
             # the one assumed is met in a few checks, without estimating it (MuJoCo's soft
             # friction creeps below the limit, so a slide cannot be told from a hold here).
             self._event(t, "on_table", f"load {load:.3g} N followed the grip ({g0:.3g} -> {applied:.3g} N): still on the table")
             if self._check_pace >= self.cfg.sliding_pace:
-                self._sliding_ratio = min(self._sliding_ratio, max(l0, 1e-12) / (2.0 * g0))
+                self._sliding_ratio = min(self._sliding_ratio, max(l0, 1e-12) / (2.0 * self._pads_grip_n(g0)))
             self._check = None
             lift.window.clear()
             if self.grip_n >= self.grip_cap_n:
                 self._pads_slide_at_cap(t, l0)
         elif risen and t - t0 >= self._check_window_s(g0) and follows and window_load >= self.robot.min_load_n:
+            if grip_gain is None:
+                # No verdict: the drive's force rose, but the pads' grip did not change (fingers
+                # that their joints' dry friction holds still), so a load that did not follow
+                # it tells nothing.  Checked again from here, the grip up by the safety factor,
+                # until the change reaches the pads (_pads_grip_gain).
+                self._check = None
+                lift.window.clear()
+                return
             if not self._window_load_is_steady(speed):
                 # Neither: the load did not follow the drive's reading, and it is no weight's:
                 # pads sliding at a grip the reading does not show (fingers that the drive's dry
@@ -641,6 +655,71 @@ class MultimodeGrasp:
             self.raising = True
             self._start_carry(obs)
             self._event(t, "carried", f"load {load:.3g} N does not follow the grip ({g0:.3g} -> {applied:.3g} N): the object is carried")
+
+    def _grip_risen(self, g0: float, applied: float) -> bool:
+        """Whether the friction check's grip, ``g0`` as it began, has risen enough to tell by:
+        the drive's reading ``applied`` (N) half the safety factor's rise over it, or the grip at
+        its cap."""
+        return applied / g0 - 1.0 >= 0.5 * (self.cfg.grip_safety - 1.0) or self.grip_n >= self.grip_cap_n
+
+    def _pads_grip_gain(self, g0: float, applied: float) -> float | None:
+        """The pads' grip's gain over the friction check, -, that their load must follow, up or
+        down, if they slide (it is 2 mu times their grip); None where the check's change of the
+        drive's force has not reached the pads, and a load that did not follow it tells nothing.
+
+        A drive without dry friction applies its force to the pads (the house gripper's,
+        exactly): the drive's reading's gain, ``applied`` over ``g0`` (N), less 1.  One whose
+        joints carry dry friction F_f (``RobotLimits.finger_friction_n``) holds its fingers
+        still while its force changes by less than the friction takes, up to F_f either way,
+        and MuJoCo's soft friction lets the contact creep toward it: its reading is the pads'
+        grip only to within F_f.  Robosuite's Panda on the 330 g jar, on the compliant pad
+        contact: the drive's 0.091 -> 0.115 N against its 1 N of friction, the pads' 0.128 ->
+        0.126 N, sliding up the jar under a steady load that did not follow the drive's gain:
+        "carried", and lost.  On the 2 g paper ball (the hard contact) the pads' grip crept
+        down from the touch's 0.118 N to 0.094 N over five checks while the drive rose 0.021 ->
+        0.083 N.  The fingertips read the pads' grip: the gain is theirs, where their grip
+        changed by more than 3 sigma of their readings (a ratio, so a contact smaller than the
+        pad's face reads it right).  Where a fingertip has no trusted reading the drive's gain
+        counts only once its rise is past the band's width, 2 F_f: then it moved the fingers
+        whatever the friction held before (tests/test_third_party_grippers.py::
+        test_the_pandas_friction_check_reads_the_pads_grip_on_the_fingertips and
+        test_the_pandas_friction_check_follows_the_pads_grip_down)."""
+        drive_gain = applied / g0 - 1.0
+        friction_n = self.robot.finger_friction_n
+        if friction_n <= 0.0:
+            return drive_gain
+        before, now = self._check_felt, self._fingertips_grip_n()
+        if before is None or now is None or not before[0] > 0.0:
+            return drive_gain if applied - g0 > 2.0 * friction_n else None
+        rise_n = now[0] - before[0]
+        return rise_n / before[0] if abs(rise_n) > 3.0 * math.hypot(before[1], now[1]) else None
+
+    def _pads_grip_n(self, g0: float) -> float:
+        """The pads' grip as the friction check began, N per finger, that the load's ratio to it
+        is read over: the drive's force ``g0`` on a drive without dry friction, the fingertips'
+        reading on one with it, whose force is the pads' only to within its friction
+        (:meth:`_pads_grip_gain`).  Robosuite's Panda on the 60 g egg (friction 0.6, the
+        compliant pad contact): over the 17 checks that found it on the table the load over the
+        drive's grip fell from 0.50 to 0.20 as the drive rose to 1.3 N against the pads' 0.58 N,
+        over the pads' it stayed at 0.44-0.48, the friction the pads slid at; taken over the
+        drive's the egg was held at 3.6 N of grip (7.4x its need), over the pads' at 1.7 N
+        (3.5x).  The drive's where a fingertip had no trusted reading."""
+        felt = self._check_felt if self.robot.finger_friction_n > 0.0 else None
+        return g0 if felt is None or felt[0] <= 0.0 else felt[0]
+
+    def _fingertips_grip_n(self) -> tuple[float, float] | None:
+        """The grip the fingertips read, N per finger, and its sigma: each pad's trusted "ok"
+        estimate times the pad's area (a full-face contact), their mean; None unless every pad
+        has one."""
+        area, felt_n, variance = self.robot.pad_area_m2, 0.0, 0.0
+        for pad in self.pads:
+            sel = self.selectors[pad]
+            if not (sel.trusted and sel.status == "ok" and math.isfinite(sel.uncertainty_pa)):
+                return None
+            felt_n += sel.estimate_pa * area
+            variance += (sel.uncertainty_pa * area) ** 2
+        n = len(self.pads)
+        return felt_n / n, math.sqrt(variance) / n
 
     def _window_load_is_steady(self, speed_m_s: float) -> bool:
         """Whether the window's load is a weight's.  A load that did not follow the grip's
