@@ -57,6 +57,16 @@ def test_only_a_drive_with_dry_friction_closes_the_grip_on_the_fingertips(contro
     assert not CoSimulation(scenarios.get("grasp")).controller.grips_on_fingertips  # the house's drive is the grip
 
 
+def test_a_linkage_sets_its_drive_for_its_pads_by_its_arc_not_by_its_fingertips():
+    """dm_robotics' 2F-85 (no dry friction, pads on a four-bar's arc): its drive is set for the
+    pads' grip (the load's pull along the arc taken off), not closed on what the fingertips feel;
+    the house gripper's drive is the grip, neither."""
+    robotiq = CoSimulation(scenarios.get("grasp", keys(_robotiq_2f85(), *ROBOTIQ_2F85), "fast")).controller
+    assert robotiq.sets_drive_for_pads and not robotiq.grips_on_fingertips
+    house = CoSimulation(scenarios.get("grasp")).controller
+    assert not house.sets_drive_for_pads and not house.grips_on_fingertips
+
+
 def test_a_grip_felt_within_its_tolerance_is_held_at_the_grip(controller):
     limit_n, opening_m = _drive(controller, 0.105, 0.1)
     assert limit_n == 0.1 and opening_m == controller.opening_target

@@ -304,9 +304,12 @@ class GentleGrasp(MultimodeGrasp):
         #: (:meth:`_drive_for_grip`): on a drive with dry friction, whose force is the pads' only to
         #: within that friction once the fingers stand still, and whose grip the probe read on the
         #: fingertips too (:func:`grip_read_n`), so that the friction it measured is theirs.
-        #: A linkage's pads (``RobotLimits.pad_rise_m``) hold the weight's pull along their arc on
-        #: top of the drive's force (:meth:`_linkage_drive_n`), so its drive is set for the pads too.
-        self.grips_on_fingertips = robot.finger_friction_n > 0.0 or bool(robot.pad_rise_m[0])
+        self.grips_on_fingertips = robot.finger_friction_n > 0.0
+        #: Whether the drive is set for the pads' grip (:meth:`_drive_for_grip`): on such a drive,
+        #: and on a linkage, whose pads (``RobotLimits.pad_rise_m``) hold the load's pull along
+        #: their arc on top of the drive's force (:meth:`_linkage_drive_n`: set by the arc's model,
+        #: not felt).
+        self.sets_drive_for_pads = self.grips_on_fingertips or bool(robot.pad_rise_m[0])
         self._drive_n = math.nan  # the drive's force on the closing, N (negative: pulling open)
         self._friction_n = robot.finger_friction_n  # the drive's dry friction on the opening, N
         self._moved_dir = 0  # the way the drive is moving the fingers: +1 closing, -1 opening, 0 holding

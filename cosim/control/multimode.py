@@ -175,9 +175,12 @@ class MultimodeGrasp:
     """
 
     #: Whether the grip, once the object is carried, is closed on what the fingertips feel rather
-    #: than commanded to the drive (:meth:`_drive_for_grip`; the gentle controller's, on a drive
-    #: whose force the pads do not feel).
+    #: than commanded to the drive (the gentle controller's, on a drive with dry friction).
     grips_on_fingertips = False
+    #: Whether the drive, once the object is carried, is set for the grip the pads hold rather
+    #: than given it (:meth:`_drive_for_grip`: the gentle controller's, on a drive whose force the
+    #: pads do not feel: dry friction, a linkage's arc).
+    sets_drive_for_pads = False
 
     #: Whether the fingers shut past the object's width count as a loss during the transfer too
     #: (not only once carried): the gentle probe grows the grip while the lift rises, which
@@ -351,7 +354,7 @@ class MultimodeGrasp:
             # them it is left alone, as slides never feel it.  Once carried: the probe's lift
             # barely accelerates, and its grip is what the probe reads the friction by.
             grip_n += max(0.0, self.robot.lift_opens_n(obs.opening_m, lift.measured_accel_m_s2))
-        if self.grips_on_fingertips and self.raising and self.phase in _CARRYING:
+        if self.sets_drive_for_pads and self.raising and self.phase in _CARRYING:
             # The grip closed on what the fingertips feel (gentle.py): the drive's force and its
             # direction that bring the pads' grip to grip_n.
             limit_n, opening_m = self._drive_for_grip(obs, t, grip_n)
@@ -360,7 +363,7 @@ class MultimodeGrasp:
 
     def _drive_for_grip(self, obs: Observation, t: float, grip_n: float) -> tuple[float, float]:
         """The drive's force limit (N) and opening target (m) that bring the pads' grip to
-        ``grip_n`` (:attr:`grips_on_fingertips`): here the drive's force is the grip."""
+        ``grip_n`` (:attr:`sets_drive_for_pads`): here the drive's force is the grip."""
         return grip_n, self.opening_target
 
     def _read_fingertips(self, obs: Observation, t: float) -> tuple[dict[str, int], list]:
