@@ -238,6 +238,22 @@ def test_a_linkages_damping_push_answers_the_controllers_grip_not_the_lifts_brak
     assert result.grip_margin <= 1.4
 
 
+@pytest.mark.slow
+def test_a_linkages_raise_while_placing_does_not_press_the_landing():
+    """Menagerie's 2F-85 on the 2 g wafer (crushes at 0.05 N, needs 0.025 N): placing, the table
+    took the weight and the pads' pressure fell 146 -> 117 Pa, read as a slip: its raise (0.0325
+    -> 0.0406 N) reached the linkage's pads, and the landing's slip, whose speed was planned for
+    the grip before it, pressed them to 0.056 N: crushed.  Held at the planned grip while placing
+    (as a friction drive's raise stays within its friction), it lands whole."""
+    from test_third_party_grippers import menagerie_keys
+
+    from piezotip.reports.gripper_tables import WAFER
+
+    result = piezotip.run("grasp", overrides={**menagerie_keys("robotiq-2f85"), **WAFER}, preset="fast")
+    assert result.outcome == "success", result.reason
+    assert result.summary["peak_contact_n"] < WAFER["object.crush_force_n"]
+
+
 def test_the_load_closes_a_linkages_pads_by_its_arcs_slope_and_slides_not_at_all(controller):
     """The grip the load L adds on the opening, L dh/do: 0 on slides; on the 2F-85 the slope of
     the pads' rise along the free closing (0.17-0.19 at a 40 mm opening, steeper when open)."""

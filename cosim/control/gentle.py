@@ -325,6 +325,7 @@ class GentleGrasp(MultimodeGrasp):
         self._grip_goal_n = 0.0  # the grip the raise brings the probe's down to, N (_carry)
         self._span: list[tuple[float, float]] = []  # (grip applied, raw load) since the last verdict
         self._weight_n = 0.0  # the object's weight, N: the load the probe found carried
+        self._landing_grip_n = math.inf  # the grip the landing's speed is planned for, N (_plan_touchdown)
         #: The grip's growth rate while the pads may slide, 1/s: by the safety factor in one
         #: plateau window, the time the load takes to show it (so the grip overshoots the one
         #: that holds by at most that factor before the probe sees the load stay).
@@ -367,6 +368,7 @@ class GentleGrasp(MultimodeGrasp):
         give_way_s = self.touch_reaction_s - self.dt_s
         cap = landing_speed_m_s(allowed_n, self.contact_stiffness_n_m, friction, give_way_s)
         self.lift.touchdown_cap_m_s = cap
+        self._landing_grip_n = self.grip_n  # the grip this landing's speed is planned for
         speed = min(cap, c.touchdown_speed_m_s)
         self._event(
             t,
@@ -762,8 +764,17 @@ class GentleGrasp(MultimodeGrasp):
         Without it the drive's force was the grip and the pads held L dh/do more: Robotiq's
         2F-85s carried the catalogue's objects at 1.6-1.9x their need (tests/test_grip_on_fingertips.py::
         test_a_linkage_holds_the_grip_wanted_on_its_pads_not_on_its_drive)."""
-        push_n = self._rise_push_n(self.grip_n - self._last_grip_n)
-        self._last_grip_n = self.grip_n
+        held_n = self.grip_n
+        if self.phase is Phase.PLACE and held_n > self._landing_grip_n:
+            # Placing, the table takes the weight and the pads' pressure falls, read as a slip:
+            # its raise would press the object as it lands, past what the landing's speed was
+            # planned for (_plan_touchdown).  A friction drive's raise stays within its friction;
+            # a linkage's reaches the pads (tests/test_grip_on_fingertips.py::
+            # test_a_linkages_raise_while_placing_does_not_press_the_landing).
+            grip_n -= held_n - self._landing_grip_n
+            held_n = self._landing_grip_n
+        push_n = self._rise_push_n(held_n - self._last_grip_n)
+        self._last_grip_n = held_n
         load_n = min(self.lift.load_n, 2.0 * self.friction * grip_n / self.cfg.grip_safety)
         return min(self.grip_cap_n, max(self.grip_floor_n, grip_n - self._load_closes_n(obs, load_n)) + push_n)
 
