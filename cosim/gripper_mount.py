@@ -283,7 +283,7 @@ def mount_gripper(config: ScenarioConfig, gel: GelParams | None = None) -> Mount
     except ValueError as err:  # the house scene compiles alone: what fails is the gripper mounted in it
         raise ValueError(f"gripper.mjcf {parts.path!r} does not mount in the scene: {err}") from err
     model.opt.integrator = _INTEGRATORS[phys.integrator]
-    apply_pad_contact(model, resolve_pad_contact(phys.pad_contact, mounted=True))
+    apply_pad_contact(model, resolve_pad_contact(phys.pad_contact))
     actuators = [model.actuator(PREFIX + a.name).id for a in parts.actuators]
     joints = _gripper_joints(model)
     motors = [i for i, a in enumerate(parts.actuators) if a.kind == "motor"]

@@ -272,14 +272,12 @@ def pad_geom_ids(model: mujoco.MjModel) -> list[int]:
     return [g for g in range(model.ngeom) if model.geom(g).name.endswith("_geom") and "_pad_" in model.geom(g).name]
 
 
-def resolve_pad_contact(kind: str, mounted: bool) -> str:
+def resolve_pad_contact(kind: str) -> str:
     """``physics.pad_contact`` made concrete: "auto" is "compliant" on every gripper, the house's
-    and a mounted (``gripper.mjcf``) one alike (``mounted`` is the caller's, kept so that the
-    choice stays here).  The hard contact rests 0.14 um deep under a 7.7 N grip, and MuJoCo's
-    convex contact separates a sliding one at mu |v_t| a step: a pad that begins to slide lets go
-    for a step (robosuite's Panda dropped its 330 g jar so; the compliant contact rests 12-25 um
+    and a mounted (``gripper.mjcf``) one alike.  The hard contact rests 0.14 um deep under a
+    7.7 N grip, and MuJoCo's convex contact separates a sliding one at mu |v_t| a step: a pad
+    that begins to slide lets go for a step (robosuite's Panda dropped its 330 g jar so; the compliant contact rests 12-25 um
     deep and keeps every contact: docs/grippers.md, models/README.md "Sliding pads")."""
-    del mounted
     if kind == "auto":
         return "compliant"
     return kind

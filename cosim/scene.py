@@ -99,7 +99,7 @@ def build_house_scene(config: ScenarioConfig, gel: GelParams | None = None) -> m
         edit=_edit_object(config.object),
     )
     model.opt.integrator = _INTEGRATORS[phys.integrator]
-    apply_pad_contact(model, resolve_pad_contact(phys.pad_contact, mounted=False))
+    apply_pad_contact(model, resolve_pad_contact(phys.pad_contact))
     return model
 
 

@@ -79,3 +79,6 @@ cdef class ChannelCore:
     cdef (int, double, double, int) _estimated(self) except *
 
     cpdef object last_estimate(self)
+
+
+cdef (double, double, int) _values_of(object record) except *

@@ -282,8 +282,7 @@ class ChannelCore:
                 p, sigma, status = core.infer(kh.cabs(a_ss), gain)
             else:
                 record = inverse.inferred(kh.cabs(a_ss), gain)
-                p, sigma, name = kh.fields(record, Estimate, _ESTIMATE_AT, 3, _ESTIMATE_GET)
-                status = _STATUS_INDEX[name]
+                p, sigma, status = _values_of(record)
         elif self._low_since_s is not None and t - self._low_since_s >= self._saturation_s:
             p, sigma, status, record = _NAN, _NAN, _SATURATED_AT, _SATURATED  # past P_max, as the readings show (SATURATION_TAUS)
         else:
@@ -301,8 +300,8 @@ class ChannelCore:
 
     @_last_estimate.setter
     def _last_estimate(self, record) -> None:
-        p, sigma, name = kh.fields(record, Estimate, _ESTIMATE_AT, 3, _ESTIMATE_GET)
-        self._last_p, self._last_sigma, self._last_status, self._last_record = p, sigma, _STATUS_INDEX[name], record
+        self._last_p, self._last_sigma, self._last_status = _values_of(record)
+        self._last_record = record
 
     def estimate(self, reading: Reading):
         """:meth:`sensor.channel.SensorChannel.estimate` of a readout that does not re-zero, with
@@ -338,9 +337,9 @@ class ChannelCore:
             # Another sampler's record: its v1 as it says.
             v1 = self._r_v1 if self._r_record is not None else kh.cabs(self._r_iq)
             record = self._inverse[mode](v1)
-            p, sigma, name = kh.fields(record, Estimate, _ESTIMATE_AT, 3, _ESTIMATE_GET)
+            p, sigma, status = _values_of(record)
             self._a_record = record
-            return mode, p, sigma, _STATUS_INDEX[name]
+            return mode, p, sigma, status
         p, sigma, status, kept = self._estimate_of(mode, self._r_iq)
         self._a_record = None if kept else _SETTLING
         return mode, p, sigma, status
@@ -357,3 +356,10 @@ class ChannelCore:
             raise ValueError(f"a ChannelCore's state has {len(_STATE)} values, got {len(state)}")
         for i in range(len(_STATE)):
             setattr(self, _STATE[i], state[i])
+
+
+def _values_of(record) -> tuple:
+    """An estimate record's values: (pressure_pa, uncertainty_pa, its status's index in
+    :data:`sensor._estimator.STATUSES`)."""
+    p, sigma, name = kh.fields(record, Estimate, _ESTIMATE_AT, 3, _ESTIMATE_GET)
+    return p, sigma, _STATUS_INDEX[name]

@@ -638,7 +638,7 @@ class GentleGrasp(MultimodeGrasp):
         if self._over_cap(t, held_n, weight_n, carried=True):
             return
         self._grip_goal_n = min(held_n, self.grip_cap_n)
-        if not self.brakes or self._friction_n > 0.0 or self._grip_goal_n > self.grip_n:  # up at once; down over the raise
+        if not self.brakes or self.grips_on_fingertips or self._grip_goal_n > self.grip_n:  # up at once; down over the raise
             self.grip_n = self._grip_goal_n  # (a grip closed on the fingertips is eased down by _drive_for_grip)
         self.lift.goal_m = obs.lift_pos_m  # the raise feeds the sag forward from where the lift is
         self.lift.load_n = self._weight_n = weight_n
