@@ -46,6 +46,11 @@ KERNELS = (
     ("cosim/control", "_control"),
 )
 
+#: (folder, module): C-only extension modules, each ``folder/module.pyx``: glue whose Python
+#: twin is another module (``cosim/_mjcallbacks.pyx``: MuJoCo's callbacks in C; without it,
+#: ``cosim/mjhooks.py``'s ctypes dispatchers run), optional as the kernels are.
+C_ONLY = (("cosim", "_mjcallbacks"),)
+
 #: Where the ``.pxd`` files are found by their modules' full names.
 DECLARATIONS = Path("build") / "kernel-declarations"
 
@@ -61,7 +66,8 @@ def stage_declarations() -> None:
 
 
 def kernel_extensions() -> list[Extension]:
-    """One optional extension module per kernel, from its ``.py`` (before Cython)."""
+    """One optional extension module per kernel, from its ``.py`` (before Cython), and one per
+    :data:`C_ONLY` module, from its ``.pyx``."""
     return [
         Extension(
             f"piezotip.{folder.replace('/', '.')}.{name}",
@@ -72,6 +78,9 @@ def kernel_extensions() -> list[Extension]:
             optional=True,
         )
         for folder, name in KERNELS
+    ] + [
+        Extension(f"piezotip.{folder.replace('/', '.')}.{name}", [f"{folder}/{name}.pyx"], extra_compile_args=["-O2"], optional=True)
+        for folder, name in C_ONLY
     ]
 
 

@@ -13,7 +13,8 @@ cdef Py_ssize_t _ESTIMATE_AT[3]
 cdef class ReadoutPass:
     cdef Py_ssize_t _n
     cdef list _samples, _cores, _readers, _fractions, _records
-    cdef long[::1] _touch_adr, _sensor_adr
+    cdef long[::1] _touch_adr, _sensor_adr, _touch_history
+    cdef double[::1] _history
     cdef double[::1] _areas, _values, _sensordata, _code_at, _truths
     cdef signed char[::1] _pasts
     cdef double _gel_valid, _backstop
@@ -30,7 +31,13 @@ cdef class ReadoutPass:
     @cython.locals(t=double, half=double, sampled=int)
     cpdef int tick(self, int stage) except? -2
 
+    @cython.locals(history="double[::1]", due=double, k=Py_ssize_t)
+    cdef int _touch_due(self, double t) except -1
+
     cpdef sample_now(self, double t)
+
+    @cython.locals(k=Py_ssize_t, size=Py_ssize_t, adr=long)
+    cpdef bind_history(self, history, touch_history_adr)
 
     @cython.locals(i=Py_ssize_t, size=Py_ssize_t)
     cpdef bind(self, double[::1] sensordata)

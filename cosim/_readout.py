@@ -63,6 +63,7 @@ class ReadoutPass:
         "_fractions",
         "_gel_valid",
         "_half",
+        "_history",
         "_last_s",
         "_n",
         "_next_s",
@@ -77,6 +78,7 @@ class ReadoutPass:
         "_size",
         "_stage",
         "_touch_adr",
+        "_touch_history",
         "_truths",
         "_values",
         "periods",
@@ -108,6 +110,8 @@ class ReadoutPass:
         # Each status's code by the index a core's estimate carries (sensor._estimator.STATUSES).
         self._code_at = array("d", [float(self._codes.get(name, -1)) for name in se.STATUSES])
         self._sensordata, self._size = None, 0  # (bind)
+        # The touch sensors' history buffers, where MuJoCo computes them once a period (bind_history).
+        self._history, self._touch_history = None, array("l", [-1] * n)
         # The last period's reading and estimate by fingertip: a channel's own records, or None
         # where its core keeps them as values (made when asked: readings, estimates).
         self._records = [None] * n
@@ -146,8 +150,22 @@ class ReadoutPass:
             self.sample(self._period)
             self._next_s = t + self._period
             sampled = 1
+        elif t >= self._next_s - 3.0 * half and self._history is not None:
+            self._touch_due(t)
         self.write()
         return sampled
+
+    def _touch_due(self, t: float) -> None:
+        """The step before a sample, at ``t`` s: the touch sensors computed at its acceleration
+        stage whatever their interval's phase (a reset, a bind mid-period): MuJoCo computes an
+        interval sensor at a step where its buffer's last tick plus the interval is <= the time
+        (engine_sensor.c, ``compute_or_read_sensor``), and then advances that tick by the
+        interval, to t - half a step: the next compute falls on the next period's step before
+        its sample (:meth:`bind_history`)."""
+        history, due = self._history, t - self._period - self._half
+        for k in range(self._n):
+            if self._touch_history[k] >= 0:
+                history[self._touch_history[k]] = due
 
     def sample_now(self, t: float) -> None:
         """A period's end at ``t`` s in piezotip's own loop: :meth:`sample` and :meth:`write` now
@@ -167,6 +185,26 @@ class ReadoutPass:
             if self._touch_adr[i] >= size:
                 raise ValueError(f"a touch pad's sensor address lies outside sensordata ({size} values)")
         self._sensordata, self._size = sensordata, size
+
+    def bind_history(self, history, touch_history_adr) -> None:
+        """The touch sensors MuJoCo computes once a period (a sensor ``interval`` of the period,
+        one history sample): ``history`` the MjData's (float64, contiguous), each touch pad's
+        sensor's buffer address in it (its first slot the last tick's time), -1 where MuJoCo
+        computes it at every step.  The sample reads the touch the step before it left (the
+        position stage reads the last step's acceleration-stage sensors): :meth:`tick` makes
+        MuJoCo compute them at that step (:meth:`_touch_due`); between samples they hold."""
+        if len(touch_history_adr) != self._n:
+            raise ValueError("one touch history address per fingertip (-1: none)")
+        size = len(history)
+        for k in range(self._n):
+            adr = int(touch_history_adr[k])
+            if adr >= size or (adr >= 0 and self._touch_adr[k] < 0):
+                raise ValueError(f"fingertip {k}: a touch history address outside the history, or on a gel pad")
+        self._touch_history = array("l", map(int, touch_history_adr))
+        self._history = None
+        for k in range(self._n):
+            if self._touch_history[k] >= 0:
+                self._history = history
 
     def sample(self, period_s: float) -> None:
         """Every fingertip's pressures, reading and estimate after ``period_s`` s, and its

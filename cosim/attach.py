@@ -523,7 +523,11 @@ def _attach_touch(spec: mujoco.MjSpec, pads: list[AttachedPad], patches: list[_P
                 group=5,  # out of MuJoCo's default visible groups: a zone, not a part
             )
         spec.add_sensor(
-            name=sensor_name(tip.name, TOUCH_FIELD), type=mujoco.mjtSensor.mjSENS_TOUCH, objtype=mujoco.mjtObj.mjOBJ_SITE, objname=tip.zone
+            name=sensor_name(tip.name, TOUCH_FIELD),
+            type=mujoco.mjtSensor.mjSENS_TOUCH,
+            objtype=mujoco.mjtObj.mjOBJ_SITE,
+            objname=tip.zone,
+            nsample=1,  # a history of one: bind gives it the readout's period as its interval (TouchReader)
         )
     _add_readout_sensors(spec, pads)
     try:
@@ -699,7 +703,7 @@ class _FingertipHook:
         self._sensordata = data.sensordata
         try:
             self._readers = {
-                pad.name: TouchReader(int(model.sensor(sensor_name(pad.name, TOUCH_FIELD)).adr[0]), pad.area_m2)
+                pad.name: TouchReader.of(model, sensor_name(pad.name, TOUCH_FIELD), pad.area_m2, self.period_s)
                 if pad.kind == "touch"
                 else strip_reader(self.bridges[pad.name], pad.geometry, self._layouts[pad.name][1], data)
                 for pad in tips.pads
@@ -752,6 +756,8 @@ class _FingertipHook:
             STATUS_CODES["outside_model"],
         )
         readout.bind(self._sensordata)
+        if any(touch):
+            readout.bind_history(self.data.history, [r.history_adr if t else -1 for r, t in zip(readers, touch, strict=True)])
         return readout
 
     @property
@@ -945,10 +951,28 @@ def touch_layout(fingertip, unit) -> tuple[np.ndarray, list, list[float]]:
 class TouchReader:
     """Where a touch pad is read: its zone's normal force (MuJoCo's ``touch`` sensor at ``adr`` of
     ``sensordata``, N) over the pad's area ``area_m2`` (m^2) is the pressure pressing the element
-    uniformly, Pa (the readout pass reads it in C once a period: cosim/_readout.py)."""
+    uniformly, Pa (the readout pass reads it in C once a period: cosim/_readout.py).
 
-    def __init__(self, adr: int, area_m2: float) -> None:
-        self.adr, self.area_m2 = adr, float(area_m2)
+    ``history_adr``: where the sensor's history buffer starts in ``data.history`` (-1: it has
+    none, and MuJoCo computes it at every step).  With one (attach gives it one sample), bind
+    gives the sensor the readout's period as its ``interval``: MuJoCo computes it once a period,
+    at the step before the readout samples it (the pass sees to that:
+    ``ReadoutPass.bind_history``), and holds it between; its ray tests against every contact
+    were a quarter of a 16-pad skin's cost at every step (``python run_sim.py bench --skin``)."""
+
+    def __init__(self, adr: int, area_m2: float, history_adr: int = -1) -> None:
+        self.adr, self.area_m2, self.history_adr = adr, float(area_m2), int(history_adr)
+
+    @classmethod
+    def of(cls, model: mujoco.MjModel, sensor: str, area_m2: float, period_s: float) -> TouchReader:
+        """The reader of ``model``'s touch sensor ``sensor``, its interval set to ``period_s``
+        where it has a history and the period is more than a step."""
+        found = model.sensor(sensor)
+        history = getattr(model, "sensor_history", None)  # (MuJoCo >= 3.5)
+        if history is None or history[found.id, 0] < 1 or period_s < 1.5 * model.opt.timestep:
+            return cls(int(found.adr[0]), area_m2)
+        model.sensor_interval[found.id, 0] = period_s
+        return cls(int(found.adr[0]), area_m2, int(model.sensor_historyadr[found.id]))
 
     def force_n(self, data: mujoco.MjData) -> float:
         """The zone's normal force now, N (``data``'s: the one bound, or another of the model's)."""

@@ -120,15 +120,13 @@ def _bound(data_address: int) -> _Bound | None:
     bound = _BOUND.get(data_address)
     if bound is not None and bound.data() is None:  # freed: the address may be another MjData's now
         del _BOUND[data_address]
+        _FAST.pop(data_address, None)
+        _sync()
         return None
     return bound
 
 
-@_PASSIVE_T
-def _passive(model_address: int, data_address: int) -> None:
-    previous = _PREVIOUS["passive"]
-    if previous is not None:
-        previous(model_address, data_address)
+def _run_passive(data_address: int) -> None:
     bound = _bound(data_address)
     if bound is not None:
         data = bound.data()
@@ -137,6 +135,25 @@ def _passive(model_address: int, data_address: int) -> None:
                 hook.passive(bound.model, data)
         except BaseException as err:
             _failed(bound, err)
+
+
+def _run_sensor(data_address: int, stage: int) -> None:
+    bound = _bound(data_address)
+    if bound is not None:
+        data = bound.data()
+        try:
+            for hook in bound.sensor:
+                hook.sensor(bound.model, data, stage)
+        except BaseException as err:
+            _failed(bound, err)
+
+
+@_PASSIVE_T
+def _passive(model_address: int, data_address: int) -> None:
+    previous = _PREVIOUS["passive"]
+    if previous is not None:
+        previous(model_address, data_address)
+    _run_passive(data_address)
 
 
 @_SENSOR_T
@@ -151,38 +168,99 @@ def _sensor(model_address: int, data_address: int, stage: int) -> None:
                 return
         except BaseException as err:
             _failed(_BOUND[data_address], err)
-    bound = _bound(data_address)
-    if bound is not None:
-        data = bound.data()
-        try:
-            for hook in bound.sensor:
-                hook.sensor(bound.model, data, stage)
-        except BaseException as err:
-            _failed(bound, err)
+    _run_sensor(data_address, stage)
+
+
+# What the C dispatchers (cosim/_mjcallbacks.pyx) call into Python for a bound MjData: its
+# hooks, nothing before them (the C calls the previous callbacks itself).
+_passive_hooks = _PASSIVE_T(lambda model_address, data_address: _run_passive(data_address))
+_sensor_hooks = _SENSOR_T(lambda model_address, data_address, stage: _run_sensor(data_address, stage))
+
+
+def _failed_at(data_address: int, err: BaseException) -> None:
+    _failed(_BOUND[data_address], err)
+
+
+def _c_dispatchers():
+    """The compiled dispatchers (cosim/_mjcallbacks.pyx) as ctypes function pointers
+    ({name: pointer}) and their module, or None where they were not built (or under
+    ``PIEZOTIP_PURE_PYTHON``): the Python ones run then, the same hooks in the same order."""
+    from piezotip.sensor import compiled
+
+    if compiled.PURE_PYTHON:
+        return None
+    try:
+        from . import _mjcallbacks
+    except ImportError:
+        return None
+    passive_at, sensor_at = _mjcallbacks.addresses()
+    return {"passive": _PASSIVE_T(passive_at), "sensor": _SENSOR_T(sensor_at)}, _mjcallbacks
+
+
+#: The dispatchers in use: {name: the ctypes function pointer MuJoCo is given}, the C ones
+#: where built, else the Python ones (:func:`use_compiled`).
+_C = _c_dispatchers()
+_DISPATCHERS: dict[str, ctypes._CFuncPtr] = dict(_C[0]) if _C is not None else {"passive": _passive, "sensor": _sensor}
+#: Every dispatcher of this module's, C or Python (one of them is never another's previous callback).
+_OURS = {id(f) for f in (_passive, _sensor, *(_C[0].values() if _C is not None else ()))}
+
+
+def compiled_dispatch() -> bool:
+    """Whether MuJoCo's callbacks are dispatched in C (cosim/_mjcallbacks.pyx) for the hooks
+    registered from now on."""
+    return _DISPATCHERS["sensor"] is not _sensor
+
+
+def use_compiled(flag: bool) -> None:
+    """Dispatch in C (where built: ValueError otherwise) or in Python from the next
+    :func:`register` on (tests run both; the hooks run the same either way)."""
+    global _DISPATCHERS
+    if flag and _C is None:
+        raise ValueError("use_compiled: the C dispatchers (cosim/_mjcallbacks.pyx) were not built")
+    _DISPATCHERS = dict(_C[0]) if flag else {"passive": _passive, "sensor": _sensor}
+
+
+def _address(pointer) -> int:
+    return ctypes.cast(pointer, ctypes.c_void_p).value or 0 if pointer is not None else 0
+
+
+def _sync() -> None:
+    """Tell the C dispatchers which MjData have hooks (after any change of :data:`_BOUND` or
+    :data:`_FAST`)."""
+    if _C is None:
+        return
+    passive = [a for a, b in _BOUND.items() if b.passive]
+    sensor = [a for a, b in _BOUND.items() if b.sensor]
+    _C[1].set_tables(passive, sensor, [a in _FAST for a in sensor])
 
 
 def _install(needs: tuple[str, ...] = CALLBACKS) -> None:
     """Set the dispatchers of the callbacks ``needs`` as MuJoCo's, chaining a C one set before.
 
-    Each only once a hook needs it: an installed dispatcher costs every ``mj_step`` of every
-    model in the process a Python call (about 0.6 us), fingertips or not."""
-    for name, dispatcher, get, put in (
-        ("passive", _passive, mujoco.get_mjcb_passive, mujoco.set_mjcb_passive),
-        ("sensor", _sensor, mujoco.get_mjcb_sensor, mujoco.set_mjcb_sensor),
+    Each only once a hook needs it: an installed Python dispatcher costs every ``mj_step`` of
+    every model in the process a Python call (about 0.45 us), fingertips or not; the C one a
+    scan of the bound MjData's addresses."""
+    for name, get, put in (
+        ("passive", mujoco.get_mjcb_passive, mujoco.set_mjcb_passive),
+        ("sensor", mujoco.get_mjcb_sensor, mujoco.set_mjcb_sensor),
     ):
         if name not in needs:
             continue
-        current = get()
+        dispatcher, current = _DISPATCHERS[name], get()
         if current is dispatcher:
             continue
-        if current is not None and not isinstance(current, ctypes._CFuncPtr):
-            raise ValueError(
-                f"bind: MuJoCo's mjcb_{name} is already set to {current!r}, a Python callable, which the fingertips' "
-                f"callback cannot call for models that have no Python object; set it as a ctypes function pointer "
-                f"(it is then called first), or clear it (mujoco.set_mjcb_{name}(None))"
-            )
-        _PREVIOUS[name] = current
+        if id(current) not in _OURS:  # (ours, the other kind: replaced, not chained)
+            if current is not None and not isinstance(current, ctypes._CFuncPtr):
+                raise ValueError(
+                    f"bind: MuJoCo's mjcb_{name} is already set to {current!r}, a Python callable, which the fingertips' "
+                    f"callback cannot call for models that have no Python object; set it as a ctypes function pointer "
+                    f"(it is then called first), or clear it (mujoco.set_mjcb_{name}(None))"
+                )
+            _PREVIOUS[name] = current
         put(dispatcher)
+    if _C is not None:
+        previous = (_address(_PREVIOUS["passive"]), _address(_PREVIOUS["sensor"]))
+        _C[1].configure(*previous, _address(_passive_hooks), _address(_sensor_hooks), _FAST, _failed_at)
 
 
 def register(data: mujoco.MjData, model: mujoco.MjModel, hook: Hook) -> None:
@@ -199,6 +277,7 @@ def register(data: mujoco.MjData, model: mujoco.MjModel, hook: Hook) -> None:
             if (entry := _BOUND.get(address)) is not None and entry.data is ref:
                 del _BOUND[address]
                 _FAST.pop(address, None)
+                _sync()
 
         bound = _BOUND[address] = _Bound(weakref.ref(data, forget), model, [], [], [])
     bound.hooks.append(hook)
@@ -234,6 +313,7 @@ def _refresh(address: int) -> None:
         _FAST.pop(address, None)
     else:
         _FAST[address] = fast
+    _sync()
 
 
 def hooks_of(data: mujoco.MjData) -> tuple[Hook, ...]:

@@ -29,6 +29,19 @@ OPTIONS = {
 }
 
 
+@pytest.fixture(params=["c", "python"])
+def dispatch(request):
+    """MuJoCo's callbacks dispatched by the compiled dispatchers (cosim/_mjcallbacks.pyx; skipped
+    where not built) or by mjhooks' Python ones, for the models bound in the test."""
+    compiled = request.param == "c"
+    if compiled and mjhooks._C is None:
+        pytest.skip("the C dispatchers are not in use (not built, or PIEZOTIP_PURE_PYTHON)")
+    before = mjhooks.compiled_dispatch()
+    mjhooks.use_compiled(compiled)
+    yield request.param
+    mjhooks.use_compiled(before)
+
+
 def bound(option: str = "", **attach_kwargs):
     spec = mujoco.MjSpec.from_string(scene_xml(option))
     tips = attach(spec, sites=["pressed", "free"], **attach_kwargs)
@@ -125,6 +138,7 @@ def test_mass_scaling_only_under_explicit_integrators():
     assert armature[:3].sum() > armature[3:].sum()
 
 
+@pytest.mark.usefixtures("dispatch")
 def test_a_model_without_fingertips_steps_bit_for_bit_as_before():
     xml = """<mujoco><worldbody><geom type="plane" size="1 1 .1"/>
       <body pos="0 0 .2"><freejoint/><geom type="box" size=".05 .04 .03"/></body>
@@ -148,6 +162,7 @@ def test_a_model_without_fingertips_steps_bit_for_bit_as_before():
     np.testing.assert_array_equal(after, before)
 
 
+@pytest.mark.usefixtures("dispatch")
 def test_two_bound_models_do_not_interfere():
     def readings(interleave: bool) -> np.ndarray:
         a, b = bound(), bound(config={"sensor.seed": 7})
@@ -181,6 +196,7 @@ def test_set_mode_acts_in_a_plain_loop_and_a_reset_restarts_the_readout():
     np.testing.assert_allclose(np.array(again), np.array(first), rtol=1e-5, equal_nan=True)
 
 
+@pytest.mark.usefixtures("dispatch")
 def test_step_and_a_plain_loop_read_the_same():
     _, _, sim = bound()
     model, data, plain = bound()
@@ -207,6 +223,7 @@ def test_the_fingertips_sensors_cost_mujoco_no_acceleration_stage_pass(pad):
     assert not data.cacc.any()
 
 
+@pytest.mark.usefixtures("dispatch")
 def test_a_python_callback_already_set_is_refused_and_a_c_one_is_kept():
     calls = []
     try:
@@ -263,6 +280,7 @@ def test_a_reset_within_the_first_period_linearizes_the_gel_law_again():
     np.testing.assert_allclose(gel_force, law, atol=1e-9)
 
 
+@pytest.mark.usefixtures("dispatch")
 def test_a_bound_mjdata_is_freed_with_its_hooks_and_the_fingertips_run_without_their_loop_object():
     import gc
     import weakref
@@ -326,6 +344,7 @@ def test_the_readout_pass_refuses_what_it_cannot_read():
 
 
 @pytest.mark.filterwarnings("ignore::pytest.PytestUnraisableExceptionWarning")
+@pytest.mark.usefixtures("dispatch")
 def test_an_error_inside_mj_step_is_raised_by_the_fingertips_own_loop():
     """MuJoCo's C cannot take a Python exception from its callback (ctypes prints it and steps
     on): the fingertips keep it, and their own loop raises it, naming it, once."""
@@ -353,6 +372,7 @@ def test_an_error_inside_mj_step_is_raised_by_the_fingertips_own_loop():
 
 @pytest.mark.filterwarnings("ignore::pytest.PytestUnraisableExceptionWarning")
 @pytest.mark.parametrize("path", ["fast", "python"])
+@pytest.mark.usefixtures("dispatch")
 def test_ctrl_c_inside_a_callback_reaches_the_fingertips_own_loop(path):
     """A KeyboardInterrupt raised in the callback (Ctrl-C landing there) is printed and dropped by
     ctypes inside ``mj_step``; the fingertips' own loop raises it as it ends its period.  In the
@@ -377,3 +397,28 @@ def test_ctrl_c_inside_a_callback_reaches_the_fingertips_own_loop(path):
         loop.step()
     assert len(calls) == 1
     loop.step()  # taken: nothing pending
+
+
+@pytest.mark.parametrize("pad", ["gel", "touch"])
+def test_the_c_and_the_python_dispatchers_write_the_same_sensordata(pad):
+    """The compiled dispatchers run the hooks the Python ones run, in the same order: the same
+    bits in sensordata and in the state, over a load that changes (the plate lifted off its pad)."""
+    if mjhooks._C is None:
+        pytest.skip("the C dispatchers are not in use (not built, or PIEZOTIP_PURE_PYTHON)")
+
+    def run(compiled: bool) -> np.ndarray:
+        before = mjhooks.compiled_dispatch()
+        mjhooks.use_compiled(compiled)
+        try:
+            model, data, _ = bound(pad=pad)
+            assert (mujoco.get_mjcb_sensor() is mjhooks._C[0]["sensor"]) == compiled
+            out = []
+            for k in range(300):
+                data.xfrc_applied[model.body("plate").id, 2] = 0.5 * PLATE_KG * G if k > 150 else 0.0
+                mujoco.mj_step(model, data)
+                out.append(np.concatenate([data.qpos, data.qvel, data.sensordata]))
+            return np.array(out)
+        finally:
+            mjhooks.use_compiled(before)
+
+    np.testing.assert_array_equal(run(True), run(False))

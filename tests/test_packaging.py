@@ -57,7 +57,8 @@ def test_setup_py_declares_every_kernel_optional():
 
     setup = load_setup()
     extensions = setup.kernel_extensions()
-    assert sorted(e.name for e in extensions) == sorted(compiled.KERNELS)
+    c_only = [f"piezotip.{folder.replace('/', '.')}.{name}" for folder, name in setup.C_ONLY]
+    assert sorted(e.name for e in extensions) == sorted([*compiled.KERNELS, *c_only])
     assert all(e.optional for e in extensions)
 
 
@@ -70,14 +71,14 @@ def test_what_cythonize_returns_is_made_optional_again(monkeypatch):
     from setuptools import Extension
 
     def cythonize(extensions, **options):  # as Cython's: new objects, C sources, optional dropped
-        return [Extension(e.name, [s.replace(".py", ".c") for s in e.sources]) for e in extensions]
+        return [Extension(e.name, [s.rsplit(".", 1)[0] + ".c" for s in e.sources]) for e in extensions]
 
     monkeypatch.setitem(sys.modules, "Cython", types.ModuleType("Cython"))
     monkeypatch.setitem(sys.modules, "Cython.Build", types.SimpleNamespace(cythonize=cythonize))
     setup = load_setup()
     monkeypatch.setattr(setup, "stage_declarations", lambda: None)
     built = setup.compiled_extensions()
-    assert len(built) == len(setup.KERNELS) and all(e.sources[0].endswith(".c") for e in built)
+    assert len(built) == len(setup.KERNELS) + len(setup.C_ONLY) and all(e.sources[0].endswith(".c") for e in built)
     assert all(e.optional for e in built)
     assert not any(e.optional for e in cythonize(setup.kernel_extensions()))  # the stand-in drops it
 

@@ -130,3 +130,42 @@ def test_a_touch_skin_reads_the_same_in_its_own_loop_and_in_a_plain_one():
         assert own.readings() == plain.readings(), period
         seen.add(round(own.readings()["tip0_0"].true_pressure_pa, 3))
     assert len(seen) > 10  # the load changed while the two were compared
+
+
+def test_the_touch_sensors_computed_once_a_period_give_the_readout_what_every_step_would():
+    """Bind gives the touch pads' ``touch`` sensors the readout's period as MuJoCo's sensor
+    ``interval`` (cosim.attach.TouchReader): MuJoCo computes them once a period, at the step
+    before the readout samples them, whatever the phase (a bind mid-period, a reset).  The
+    readout's every value is what it is with them computed at every step, while the box lands."""
+    names = [f"tip{i}_{j}" for i in range(ROWS) for j in range(COLS)]
+
+    def run(every_step: bool) -> tuple[np.ndarray, int]:
+        spec = mujoco.MjSpec.from_string(skin_xml(ROWS, COLS))
+        tips = attach(spec, sites=names, pad="touch")
+        model = spec.compile()
+        data = mujoco.MjData(model)
+        for _ in range(3):  # bound mid-period: the readout's periods start at bind
+            mujoco.mj_step(model, data)
+        sim = tips.bind(model, data)
+        touch = np.flatnonzero(model.sensor_type == mujoco.mjtSensor.mjSENS_TOUCH)
+        assert (model.sensor_interval[touch, 0] == sim.period_s).all() and sim.substeps > 1
+        if every_step:  # the reference: no interval, and the pass never asks for the sensors
+            model.sensor_interval[touch, 0] = 0.0
+            sim._pass.bind_history(data.history, [-1] * len(names))
+        fields = ("pressure_pa", "sigma_pa", "status", "mode", "true_pressure_pa")
+        readout = [model.sensor(sensor_name(n, f)).adr[0] for n in names for f in fields]
+        out, computed = [], 0
+        for k in range(400):
+            if k == 200:
+                mujoco.mj_resetData(model, data)  # the readout starts again, at t = 0
+            before = data.sensordata[model.sensor_adr[touch]].copy()
+            mujoco.mj_step(model, data)
+            computed += int(not np.array_equal(before, data.sensordata[model.sensor_adr[touch]]))
+            out.append(data.sensordata[readout].copy())
+        return np.array(out), computed
+
+    held, computed_held = run(every_step=False)
+    every, computed_every = run(every_step=True)
+    np.testing.assert_array_equal(held, every)
+    assert len(np.unique(every[:, 4])) > 10  # the load changed while the two were compared
+    assert computed_held <= 400 // 2 + 2 < computed_every  # once a period (2 steps) against every step

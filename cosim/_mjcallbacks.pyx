@@ -1,0 +1,129 @@
+# cython: language_level=3, boundscheck=False, wraparound=False
+"""MuJoCo's two callbacks as C functions: :mod:`cosim.mjhooks`'s dispatchers, compiled.
+
+Not a kernel with a Python twin: the twin is :mod:`cosim.mjhooks`'s ctypes dispatchers, which
+run where this module was not built (no C compiler at install) or under
+``PIEZOTIP_PURE_PYTHON``; both run the same hooks in the same order, so ``sensordata`` is the
+same bits either way (``tests/test_attach_sensordata.py``).  What the C spares is the step's
+way into Python: MuJoCo calls ``mjcb_passive`` and ``mjcb_sensor`` for every model in the
+process, and a ctypes callback costs ~0.4 us a call even where it only finds that the MjData has
+no hooks.  Here that finding is a scan of a C table of the bound MjData's addresses, without the
+GIL; only a bound MjData's step goes into Python: its sensor hook's fast path (``fast[address](stage)``,
+:data:`cosim.mjhooks._FAST`), or, where there is none or it returns < 0, mjhooks' own Python
+dispatch of its hooks (the ctypes functions ``configure`` is given).
+
+The tables are replaced, never changed in place, and a replaced one is never freed: a thread
+stepping another model without the GIL (``mujoco.rollout``) may still be reading it.  One table
+is a few bytes a bound MjData; they accumulate with every register and unregister (a Gym
+environment made and dropped a thousand times: tens of kB).
+"""
+
+from libc.stdint cimport uintptr_t
+from libc.stdlib cimport malloc
+
+ctypedef void (*passive_fn)(const void*, void*) noexcept nogil
+ctypedef void (*sensor_fn)(const void*, void*, int) noexcept nogil
+
+
+cdef struct Table:
+    Py_ssize_t n
+    uintptr_t* address  # the MjData's mjData* addresses
+    char* fast  # 1 where the MjData's sensor hook has a fast path
+
+
+cdef Table _EMPTY
+_EMPTY.n = 0
+cdef Table* _passive_table = &_EMPTY
+cdef Table* _sensor_table = &_EMPTY
+cdef passive_fn _passive_previous = NULL
+cdef passive_fn _passive_hooks = NULL
+cdef sensor_fn _sensor_previous = NULL
+cdef sensor_fn _sensor_hooks = NULL
+cdef dict _fast_of = {}
+cdef object _failed = None
+
+
+cdef Py_ssize_t _find(const Table* table, uintptr_t address) noexcept nogil:
+    cdef Py_ssize_t i
+    for i in range(table.n):
+        if table.address[i] == address:
+            return i
+    return -1
+
+
+cdef void passive(const void* m, void* d) noexcept nogil:
+    if _passive_previous != NULL:
+        _passive_previous(m, d)
+    if _passive_hooks != NULL and _find(_passive_table, <uintptr_t>d) >= 0:
+        _passive_hooks(m, d)
+
+
+cdef int _fast_sensor(uintptr_t address, int stage) noexcept with gil:
+    """The fast path's verdict (mjhooks' ``_sensor``): >= 0 done, < 0 the hooks' own dispatch
+    must run.  An exception is kept by ``failed`` (for mjhooks.raise_failure), which raises it
+    again: printed here as ctypes prints its callbacks' (MuJoCo's C cannot take it), and 0."""
+    fast = _fast_of.get(address)
+    if fast is None:
+        return -1
+    try:
+        return fast(stage)
+    except BaseException as err:
+        _failed(address, err)
+        raise
+
+
+cdef void sensor(const void* m, void* d, int stage) noexcept nogil:
+    cdef const Table* table
+    cdef Py_ssize_t i
+    if _sensor_previous != NULL:
+        _sensor_previous(m, d, stage)
+    table = _sensor_table
+    i = _find(table, <uintptr_t>d)
+    if i < 0:
+        return
+    if table.fast[i] and _fast_sensor(<uintptr_t>d, stage) >= 0:
+        return
+    if _sensor_hooks != NULL:
+        _sensor_hooks(m, d, stage)
+
+
+def addresses():
+    """The C dispatchers' addresses, (passive, sensor): for ctypes function pointers MuJoCo's
+    ``set_mjcb_*`` take."""
+    return <uintptr_t>&passive, <uintptr_t>&sensor
+
+
+def configure(uintptr_t passive_previous, uintptr_t sensor_previous, uintptr_t passive_hooks, uintptr_t sensor_hooks, dict fast_of, failed):
+    """The callbacks set before the dispatchers (called first, for every model; 0: none), the
+    Python dispatch of a bound MjData's hooks (C function pointers of mjhooks' ctypes functions),
+    the fast paths by address (mjhooks' dict, read at each call) and what keeps a fast path's
+    exception (``failed(address, error)``)."""
+    global _passive_previous, _sensor_previous, _passive_hooks, _sensor_hooks, _fast_of, _failed
+    _passive_previous = <passive_fn>passive_previous
+    _sensor_previous = <sensor_fn>sensor_previous
+    _passive_hooks = <passive_fn>passive_hooks
+    _sensor_hooks = <sensor_fn>sensor_hooks
+    _fast_of, _failed = fast_of, failed
+
+
+cdef Table* _table(list addresses, list fast) except NULL:
+    cdef Py_ssize_t i, n = len(addresses)
+    cdef Table* table = <Table*>malloc(sizeof(Table) + n * (sizeof(uintptr_t) + 1))
+    if table == NULL:
+        raise MemoryError("piezotip: no memory for the MuJoCo callbacks' table")
+    table.address = <uintptr_t*>(<char*>table + sizeof(Table))
+    table.fast = <char*>(table.address + n)
+    for i in range(n):
+        table.address[i] = <uintptr_t>addresses[i]
+        table.fast[i] = 1 if fast[i] else 0
+    table.n = n
+    return table
+
+
+def set_tables(list passive_addresses, list sensor_addresses, list sensor_fast):
+    """The MjData whose hooks each callback runs (mjData* addresses), and for the sensor's,
+    which have a fast path (bools in the same order)."""
+    global _passive_table, _sensor_table
+    cdef Table* passive_table = _table(passive_addresses, [False] * len(passive_addresses))
+    cdef Table* sensor_table = _table(sensor_addresses, sensor_fast)
+    _passive_table, _sensor_table = passive_table, sensor_table
