@@ -39,6 +39,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -102,7 +103,11 @@ class Verdict:
     Grip economy, from the truth: ``hold_grip_n`` is the fingers' true force on the object (the
     mean of the two fingers, N) as a median over the samples in which the object was carried
     clear of the table (NaN if it never was); ``needed_grip_n`` the least grip that holds it
-    (:func:`needed_grip_n`); ``grip_margin`` their ratio (1 holds it exactly; people keep 1.1-1.4);
+    (:func:`needed_grip_n`: on the contacts as they were while held, where the record has
+    their tilts and the judge the friction, else on level contacts); ``contact_tilt_deg`` the
+    fingers' mean contact tilt below the horizontal while held (deg: positive where they press
+    the object down, NaN where not recorded); ``grip_margin`` their ratio (1 holds it exactly;
+    people keep 1.1-1.4);
     ``peak_contact_n`` the largest true force of either finger at any time (touch, lift, touchdown
     and release included; over every physics step where the record has the peaks), N.
 
@@ -115,7 +120,8 @@ class Verdict:
     the pads from the load's onset to the end of the hold, mm; ``disturb_reaction_ms`` the time
     from the onset until the true grip has risen by 10 % over its value then, ms;
     ``disturb_hold_grip_n`` the new hold's grip, N; ``disturb_needed_grip_n`` the grip that holds
-    the object under the load, (m g + extra) / (2 mu), N; ``disturb_grip_margin`` their ratio.
+    the object under the load, (m g + extra) / (2 mu) on level contacts (as the need, on the
+    contacts' tilts where known), N; ``disturb_grip_margin`` their ratio.
     """
 
     outcome: str
@@ -136,6 +142,7 @@ class Verdict:
     hold_grip_n: float = math.nan
     needed_grip_n: float = math.nan
     grip_margin: float = math.nan
+    contact_tilt_deg: float = math.nan
     peak_contact_n: float = math.nan
     touch_peak_n: float = math.nan
     time_to_touch_s: float = math.nan
@@ -155,19 +162,75 @@ class Verdict:
         return d
 
 
-def needed_grip_n(mass_kg: float, friction: float, gravity_m_s2: float = 9.81, fingers: int = 2, extra_load_n: float = 0.0) -> float:
-    """The least normal force per finger that holds an object against gravity by friction, N.
+def needed_grip_n(
+    mass_kg: float,
+    friction: float,
+    gravity_m_s2: float = 9.81,
+    fingers: int = 2,
+    extra_load_n: float = 0.0,
+    tilts_rad: Sequence[float] | None = None,
+) -> float:
+    """The least grip that holds an object against gravity by friction, N per finger.
 
-    Coulomb friction on ``fingers`` parallel contacts, each carrying at most ``friction`` times
-    its normal force ``G``: the object is held while ``fingers * friction * G >= m g``, so
-    ``G = m g / (fingers * friction)`` (m g / (2 mu) for a two-finger grip).  ``mass_kg`` in kg,
-    ``friction`` the pad-object coefficient (dimensionless), ``gravity_m_s2`` in m/s^2.  An
-    ``extra_load_n`` (N, downward, a disturbance's) adds to the weight: (m g + extra) / (2 mu).
+    The grip G is each finger's horizontal push on the object (equal and opposite between two
+    fingers).  On level contacts (normals horizontal) each finger carries at most ``friction``
+    times G: the object is held while ``fingers * friction * G >= m g``, so
+    ``G = m g / (fingers * friction)`` (m g / (2 mu) for a two-finger grip).
+
+    On tilted contacts (``tilts_rad``, one per finger: the angle a of the contact's normal below
+    the horizontal, positive where the finger presses the object down, as on a round object
+    held above its centre): the finger's force lies in its friction cone about the normal, of
+    half-angle phi = atan(mu), so for a horizontal push G its largest upward part is
+    G tan(phi - a).  The object is held while ``sum_i G tan(phi - a_i) >= m g``:
+    ``G = m g / sum_i tan(phi - a_i)``, the wedge's self-locking law (Coulomb friction on an
+    inclined face; a = 0 gives m g / (2 mu), and G grows without bound as a nears phi: no
+    squeeze holds a sphere pinched above its centre by more than its friction angle, ``inf``).
+
+    ``mass_kg`` in kg, ``friction`` the pad-object coefficient (dimensionless), ``gravity_m_s2``
+    in m/s^2.  An ``extra_load_n`` (N, downward, a disturbance's) adds to the weight: (m g + extra).
     """
+    tilts = None if tilts_rad is None else [float(a) for a in tilts_rad]
     if not (mass_kg > 0 and friction > 0 and gravity_m_s2 > 0 and fingers > 0 and 0 <= extra_load_n < math.inf):
         got = f"{mass_kg!r} kg, friction {friction!r}, {gravity_m_s2!r} m/s^2, {fingers!r} fingers, {extra_load_n!r} N extra"
         raise ValueError(f"needed_grip_n needs positive mass, friction, gravity and fingers and a finite extra load >= 0, got {got}")
-    return (mass_kg * gravity_m_s2 + extra_load_n) / (fingers * friction)
+    load_n = mass_kg * gravity_m_s2 + extra_load_n
+    if tilts is None:
+        return load_n / (fingers * friction)
+    if not tilts or not all(abs(a) < math.pi / 2 for a in tilts):
+        raise ValueError(f"needed_grip_n: tilts_rad must be one angle per finger within (-pi/2, pi/2) rad, got {tilts_rad!r}")
+    total = sum(_lift_per_grip(friction, a) for a in tilts)
+    return load_n / total if total > 0 else math.inf
+
+
+def _lift_per_grip(friction: float, tilt_rad: float) -> float:
+    """tan(phi - a), phi = atan(mu): the most a finger holds up per unit of horizontal grip on a
+    contact tilted ``tilt_rad`` below the horizontal, as (mu - tan a) / (1 + mu tan a) (exactly mu
+    at a = 0); 0 past the friction angle (it holds nothing), inf where the cone reaches past the
+    vertical (a contact under the object: it carries any weight)."""
+    t = math.tan(tilt_rad)
+    if t >= friction:
+        return 0.0
+    below = 1.0 + friction * t
+    return (friction - t) / below if below > 0 else math.inf
+
+
+def contact_tilts(data: dict[str, np.ndarray], held: np.ndarray) -> tuple[float, float] | None:
+    """Each finger's contact tilt while the object was held (rad, below the horizontal: the
+    record's ``{side}_contact_tilt_rad``, median over the samples ``held``), or None where the
+    record has no such columns or the fingers touched nothing there."""
+    columns = ("left_contact_tilt_rad", "right_contact_tilt_rad")
+    if not all(c in data for c in columns) or not held.any():
+        return None
+    tilts = [np.asarray(data[c], float)[held] for c in columns]
+    if not all(np.isfinite(a).any() for a in tilts):
+        return None
+    return float(np.nanmedian(tilts[0])), float(np.nanmedian(tilts[1]))
+
+
+def tilted_need_factor(friction: float, tilts_rad: Sequence[float]) -> float:
+    """The least grip on the fingers' tilted contacts over that on level ones (>= 1 where they
+    press the object down): :func:`needed_grip_n` with the tilts over it without."""
+    return needed_grip_n(1.0, friction, 1.0, fingers=len(tilts_rad), tilts_rad=tilts_rad) * len(tilts_rad) * friction
 
 
 def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
@@ -317,6 +380,7 @@ def judge(
     criteria: Criteria = Criteria(),
     needed_grip: float | None = None,
     disturbance: Disturbance | None = None,
+    friction: float | None = None,
 ) -> Verdict:
     """Judge one recorded run.
 
@@ -336,8 +400,13 @@ def judge(
     events : the controller's events (dicts with ``kind``, ``message``, ``time_s``).
     finished : whether the controller finished before the time ran out.
     error : the message of an error that stopped the run (a divergence), or None.
-    needed_grip : the least grip that holds the object, N per finger (:func:`needed_grip_n`
-        of its simulated mass and friction); None leaves ``needed_grip_n`` and ``grip_margin`` NaN.
+    needed_grip : the least grip that holds the object on level contacts, N per finger
+        (:func:`needed_grip_n` of its simulated mass and friction); None leaves
+        ``needed_grip_n`` and ``grip_margin`` NaN.
+    friction : the pad-object friction coefficient.  Given, with the record's contact tilts
+        (``{side}_contact_tilt_rad``), the need (and a disturbance's) is the one on the fingers'
+        contacts as they were while the object was held (:func:`needed_grip_n`'s tilts: a
+        round object held above its centre needs more than on level contacts).
     disturbance : the load change the run put on the held object (:class:`Disturbance`), or None
         (the ``disturb_*`` fields NaN).  Its onset is read from the record's ``phase`` column, as
         are the start of closing and the hold (:func:`touch_metrics`, :func:`disturbance_metrics`).
@@ -391,6 +460,13 @@ def judge(
     clear = gripped & off_table & ~on_table
     hold_grip = float(np.median(0.5 * (left + right)[clear])) if clear.any() else math.nan
     needed = math.nan if needed_grip is None else float(needed_grip)
+    tilts = contact_tilts(data, clear)
+    tilt_deg = math.nan if tilts is None else math.degrees(0.5 * (tilts[0] + tilts[1]))
+    if tilts is not None and friction is not None:  # the need on the contacts as they were
+        factor = tilted_need_factor(float(friction), tilts)
+        needed *= factor
+        if disturbance is not None:
+            disturbance = dataclasses.replace(disturbance, needed_grip_n=disturbance.needed_grip_n * factor)
     crushed = crush_force_n is not None and peak_grip > crush_force_n
     phase = data.get("phase")
     touch_peak, time_to_touch = touch_metrics(t, phase, grip, touching, off_table)
@@ -464,6 +540,7 @@ def judge(
         hold_grip_n=hold_grip,
         needed_grip_n=needed,
         grip_margin=hold_grip / needed if needed > 0 else math.nan,
+        contact_tilt_deg=tilt_deg,
         peak_contact_n=peak_grip,
         touch_peak_n=touch_peak,
         time_to_touch_s=time_to_touch,

@@ -33,9 +33,13 @@ def object_needed_grip_n(model, extra_load_n: float = 0.0) -> float:
     ``extra_load_n`` (N), (m g + extra) / (2 mu)."""
     from piezotip.cosim.scene import gravity_m_s2
 
-    pad = model.geom("left_pad_seg0_geom").id
-    mass_kg, friction = float(model.body("object").mass[0]), float(model.geom_friction[pad, 0])
-    return needed_grip_n(mass_kg, friction, gravity_m_s2(model), extra_load_n=extra_load_n)
+    mass_kg = float(model.body("object").mass[0])
+    return needed_grip_n(mass_kg, object_friction(model), gravity_m_s2(model), extra_load_n=extra_load_n)
+
+
+def object_friction(model) -> float:
+    """The pad-object friction coefficient the compiled model simulates (the pads' geoms carry it)."""
+    return float(model.geom_friction[model.geom("left_pad_seg0_geom").id, 0])
 
 
 def object_disturbance(config: ScenarioConfig, model=None) -> Disturbance | None:
@@ -76,13 +80,16 @@ def summary(
     finished: bool = True,
     needed_grip: float | None = None,
     disturbance: Disturbance | None = None,
+    friction: float | None = None,
 ) -> dict:
     """The run's JSON summary: scenario, times, steps, pressures, modes, the referee's outcome, files.
 
     ``needed_grip``: the least grip that holds the object, N per finger (:func:`object_needed_grip_n`
     of the simulated model); None computes it from the config's object at standard gravity.
     ``disturbance``: the load change the run put on the held object (:func:`object_disturbance` of
-    the simulated model); None computes it from the config (None again where it has none)."""
+    the simulated model); None computes it from the config (None again where it has none).
+    ``friction``: the pad-object friction the referee reads the need on the contacts' recorded
+    tilts with (:func:`object_friction` of the simulated model); None takes the config's."""
     pads = tuple(config.sensor.pads)
     sim_time = float(data["time_s"][-1]) if data else 0.0
     switches, used = mode_changes(data, pads) if data else (0, [])
@@ -114,7 +121,19 @@ def summary(
     if disturbance is None:
         disturbance = object_disturbance(config)
     crush = config.object.crush_force_n
-    verdict = judge(data, c.lift_height_m, c.hold_s, crush, events or [], finished, error, needed_grip=needed_grip, disturbance=disturbance)
+    friction = config.object.friction if friction is None else friction
+    verdict = judge(
+        data,
+        c.lift_height_m,
+        c.hold_s,
+        crush,
+        events or [],
+        finished,
+        error,
+        needed_grip=needed_grip,
+        disturbance=disturbance,
+        friction=friction,
+    )
     result.update(verdict.as_dict())
     result["limits"] = model_limits(config, result["max_pressure_pa"], data, pads)
     result["outside_model"] = outside_model(result["limits"])

@@ -187,7 +187,7 @@ def _run(name, overrides, out, csv, render, plot, quiet, preset, video, video_fp
     from piezotip.cosim.recorder import Recorder
     from piezotip.runtime.provenance import config_provenance
 
-    from .run_report import object_disturbance, object_needed_grip_n, plot_run, summary
+    from .run_report import object_disturbance, object_friction, object_needed_grip_n, plot_run, summary
 
     config = scenarios.get(name, overrides, preset)
     # what made it: piezotip, mujoco, numpy, scipy, python, the commit; the seeds and the whole config
@@ -247,7 +247,8 @@ def _run(name, overrides, out, csv, render, plot, quiet, preset, video, video_fp
     events = [asdict(e) for e in sim.controller.events]
     needed = object_needed_grip_n(sim.model)
     disturbance = object_disturbance(config, sim.model)
-    report = summary(config, data, result.wall_time_s, files, result.error, events, sim.controller.finished, needed, disturbance)
+    friction = object_friction(sim.model)
+    report = summary(config, data, result.wall_time_s, files, result.error, events, sim.controller.finished, needed, disturbance, friction)
     if data and plot:
         files.append(str(plot_run(config, sim.fingertip, data, out, report)))
     if strip is not None and strip.images:

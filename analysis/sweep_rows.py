@@ -27,6 +27,7 @@ EXTRA_COLUMNS = (
     "hold_grip_n",
     "needed_grip_n",
     "grip_margin",
+    "contact_tilt_deg",
     "peak_contact_n",
     "touch_peak_n",
     "time_to_touch_s",
@@ -40,8 +41,9 @@ EXTRA_COLUMNS = (
     "error",
 )
 
-#: The referee's grip economy (analysis.referee.Verdict): grip held, needed, their ratio, peak contact.
-GRIP_ECONOMY_COLUMNS = ("hold_grip_n", "needed_grip_n", "grip_margin", "peak_contact_n")
+#: The referee's grip economy (analysis.referee.Verdict): grip held, needed (on the contacts'
+#: tilts), their ratio, the contacts' tilt (deg), peak contact.
+GRIP_ECONOMY_COLUMNS = ("hold_grip_n", "needed_grip_n", "grip_margin", "contact_tilt_deg", "peak_contact_n")
 
 #: The referee's touch (analysis.referee.touch_metrics): the peak finger force from the first
 #: contact to lift-off, N, and the time from the start of closing to the first contact, s.

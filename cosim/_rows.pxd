@@ -13,7 +13,7 @@ cdef Py_ssize_t _ESTIMATE_AT[3]
 cdef class RowBuilder:
     cdef object _args  # the constructor's arguments, for copies
     cdef list _pads
-    cdef long long[::1] _contact_adr
+    cdef long long[::1] _contact_adr, _normals
     cdef Py_ssize_t _left, _right, _table_normal
     cdef bint _track_peaks
     cdef double[::1] _fractions
@@ -21,6 +21,9 @@ cdef class RowBuilder:
     cdef dict _status_index
     cdef double[::1] _xpos, _qvel, _sensordata
     cdef bint _bound
+
+    @cython.locals(nx=double, ny=double, nz=double)
+    cdef double _tilt(self, long long adr) except? -2.0
 
     @cython.locals(
         vx=double, vy=double, vz=double, wx=double, wy=double, wz=double, row=list, k=Py_ssize_t, i=Py_ssize_t,

@@ -44,6 +44,10 @@ class RowBuilder:
     cell_fractions : each coverage cell's share of the coverage's length.
     stop_pressure_pa : the pressure at which the gel sits on its housing stop, Pa.
     status_index : each estimate status's number in the record.
+    normal_adr : (left, right): the addresses of each finger's strongest-contact sensor on the
+        object (``found``, then its unit normal, world frame, from the finger into the object),
+        whose normal's tilt below the horizontal, rad, the row records (NaN where none touches,
+        or None: no such sensors); the referee's need on a tilted contact (analysis.referee).
     model_limits_pa : (gel_valid_pa, backstop_pa), where the model ends (Pa;
         :meth:`sensor.fingertip.Fingertip.model_limit`): a strip over the element past the gel's
         valid strain, or the coverage's pressure past the element's backstop, and the row's
@@ -59,6 +63,7 @@ class RowBuilder:
         "_fractions",
         "_gel_valid_pa",
         "_left",
+        "_normals",
         "_outside",
         "_pads",
         "_qvel",
@@ -72,7 +77,17 @@ class RowBuilder:
     )
 
     def __init__(
-        self, pads, contact_adr, finger_adr, table_adr, track_peaks, cell_fractions, stop_pressure_pa, status_index, model_limits_pa=None
+        self,
+        pads,
+        contact_adr,
+        finger_adr,
+        table_adr,
+        track_peaks,
+        cell_fractions,
+        stop_pressure_pa,
+        status_index,
+        model_limits_pa=None,
+        normal_adr=None,
     ) -> None:
         self._args = (
             pads,
@@ -84,6 +99,7 @@ class RowBuilder:
             stop_pressure_pa,
             status_index,
             model_limits_pa,
+            normal_adr,
         )
         self._pads = list(pads)
         contact_adr, finger_adr = [int(a) for a in contact_adr], [int(a) for a in finger_adr]
@@ -92,6 +108,10 @@ class RowBuilder:
         self._contact_adr = array("q", contact_adr)
         self._left, self._right = finger_adr
         self._table_normal = int(table_adr) + 2
+        normals = [-1, -1] if normal_adr is None else [int(a) for a in normal_adr]
+        if len(normals) != 2:
+            raise ValueError("a row needs the two fingers' normal sensors' addresses, or None")
+        self._normals = array("q", normals)
         self._track_peaks = bool(track_peaks)
         self._fractions = array("d", [float(f) for f in cell_fractions])
         self._stop_pa = float(stop_pressure_pa)
@@ -113,10 +133,20 @@ class RowBuilder:
         if len(views[0]) != 3 or len(views[1]) != 6:
             raise ValueError(f"the object's position needs 3 values and its velocity 6, got {len(views[0])} and {len(views[1])}")
         used = [*list(self._contact_adr), self._left, self._right, self._table_normal]
+        used += [a + i for a in self._normals if a >= 0 for i in range(4)]
         if not all(0 <= a < len(views[2]) for a in used):
             raise ValueError(f"sensordata addresses {used} are outside its {len(views[2])} values")
         self._xpos, self._qvel, self._sensordata = views
         self._bound = True
+
+    def _tilt(self, adr: int) -> float:
+        """The tilt below the horizontal of the normal at ``adr`` + 1 (rad, atan2 of its downward
+        part over its horizontal one: the contact presses the object down where positive), NaN
+        where the sensor found no contact or is none (``adr`` < 0)."""
+        if adr < 0 or not self._sensordata[adr] > 0.0:
+            return math.nan
+        nx, ny, nz = self._sensordata[adr + 1], self._sensordata[adr + 2], self._sensordata[adr + 3]
+        return kh.atan2(-nz, kh.sqrt(nx * nx + ny * ny))
 
     def row(self, time_s, obs, command, profiles, cells, finger_peaks) -> list[float]:
         """The row's values in column order (Python floats).  ``obs`` and ``command`` are the
@@ -146,6 +176,8 @@ class RowBuilder:
             abs(self._sensordata[self._table_normal]),
             abs(self._sensordata[self._left]),
             abs(self._sensordata[self._right]),
+            self._tilt(self._normals[0]),
+            self._tilt(self._normals[1]),
         ]
         if self._track_peaks:
             row += finger_peaks

@@ -96,7 +96,17 @@ HOUSE_SERVO_TRAVEL_M = 0.01
 _HOUSE_PARTS = {"actuator": ("fingers_actuator",), "tendon": ("fingers_tendon",), "equality": ("fingers_coupling",)}
 #: ... and the sensors it keeps: the lift's, and the referee's (the object-contact ones re-aimed
 #: at the mounted fingers); the others are the house fingers'.
-_KEPT_SENSORS = ("lift_pos", "lift_force", "object_table_contact", "left_object_contact", "right_object_contact")
+_KEPT_SENSORS = (
+    "lift_pos",
+    "lift_force",
+    "object_table_contact",
+    "left_object_contact",
+    "right_object_contact",
+    "left_object_normal",
+    "right_object_normal",
+)
+#: The referee's sensors on each finger (``{side}_{name}``), re-aimed at the mounted fingers.
+_FINGER_SENSORS = ("object_contact", "object_normal")
 
 # ---------------------------------------------------------------------------------------
 # The scene.
@@ -119,8 +129,10 @@ def _remove_house_gripper(spec: mujoco.MjSpec) -> dict[str, dict]:
     settings of the fingers' contact sensors on the object, which go with the fingers."""
     touch = {}
     for side in PAD_SIDES:
-        sensor = spec.sensor(f"{side}_object_contact")
-        touch[side] = {k: getattr(sensor, k) for k in ("type", "objtype", "reftype", "refname")} | {"intprm": list(sensor.intprm)}
+        for name in _FINGER_SENSORS:
+            sensor = spec.sensor(f"{side}_{name}")
+            settings = {k: getattr(sensor, k) for k in ("type", "objtype", "reftype", "refname")}
+            touch[f"{side}_{name}"] = settings | {"intprm": list(sensor.intprm)}
     palm = spec.body("palm")
     for element in [*palm.geoms, *palm.bodies]:
         spec.delete(element)  # with the fingers go what refers to them: their joints' actuator, tendon, sensors
@@ -171,7 +183,8 @@ def _mount_edit(config: ScenarioConfig, parts: GripperParts, geometry: PadGeomet
         for first, second in parts.overlapping:
             spec.add_exclude(name=f"{PREFIX}{first}_{second}_exclude", bodyname1=PREFIX + first, bodyname2=PREFIX + second)
         for side, branch in zip(PAD_SIDES, parts.branches, strict=True):  # each finger's push on the object (the referee's)
-            spec.add_sensor(name=f"{side}_object_contact", objname=PREFIX + branch, **touch[side])
+            for name in _FINGER_SENSORS:
+                spec.add_sensor(name=f"{side}_{name}", objname=PREFIX + branch, **touch[f"{side}_{name}"])
 
     return edit
 

@@ -11,7 +11,7 @@ column names):
   ``lift_force_n`` (the Observation's);
 - the object's height, x and y (m), vertical speed, speed and spin (m/s, rad/s), and the
   normal forces on it of the table and of each finger (N, magnitudes of MuJoCo's contact
-  sensors); with ``track_peaks`` the fingers' peak forces over the period's physics steps;
+  sensors), each finger's contact tilt (rad); with ``track_peaks`` the fingers' peak forces over the period's physics steps;
 - per pad: the mean true pressure over its element strips, the coverage's mean pressure
   (cells weighted by their share of its length), the finger's contact force on the object,
   the estimate and its uncertainty (Pa), the status's index (``STATUS_CODES``), the mode,
@@ -47,7 +47,9 @@ __all__ = [
 
 #: The recorded ground truth (the referee's; never in an Observation): the object's centre
 #: (m), its vertical velocity, speed and spin (m/s, rad/s), the table's vertical push on it and
-#: each finger's net contact force (N).
+#: each finger's net contact force (N), and the tilt below the horizontal of each finger's
+#: strongest contact's normal (rad; NaN where it touches nothing: the referee's need on a
+#: contact above a round object's centre).
 TRUTH_COLUMNS = (
     "object_height_m",
     "object_x_m",
@@ -58,6 +60,8 @@ TRUTH_COLUMNS = (
     "table_force_n",
     "left_finger_force_n",
     "right_finger_force_n",
+    "left_contact_tilt_rad",
+    "right_contact_tilt_rad",
 )
 
 #: Each finger's largest net contact force on the object over the period's physics steps (N),

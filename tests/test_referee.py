@@ -381,3 +381,97 @@ def test_needed_grip_under_an_extra_load_adds_it_to_the_weight():
     assert needed_grip_n(0.1, 1.0, 9.81, extra_load_n=0.981) == pytest.approx(0.981, rel=1e-12)
     with pytest.raises(ValueError, match="extra load"):
         needed_grip_n(0.1, 1.0, extra_load_n=-1.0)
+
+
+# -- the need on tilted contacts (a round object held above its centre) ---------------------
+
+
+def test_needed_grip_on_tilted_contacts_is_the_wedges_law():
+    """G = m g / sum_i tan(phi - a_i), phi = atan(mu): level contacts give m g / (2 mu); contacts
+    pressing the object down need more, contacts under its centre less; past the friction angle
+    no squeeze holds it."""
+    import math
+
+    from piezotip.analysis.referee import needed_grip_n, tilted_need_factor
+
+    level = needed_grip_n(0.004, 0.9, 9.81)
+    assert needed_grip_n(0.004, 0.9, 9.81, tilts_rad=[0.0, 0.0]) == pytest.approx(level, rel=1e-12)
+    # 45 degrees of friction (mu = 1) less 15 of tilt leaves 30: tan 30 = 1 / sqrt 3 a finger.
+    assert needed_grip_n(0.1, 1.0, 10.0, tilts_rad=[math.radians(15)] * 2) == pytest.approx(1.0 / (2 / math.sqrt(3)), rel=1e-12)
+    # One finger level, one tilted by 15 degrees (mu = 1): 1 / (tan 45 + tan 30).
+    assert needed_grip_n(0.1, 1.0, 10.0, tilts_rad=[0.0, math.radians(15)]) == pytest.approx(1.0 / (1 + 1 / math.sqrt(3)), rel=1e-12)
+    assert needed_grip_n(0.004, 0.9, 9.81, tilts_rad=[-0.2, -0.2]) < level < needed_grip_n(0.004, 0.9, 9.81, tilts_rad=[0.2, 0.2])
+    assert needed_grip_n(0.004, 0.9, 9.81, tilts_rad=[math.atan(0.9) + 1e-6] * 2) == math.inf  # past the friction angle
+    assert tilted_need_factor(0.9, [0.0, 0.0]) == pytest.approx(1.0, rel=1e-12)
+    for bad in ([], [float("nan"), 0.0], [2.0, 0.0]):
+        with pytest.raises(ValueError, match="tilts_rad"):
+            needed_grip_n(0.004, 0.9, 9.81, tilts_rad=bad)
+
+
+def _pinched_sphere_holds(plate_bottom_m: float, grip_n: float) -> tuple[bool, float]:
+    """A 4 g, 20 mm sphere (mu 0.9) pinched by two plates pushed at it with ``grip_n`` each,
+    their lower edges ``plate_bottom_m`` above its centre (below it: its equator meets their
+    faces): whether it is held after 0.6 s (sunk < 2 mm), and the left contact's tilt (rad, from
+    MuJoCo's contact sensor, as the record's).  Exact Coulomb friction: elliptic cones, no creep
+    (the noslip solver), stiff contacts."""
+    import math
+
+    import mujoco
+
+    radius, face = 0.01, math.sqrt(0.01**2 - max(0.0, plate_bottom_m) ** 2)
+    zc = plate_bottom_m + 0.02
+    xml = f"""<mujoco><option timestep="0.0005" cone="elliptic" noslip_iterations="50"/>
+      <default><geom friction="0.9 0.005 0.0001" solref="0.002 1"/></default>
+      <worldbody>
+        <body name="object"><freejoint/><geom type="sphere" size="{radius}" mass="0.004"/></body>
+        <body name="left" pos="{-face - 0.002} 0 {zc}"><joint name="lx" type="slide" axis="1 0 0" damping="0.5"/>
+          <geom type="box" size="0.002 0.01 0.02" mass="0.01"/></body>
+        <body name="right" pos="{face + 0.002} 0 {zc}"><joint name="rx" type="slide" axis="-1 0 0" damping="0.5"/>
+          <geom type="box" size="0.002 0.01 0.02" mass="0.01"/></body>
+      </worldbody>
+      <sensor><contact name="normal" body1="left" body2="object" data="found normal" reduce="maxforce"/></sensor></mujoco>"""
+    model = mujoco.MjModel.from_xml_string(xml)
+    data = mujoco.MjData(model)
+    data.qfrc_applied[model.jnt_dofadr[[model.joint("lx").id, model.joint("rx").id]]] = grip_n
+    for _ in range(1200):
+        mujoco.mj_step(model, data)
+    found, nx, ny, nz = data.sensor("normal").data
+    return bool(data.qpos[2] > -0.002), math.atan2(-nz, math.hypot(nx, ny)) if found > 0 else math.nan
+
+
+@pytest.mark.parametrize("plate_bottom_mm", [-20.0, 1.5, 3.0], ids=["level", "9-degrees", "17-degrees"])
+def test_the_tilted_need_is_the_least_grip_that_holds_a_sphere_in_mujoco(plate_bottom_mm):
+    """The independent number: the least grip that holds, found by bisection in MuJoCo, against
+    needed_grip_n on the tilt MuJoCo's contact sensor reports (within 2 %; the level need is
+    short by 27 % and 50 % on the tilted ones: they need 1.38 and 2.0 times it)."""
+    from piezotip.analysis.referee import needed_grip_n
+
+    low, high = 0.004 * 9.81 * 0.1, 0.004 * 9.81 * 5
+    for _ in range(14):
+        mid = 0.5 * (low + high)
+        low, high = (low, mid) if _pinched_sphere_holds(1e-3 * plate_bottom_mm, mid)[0] else (mid, high)
+    held, tilt = _pinched_sphere_holds(1e-3 * plate_bottom_mm, 1.2 * high)
+    assert held
+    assert high == pytest.approx(needed_grip_n(0.004, 0.9, 9.81, tilts_rad=[tilt, tilt]), rel=0.02)
+
+
+def test_the_judge_reads_the_need_on_the_contacts_recorded_tilts():
+    """With the friction given and the record's contact tilts, the need (and a disturbance's) is
+    the tilted one; without the friction, or without tilts, the level one."""
+    import math
+
+    from piezotip.analysis.referee import tilted_need_factor
+
+    d = clean_record()
+    tilt = math.radians(10.0)
+    d["left_contact_tilt_rad"] = np.where(d["left_finger_force_n"] > 0, tilt, np.nan)
+    d["right_contact_tilt_rad"] = np.where(d["right_finger_force_n"] > 0, tilt, np.nan)
+    factor = tilted_need_factor(0.9, [tilt, tilt])
+    assert factor == pytest.approx((1 + 0.9 * math.tan(tilt)) / (1 - math.tan(tilt) / 0.9), rel=1e-12)  # tan(phi) / tan(phi - a)
+    v = verdict(d, needed_grip=0.5, friction=0.9)
+    assert v.needed_grip_n == pytest.approx(0.5 * factor) and v.grip_margin == pytest.approx(1.0 / (0.5 * factor))
+    assert v.contact_tilt_deg == pytest.approx(10.0)
+    level = verdict(d, needed_grip=0.5)
+    assert level.needed_grip_n == 0.5 and level.contact_tilt_deg == pytest.approx(10.0)
+    assert math.isnan(verdict(clean_record(), needed_grip=0.5, friction=0.9).contact_tilt_deg)
+    assert verdict(clean_record(), needed_grip=0.5, friction=0.9).needed_grip_n == 0.5
