@@ -47,8 +47,9 @@ KERNELS = (
 )
 
 #: (folder, module): C-only extension modules, each ``folder/module.pyx``: glue whose Python
-#: twin is another module (``cosim/_mjcallbacks.pyx``: MuJoCo's callbacks in C; without it,
-#: ``cosim/mjhooks.py``'s ctypes dispatchers run), optional as the kernels are.
+#: twin is another module (``cosim/_mjcallbacks.pyx``: MuJoCo's callbacks in C; without it, or
+#: without the compiled kernel it cimports, ``cosim/mjhooks.py``'s ctypes dispatchers run),
+#: optional as the kernels are.
 C_ONLY = (("cosim", "_mjcallbacks"),)
 
 #: Where the ``.pxd`` files are found by their modules' full names.
@@ -79,7 +80,14 @@ def kernel_extensions() -> list[Extension]:
         )
         for folder, name in KERNELS
     ] + [
-        Extension(f"piezotip.{folder.replace('/', '.')}.{name}", [f"{folder}/{name}.pyx"], extra_compile_args=["-O2"], optional=True)
+        Extension(
+            f"piezotip.{folder.replace('/', '.')}.{name}",
+            [f"{folder}/{name}.pyx"],
+            depends=[f"{f}/{n}.pxd" for f, n in KERNELS if Path(f"{f}/{n}.pxd").exists()] + ["sensor/_kernel_helpers.pxd"],
+            define_macros=[("CYTHON_CCOMPLEX", "0")],  # as the kernels it cimports (their types' layout)
+            extra_compile_args=["-O2", "-ffp-contract=off"],
+            optional=True,
+        )
         for folder, name in C_ONLY
     ]
 

@@ -5,6 +5,7 @@ cimport piezotip.sensor._channel as sc
 cimport piezotip.sensor._kernel_helpers as kh
 
 cdef Py_ssize_t VALUES_PER_TIP
+cdef Py_ssize_t _LAST, _NEXT, _PERIOD, _HALF
 cdef object _ESTIMATE_GET
 cdef Py_ssize_t _ESTIMATE_AT[3]
 
@@ -23,18 +24,22 @@ cdef class ReadoutPass:
     cdef long _clock_adr
     cdef Py_ssize_t _size
     cdef int _stage
-    cdef double _period, _half, _last_s, _next_s
+    cdef double[::1] _clock
     cdef readonly Py_ssize_t periods
 
+    @cython.locals(clock="double[::1]")
     cpdef set_clock(self, long clock_adr, int stage, double period_s, double timestep_s, double start_s)
 
-    @cython.locals(t=double, half=double, sampled=int)
+    @cython.locals(t=double, half=double, sampled=int, clock="double[::1]")
     cpdef int tick(self, int stage) except? -2
 
     @cython.locals(history="double[::1]", due=double, k=Py_ssize_t)
     cdef int _touch_due(self, double t) except -1
 
+    @cython.locals(clock="double[::1]")
     cpdef sample_now(self, double t)
+
+    cpdef quick_state(self)
 
     @cython.locals(k=Py_ssize_t, size=Py_ssize_t, adr=long)
     cpdef bind_history(self, history, touch_history_adr)

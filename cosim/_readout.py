@@ -32,6 +32,11 @@ _ESTIMATE = ("pressure_pa", "uncertainty_pa", "status")
 _ESTIMATE_AT, _ESTIMATE_GET = kh.slot_offsets(Estimate, 3, _ESTIMATE), attrgetter(*_ESTIMATE)
 
 
+#: The pass's clock array's entries (ReadoutPass._clock): the last step's time, the next
+#: sample's, the period and half a step, s.
+_LAST, _NEXT, _PERIOD, _HALF = 0, 1, 2, 3
+
+
 class ReadoutPass:
     """One period's readout of every fingertip of a model (the module docstring).
 
@@ -56,20 +61,17 @@ class ReadoutPass:
     __slots__ = (
         "_areas",
         "_backstop",
+        "_clock",
         "_clock_adr",
         "_code_at",
         "_codes",
         "_cores",
         "_fractions",
         "_gel_valid",
-        "_half",
         "_history",
-        "_last_s",
         "_n",
-        "_next_s",
         "_outside",
         "_pasts",
-        "_period",
         "_readers",
         "_records",
         "_samples",
@@ -118,18 +120,21 @@ class ReadoutPass:
         self.periods = 0  # periods sampled
         self._truths = array("d", [math.nan] * n)
         self._pasts = array("b", [False] * n)
-        # The per-step clock (set_clock): none yet.
-        self._clock_adr, self._stage, self._period, self._half = -1, -1, math.nan, math.nan
-        self._last_s = self._next_s = math.nan
+        # The per-step clock (set_clock): none yet.  Its times, s: the last step's, the next
+        # sample's, the period and half a step, in one array that MuJoCo's C sensor dispatcher
+        # reads and writes too (quick_state: its one owner is this pass).
+        self._clock_adr, self._stage = -1, -1
+        self._clock = array("d", [math.nan] * 4)
 
     def set_clock(self, clock_adr: int, stage: int, period_s: float, timestep_s: float, start_s: float) -> None:
         """Sample once a period of ``period_s`` s from ``start_s`` s (the first at ``start_s`` +
         ``period_s``), at MuJoCo's sensor ``stage``, the time read from a ``clock`` sensor at
         ``clock_adr`` in ``sensordata`` (:meth:`tick`); ``timestep_s`` the model's step, s."""
         self._clock_adr, self._stage = int(clock_adr), int(stage)
-        self._period, self._half = float(period_s), 0.5 * float(timestep_s)
-        self._last_s = float(start_s)
-        self._next_s = self._last_s + self._period
+        clock = self._clock  # (written in place: the C dispatcher holds it)
+        clock[_PERIOD], clock[_HALF] = float(period_s), 0.5 * float(timestep_s)
+        clock[_LAST] = float(start_s)
+        clock[_NEXT] = clock[_LAST] + clock[_PERIOD]
 
     def tick(self, stage: int) -> int:
         """MuJoCo's sensor callback at ``stage``: at the pass's stage, the time from the clock
@@ -141,16 +146,17 @@ class ReadoutPass:
         if not 0 <= self._clock_adr < self._size:
             raise RuntimeError("tick: the readout pass has no clock in its sensordata (set_clock, bind)")
         t = self._sensordata[self._clock_adr]
-        half = self._half
-        if t < self._last_s - half:
+        clock = self._clock
+        half = clock[_HALF]
+        if t < clock[_LAST] - half:
             return -1
-        self._last_s = t
+        clock[_LAST] = t
         sampled = 0
-        if t >= self._next_s - half:
-            self.sample(self._period)
-            self._next_s = t + self._period
+        if t >= clock[_NEXT] - half:
+            self.sample(clock[_PERIOD])
+            clock[_NEXT] = t + clock[_PERIOD]
             sampled = 1
-        elif t >= self._next_s - 3.0 * half and self._history is not None:
+        elif t >= clock[_NEXT] - 3.0 * half and self._history is not None:
             self._touch_due(t)
         self.write()
         return sampled
@@ -162,7 +168,7 @@ class ReadoutPass:
         (engine_sensor.c, ``compute_or_read_sensor``), and then advances that tick by the
         interval, to t - half a step: the next compute falls on the next period's step before
         its sample (:meth:`bind_history`)."""
-        history, due = self._history, t - self._period - self._half
+        history, due = self._history, t - self._clock[_PERIOD] - self._clock[_HALF]
         for k in range(self._n):
             if self._touch_history[k] >= 0:
                 history[self._touch_history[k]] = due
@@ -170,10 +176,31 @@ class ReadoutPass:
     def sample_now(self, t: float) -> None:
         """A period's end at ``t`` s in piezotip's own loop: :meth:`sample` and :meth:`write` now
         (the next step's callback, at this same time, only writes)."""
-        self._last_s = t
-        self.sample(self._period)
-        self._next_s = t + self._period
+        clock = self._clock
+        clock[_LAST] = t
+        self.sample(clock[_PERIOD])
+        clock[_NEXT] = t + clock[_PERIOD]
         self.write()
+
+    def quick_state(self) -> tuple | None:
+        """What MuJoCo's C sensor dispatcher (cosim/_mjcallbacks.pyx) needs to take a step that
+        samples nothing without the GIL, as :meth:`tick` would: (sensordata, clock address,
+        stage, the clock's times, the sensors' addresses, their values, the touch sensors'
+        history addresses, the history or None), the pass's own buffers (it writes the clock's
+        last time, sensordata and the history as :meth:`tick` does, and calls :meth:`tick` for a
+        step that samples or goes back).  None before :meth:`bind` and :meth:`set_clock`."""
+        if self._sensordata is None or not 0 <= self._clock_adr < self._size:
+            return None
+        return (
+            self._sensordata,
+            self._clock_adr,
+            self._stage,
+            self._clock,
+            self._sensor_adr,
+            self._values,
+            self._touch_history,
+            self._history,
+        )
 
     def bind(self, sensordata) -> None:
         """Read and write ``sensordata`` (an MjData's, float64, contiguous) from now on."""

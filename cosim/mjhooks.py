@@ -191,7 +191,7 @@ def _c_dispatchers():
         return None
     try:
         from . import _mjcallbacks
-    except ImportError:
+    except (ImportError, ValueError, TypeError):  # not built, or its kernel (cosim._readout) not compiled
         return None
     passive_at, sensor_at = _mjcallbacks.addresses()
     return {"passive": _PASSIVE_T(passive_at), "sensor": _SENSOR_T(sensor_at)}, _mjcallbacks
@@ -231,7 +231,13 @@ def _sync() -> None:
         return
     passive = [a for a, b in _BOUND.items() if b.passive]
     sensor = [a for a, b in _BOUND.items() if b.sensor]
-    _C[1].set_tables(passive, sensor, [a in _FAST for a in sensor])
+    _C[1].set_tables(passive, sensor, [a in _FAST for a in sensor], [_tick_owner(_FAST.get(a)) for a in sensor])
+
+
+def _tick_owner(fast: Callable | None) -> object | None:
+    """The readout pass whose tick the fast path is (the C dispatcher takes its steps in C:
+    ``cosim._readout.ReadoutPass.quick_state``), else None."""
+    return getattr(fast, "__self__", None) if getattr(fast, "__name__", "") == "tick" else None
 
 
 def _install(needs: tuple[str, ...] = CALLBACKS) -> None:

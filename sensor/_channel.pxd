@@ -14,6 +14,7 @@ cdef Py_ssize_t _ESTIMATE_AT[3]
 cdef dict _STATUS_INDEX
 cdef int _SATURATED_AT, _SETTLING_AT
 cdef double _NAN
+cdef object _LAST_READING
 
 
 @cython.final
@@ -24,8 +25,10 @@ cdef class ChannelCore:
     cdef bint _steady
     cdef object _inverse_seen
     cdef se.InverseCore _core_of
-    # The envelope and the seed as written (a physical unit's may be numpy complex numbers).
-    cdef public object noise, rng, mode, envelope, _seed_a, _inference, _inference_mode, _low_since_s
+    # The envelope (where written since the last reading: _r_envelope holds a reading's) and the
+    # seed as written (a physical unit's may be numpy complex numbers).
+    cdef object _envelope
+    cdef public object noise, rng, mode, _seed_a, _inference, _inference_mode, _low_since_s
     # The last estimate's values, and its record once made (the _last_estimate property).
     cdef double _last_p, _last_sigma
     cdef int _last_status
@@ -33,7 +36,7 @@ cdef class ChannelCore:
     # The last reading's values, and its record once made (last_reading).
     cdef int _r_mode
     cdef double complex _r_iq, _r_envelope
-    cdef double _r_v1, _r_v1_true, _r_t, _r_tau, _r_kappa, _r_gamma
+    cdef double _r_v1, _r_t, _r_tau, _r_kappa, _r_gamma
     cdef bint _r_settled
     cdef object _r_record
     # The driven mode's sampler and the last reading's mode's low amplitude, as last looked up.
@@ -52,7 +55,7 @@ cdef class ChannelCore:
 
     @cython.locals(
         t=double, s=sm.ModeSampler, noisy=bint, draw="double complex",
-        iq="double complex", envelope="double complex", v1_true=double, tau=double, settled=bint, kappa=double, gamma=double,
+        iq="double complex", envelope="double complex", tau=double, settled=bint, kappa=double, gamma=double,
     )
     cdef int _read(self, pressure_cells_pa, double pressure_pa, double dt_s) except -1
 

@@ -40,6 +40,8 @@ _ESTIMATE_AT, _ESTIMATE_GET = kh.slot_offsets(Estimate, 3, _ESTIMATE), attrgette
 _STATUS_INDEX = {name: i for i, name in enumerate(se.STATUSES)}
 _SATURATED_AT, _SETTLING_AT = se.SATURATED, se.SETTLING
 _NAN = math.nan  # (compiled, a C double: no lookup of math's)
+#: A core's written envelope (``_envelope``) while its envelope is its last reading's (``_r_envelope``).
+_LAST_READING = object()
 #: What a copy carries over of a core's state (the constructor's arguments rebuild the rest).
 _STATE = (
     "mode",
@@ -85,6 +87,7 @@ class ChannelCore:
         "_core_of",
         "_draws",
         "_dt_s",
+        "_envelope",
         "_estimated_at",
         "_inference",
         "_inference_mode",
@@ -111,14 +114,12 @@ class ChannelCore:
         "_r_t",
         "_r_tau",
         "_r_v1",
-        "_r_v1_true",
         "_samplers",
         "_saturation_s",
         "_seed_a",
         "_sigma",
         "_steady",
         "_tau0",
-        "envelope",
         "evaluations",
         "mode",
         "noise",
@@ -138,7 +139,9 @@ class ChannelCore:
         self.mode = mode
         self.evaluations = 0  # gel/sensor evaluations, counted for "compute only what is needed" tests
         # The instrument has been running unloaded before the scene starts: steady, settled.
-        self.envelope = 1 + 0j
+        # (The envelope as written, kept as it is until a reading replaces it by its own,
+        # _r_envelope: the property envelope.)
+        self._envelope = 1 + 0j
         self.time_in_mode_s = math.inf
         # The lock-in's noise drawn ahead (a block of the generator's draws, I and Q in pairs),
         # and how many readings' worth are left, taken from the end.
@@ -158,7 +161,7 @@ class ChannelCore:
         self._low_since_s = None
         # The last reading's values (_read) and its record once made (or another sampler's);
         # the last advance's estimate's record where it is not the last estimate (advance).
-        self._r_mode, self._r_iq, self._r_envelope, self._r_v1, self._r_v1_true = mode, 0j, 0j, math.nan, math.nan
+        self._r_mode, self._r_iq, self._r_envelope, self._r_v1 = mode, 0j, 0j, math.nan
         self._r_t, self._r_tau, self._r_settled, self._r_kappa, self._r_gamma = math.nan, math.nan, False, math.nan, math.nan
         self._r_record, self._a_record = None, None
         # The driven mode's sampler and the last reading's mode's low amplitude, as last looked up.
@@ -206,19 +209,34 @@ class ChannelCore:
         draw = self._draw() if noisy else 0j
         if type(sampler) is sm.ModeSampler:
             s = sampler  # (a C call, compiled)
-            if pressure_cells_pa is None:
-                iq, envelope, v1_true, tau, settled, kappa, gamma = s.advance_one(pressure_pa, self.envelope, dt_s, t, noisy, draw)
+            if self._envelope is _LAST_READING:  # (compiled, a C complex: no object made a reading)
+                envelope = self._r_envelope
             else:
-                iq, envelope, v1_true, tau, settled, kappa, gamma = s.advance(pressure_cells_pa, self.envelope, dt_s, t, noisy, draw)
-            self.envelope = envelope
-            self._r_mode, self._r_iq, self._r_envelope, self._r_v1_true, self._r_t = mode, iq, envelope, v1_true, t
+                envelope = self._envelope
+            # (|envelope|, the reading's v1_true, is derived where its record is made: last_reading.)
+            if pressure_cells_pa is None:
+                iq, envelope, tau, settled, kappa, gamma = s.values_one(pressure_pa, envelope, dt_s, t, noisy, draw)
+            else:
+                iq, envelope, tau, settled, kappa, gamma = s.values(pressure_cells_pa, envelope, dt_s, t, noisy, draw)
+            self._envelope = _LAST_READING
+            self._r_mode, self._r_iq, self._r_envelope, self._r_t = mode, iq, envelope, t
             self._r_tau, self._r_settled, self._r_kappa, self._r_gamma = tau, settled, kappa, gamma
             self._r_record = None
         else:  # another sampler class (a test's): through Python, its record kept
             cells = [pressure_pa] if pressure_cells_pa is None else pressure_cells_pa
-            reading, self.envelope = sampler.sample(cells, self.envelope, dt_s, t, draw if noisy else None)
+            reading, self._envelope = sampler.sample(cells, self.envelope, dt_s, t, draw if noisy else None)
             self._r_mode, self._r_v1, self._r_iq = kh.fields(reading, Reading, _READING_AT, 3, _READING_GET)
             self._r_record = reading
+
+    @property
+    def envelope(self):
+        """The resonator's envelope over the unloaded steady one: as last written (a physical
+        unit's may be a NumPy complex, kept as it is), else the last reading's."""
+        return self._r_envelope if self._envelope is _LAST_READING else self._envelope
+
+    @envelope.setter
+    def envelope(self, value) -> None:
+        self._envelope = value
 
     def last_reading(self) -> Reading:
         """The record of the last reading (:meth:`update`'s, :meth:`advance`'s)."""
@@ -227,7 +245,7 @@ class ChannelCore:
                 self._r_mode,
                 self._r_iq,
                 self._r_envelope,
-                self._r_v1_true,
+                kh.cabs(self._r_envelope),
                 self._r_t,
                 self._r_tau,
                 self._r_settled,

@@ -30,19 +30,29 @@ cdef class ModeSampler:
     cdef (double, double) _load(self, pressure_cells_pa) except *
 
     @cython.locals(
-        tau=double, settled=bint, v1_true=double,
+        tau=double, settled=bint,
         steady="double complex", rate="double complex", decay="double complex", iq="double complex",
     )
-    cdef (double complex, double complex, double, double, bint, double, double) _step(
+    cdef (double complex, double complex, double, bint) _step(
         self, double kappa, double gamma, double complex envelope, double dt_s, double t_s, bint noisy, double complex noise
     ) except *
 
-    @cython.locals(kappa=double, gamma=double)
+    @cython.locals(kappa=double, gamma=double, iq="double complex", tau=double, settled=bint)
+    cpdef (double complex, double complex, double, bint, double, double) values(
+        self, pressure_cells_pa, double complex envelope, double dt_s, double time_in_mode_s, bint noisy, double complex noise
+    ) except *
+
+    @cython.locals(k_e=double, c_e=double, kappa=double, gamma=double, iq="double complex", tau=double, settled=bint)
+    cpdef (double complex, double complex, double, bint, double, double) values_one(
+        self, double pressure_pa, double complex envelope, double dt_s, double time_in_mode_s, bint noisy, double complex noise
+    ) except *
+
+    @cython.locals(kappa=double, gamma=double, iq="double complex", tau=double, settled=bint)
     cpdef (double complex, double complex, double, double, bint, double, double) advance(
         self, pressure_cells_pa, double complex envelope, double dt_s, double time_in_mode_s, bint noisy, double complex noise
     ) except *
 
-    @cython.locals(k_e=double, c_e=double)
+    @cython.locals(kappa=double, gamma=double, iq="double complex", tau=double, settled=bint)
     cpdef (double complex, double complex, double, double, bint, double, double) advance_one(
         self, double pressure_pa, double complex envelope, double dt_s, double time_in_mode_s, bint noisy, double complex noise
     ) except *

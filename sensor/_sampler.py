@@ -129,7 +129,7 @@ class ModeSampler:
 
     def _step(self, kappa: float, gamma: float, envelope: complex, dt_s: float, t_s: float, noisy: bool, noise: complex) -> tuple:
         """:meth:`advance` under the modal load (kappa, gamma): steps 2 to 5 of :mod:`sensor.sampler`
-        (``t_s``: the time in this mode, s)."""
+        (``t_s``: the time in this mode, s), less |envelope|: (iq, the new envelope, tau_s, settled)."""
         if kappa == 0.0 and gamma == 0.0 and self._skip_unloaded:  # no load: the unloaded resonator's
             self.unloaded_samples += 1
             steady, rate, tau = self._u_steady, self._u_rate, self._u_tau
@@ -147,29 +147,44 @@ class ModeSampler:
             settled = t_s >= tau * _SETTLE_TAUS
         else:
             envelope, settled = steady, True
-        v1_true = kh.cabs(envelope)
         # The lock-in's in-phase and quadrature outputs each carry the readout's noise.
         iq = envelope + noise * self._sigma if noisy else envelope
-        return iq, envelope, v1_true, tau, settled, kappa, gamma
+        return iq, envelope, tau, settled
 
-    def advance(self, pressure_cells_pa, envelope: complex, dt_s: float, time_in_mode_s: float, noisy: bool, noise: complex) -> tuple:
-        """One reading's values, no record made (:meth:`sample`'s arithmetic; what a readout pass
-        over many fingertips calls, :class:`sensor._channel.ChannelCore`):
-        (iq, the new envelope, v1_true, tau_s, settled, kappa, gamma) after ``dt_s`` s under the
-        cells' pressures (Pa, one finite non-negative float per weight, unchecked) from the
-        envelope ``envelope``; the drive has been in this mode ``time_in_mode_s`` s at the sample;
-        ``noise`` is the lock-in's unit normal draw on I + jQ, added where ``noisy``."""
+    def values(self, pressure_cells_pa, envelope: complex, dt_s: float, time_in_mode_s: float, noisy: bool, noise: complex) -> tuple:
+        """:meth:`advance`'s values less v1_true = |envelope|, which a channel's per-step path
+        (:class:`sensor._channel.ChannelCore`) derives only where a reading's record is asked for:
+        (iq, the new envelope, tau_s, settled, kappa, gamma)."""
         kappa, gamma = self._load(pressure_cells_pa)
-        return self._step(kappa, gamma, envelope, dt_s, time_in_mode_s, noisy, noise)
+        iq, envelope, tau, settled = self._step(kappa, gamma, envelope, dt_s, time_in_mode_s, noisy, noise)
+        return iq, envelope, tau, settled, kappa, gamma
 
-    def advance_one(self, pressure_pa: float, envelope: complex, dt_s: float, time_in_mode_s: float, noisy: bool, noise: complex) -> tuple:
-        """:meth:`advance` of a sampler of one cell under the pressure ``pressure_pa`` (Pa), no list
-        made (a touch pad's: its zone's force over its area)."""
+    def values_one(self, pressure_pa: float, envelope: complex, dt_s: float, time_in_mode_s: float, noisy: bool, noise: complex) -> tuple:
+        """:meth:`values` of a sampler of one cell under the pressure ``pressure_pa`` (Pa), no list
+        made (:meth:`advance_one`'s)."""
         if self._n != 1:
             raise ValueError(f"one pressure for {self._n} weights")
         self.lookups += 1
         k_e, c_e = self._at(pressure_pa)
-        return self._step(k_e * self._weights[0], c_e * self._weights[0], envelope, dt_s, time_in_mode_s, noisy, noise)
+        kappa, gamma = k_e * self._weights[0], c_e * self._weights[0]
+        iq, envelope, tau, settled = self._step(kappa, gamma, envelope, dt_s, time_in_mode_s, noisy, noise)
+        return iq, envelope, tau, settled, kappa, gamma
+
+    def advance(self, pressure_cells_pa, envelope: complex, dt_s: float, time_in_mode_s: float, noisy: bool, noise: complex) -> tuple:
+        """One reading's values, no record made (:meth:`sample`'s arithmetic; a readout pass over
+        many fingertips, :class:`sensor._channel.ChannelCore`, calls :meth:`values`, these less v1_true):
+        (iq, the new envelope, v1_true, tau_s, settled, kappa, gamma) after ``dt_s`` s under the
+        cells' pressures (Pa, one finite non-negative float per weight, unchecked) from the
+        envelope ``envelope``; the drive has been in this mode ``time_in_mode_s`` s at the sample;
+        ``noise`` is the lock-in's unit normal draw on I + jQ, added where ``noisy``."""
+        iq, envelope, tau, settled, kappa, gamma = self.values(pressure_cells_pa, envelope, dt_s, time_in_mode_s, noisy, noise)
+        return iq, envelope, kh.cabs(envelope), tau, settled, kappa, gamma
+
+    def advance_one(self, pressure_pa: float, envelope: complex, dt_s: float, time_in_mode_s: float, noisy: bool, noise: complex) -> tuple:
+        """:meth:`advance` of a sampler of one cell under the pressure ``pressure_pa`` (Pa), no list
+        made (a touch pad's: its zone's force over its area)."""
+        iq, envelope, tau, settled, kappa, gamma = self.values_one(pressure_pa, envelope, dt_s, time_in_mode_s, noisy, noise)
+        return iq, envelope, kh.cabs(envelope), tau, settled, kappa, gamma
 
     def sample(self, pressure_cells_pa, envelope: complex, dt_s: float, time_in_mode_s: float, noise_iq):
         """(the reading, the new envelope) after ``dt_s`` s under the cells' pressures (Pa, one
