@@ -15,7 +15,9 @@ dispatch of its hooks (the ctypes functions ``configure`` is given).
 The tables are replaced, never changed in place, and a replaced one is never freed: a thread
 stepping another model without the GIL (``mujoco.rollout``) may still be reading it.  One table
 is a few bytes a bound MjData; they accumulate with every register and unregister (a Gym
-environment made and dropped a thousand times: tens of kB).
+environment made and dropped a thousand times: tens of kB).  The buffers a table's readout
+entries point into are kept alive for the newest two tables (a stepping thread reads the newest,
+or the one it took just before a swap).
 """
 
 from cpython.ref cimport PyObject
@@ -133,10 +135,10 @@ cdef void sensor(const void* m, void* d, int stage) noexcept nogil:
     i = _find(table, <uintptr_t>d)
     if i < 0:
         return
-    if table.quick[i].sensordata != NULL:
+    if table.quick[i].sensordata != NULL:  # (its tick is the fast path: not asked twice)
         if _quick(&table.quick[i], stage) >= 0 or _pass_tick(table.quick[i].owner, <uintptr_t>d, stage) >= 0:
             return
-    if table.fast[i] and _fast_sensor(<uintptr_t>d, stage) >= 0:
+    elif table.fast[i] and _fast_sensor(<uintptr_t>d, stage) >= 0:
         return
     if _sensor_hooks != NULL:
         _sensor_hooks(m, d, stage)

@@ -401,8 +401,9 @@ def test_ctrl_c_inside_a_callback_reaches_the_fingertips_own_loop(path):
 
 @pytest.mark.parametrize("pad", ["gel", "touch"])
 def test_the_c_and_the_python_dispatchers_write_the_same_sensordata(pad):
-    """The compiled dispatchers run the hooks the Python ones run, in the same order: the same
-    bits in sensordata and in the state, over a load that changes (the plate lifted off its pad)."""
+    """The compiled dispatchers run the hooks the Python ones run, in the same order, and take a
+    step that samples nothing as the pass's tick does: the same bits in sensordata and in the
+    state, over a load that changes (the plate lifted off its pad) and a reset."""
     if mjhooks._C is None:
         pytest.skip("the C dispatchers are not in use (not built, or PIEZOTIP_PURE_PYTHON)")
 
@@ -413,8 +414,10 @@ def test_the_c_and_the_python_dispatchers_write_the_same_sensordata(pad):
             model, data, _ = bound(pad=pad)
             assert (mujoco.get_mjcb_sensor() is mjhooks._C[0]["sensor"]) == compiled
             out = []
-            for k in range(300):
-                data.xfrc_applied[model.body("plate").id, 2] = 0.5 * PLATE_KG * G if k > 150 else 0.0
+            for k in range(400):
+                data.xfrc_applied[model.body("plate").id, 2] = 0.5 * PLATE_KG * G if 150 < k < 300 else 0.0
+                if k == 250:  # time goes back: the readout starts afresh (the pass's own tick, then the hook's)
+                    mujoco.mj_resetData(model, data)
                 mujoco.mj_step(model, data)
                 out.append(np.concatenate([data.qpos, data.qvel, data.sensordata]))
             return np.array(out)
