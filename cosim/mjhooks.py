@@ -197,18 +197,20 @@ def _c_dispatchers():
     return {"passive": _PASSIVE_T(passive_at), "sensor": _SENSOR_T(sensor_at)}, _mjcallbacks
 
 
+#: The Python dispatchers by callback, and the compiled ones with their module (None where not built).
+_PYTHON: dict[str, ctypes._CFuncPtr] = {"passive": _passive, "sensor": _sensor}
+_C = _c_dispatchers()
 #: The dispatchers in use: {name: the ctypes function pointer MuJoCo is given}, the C ones
 #: where built, else the Python ones (:func:`use_compiled`).
-_C = _c_dispatchers()
-_DISPATCHERS: dict[str, ctypes._CFuncPtr] = dict(_C[0]) if _C is not None else {"passive": _passive, "sensor": _sensor}
+_DISPATCHERS: dict[str, ctypes._CFuncPtr] = dict(_C[0] if _C is not None else _PYTHON)
 #: Every dispatcher of this module's, C or Python (one of them is never another's previous callback).
-_OURS = {id(f) for f in (_passive, _sensor, *(_C[0].values() if _C is not None else ()))}
+_OURS = {id(f) for f in (*_PYTHON.values(), *(_C[0].values() if _C is not None else ()))}
 
 
 def compiled_dispatch() -> bool:
     """Whether MuJoCo's callbacks are dispatched in C (cosim/_mjcallbacks.pyx) for the hooks
     registered from now on."""
-    return _DISPATCHERS["sensor"] is not _sensor
+    return _DISPATCHERS["sensor"] is not _PYTHON["sensor"]
 
 
 def use_compiled(flag: bool) -> None:
@@ -217,7 +219,7 @@ def use_compiled(flag: bool) -> None:
     global _DISPATCHERS
     if flag and _C is None:
         raise ValueError("use_compiled: the C dispatchers (cosim/_mjcallbacks.pyx) were not built")
-    _DISPATCHERS = dict(_C[0]) if flag else {"passive": _passive, "sensor": _sensor}
+    _DISPATCHERS = dict(_C[0] if flag else _PYTHON)
 
 
 def _address(pointer) -> int:

@@ -29,19 +29,6 @@ OPTIONS = {
 }
 
 
-@pytest.fixture(params=["c", "python"])
-def dispatch(request):
-    """MuJoCo's callbacks dispatched by the compiled dispatchers (cosim/_mjcallbacks.pyx; skipped
-    where not built) or by mjhooks' Python ones, for the models bound in the test."""
-    compiled = request.param == "c"
-    if compiled and mjhooks._C is None:
-        pytest.skip("the C dispatchers are not in use (not built, or PIEZOTIP_PURE_PYTHON)")
-    before = mjhooks.compiled_dispatch()
-    mjhooks.use_compiled(compiled)
-    yield request.param
-    mjhooks.use_compiled(before)
-
-
 def bound(option: str = "", **attach_kwargs):
     spec = mujoco.MjSpec.from_string(scene_xml(option))
     tips = attach(spec, sites=["pressed", "free"], **attach_kwargs)

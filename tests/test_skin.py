@@ -132,19 +132,6 @@ def test_a_touch_skin_reads_the_same_in_its_own_loop_and_in_a_plain_one():
     assert len(seen) > 10  # the load changed while the two were compared
 
 
-@pytest.fixture(params=["c", "python"])
-def dispatch(request):
-    """MuJoCo's callbacks dispatched in C (cosim/_mjcallbacks.pyx, which takes a step that samples
-    nothing itself) or by mjhooks' Python dispatchers, for the models bound in the test."""
-    compiled = request.param == "c"
-    if compiled and mjhooks._C is None:
-        pytest.skip("the C dispatchers are not in use (not built, or PIEZOTIP_PURE_PYTHON)")
-    before = mjhooks.compiled_dispatch()
-    mjhooks.use_compiled(compiled)
-    yield request.param
-    mjhooks.use_compiled(before)
-
-
 @pytest.mark.usefixtures("dispatch")
 def test_the_touch_sensors_computed_once_a_period_give_the_readout_what_every_step_would():
     """Bind gives the touch pads' ``touch`` sensors the readout's period as MuJoCo's sensor
