@@ -132,6 +132,7 @@ class Recorder:
         self._chunk_rows: list[int] = []  # rows of each chunk on disk
         self._last_chunk: np.ndarray | None = None  # the latest chunk on disk, kept for live readers
         self._flushed_rows = 0  # rows on disk
+        self._csv_due: list[np.ndarray] = []  # chunks on disk not yet appended to the CSV
         self._closing = False
         self._closed = False
         # A new recording replaces an old one of the same name (never mixes with it), file by file.
@@ -195,7 +196,11 @@ class Recorder:
         """Write the pending rows as one more chunk file (and append them to the CSV).
 
         The rows stay pending until their chunk is on disk: a flush that fails (a full disk, an
-        interrupt) leaves no chunk and no temporary, and the next flush writes them again."""
+        interrupt) leaves no chunk and no temporary, and the next flush writes them again.  A
+        signal's exception can come between any two of Python's steps here (its handler runs
+        at the next call); whichever it lands between, the rows are counted once: pending, or
+        in a chunk on disk and no longer pending (before: a Ctrl-C as the chunk's bookkeeping
+        ran lost its rows, the chunk on disk but not counted)."""
         if not self._chunk or self._columns is None:
             return
         chunk = stack_rows(self._chunk, len(self._columns))  # numpy's conversion, compiled where built
@@ -206,27 +211,45 @@ class Recorder:
         path = self._chunk_path(index)
         tmp = path.with_name(f"chunk_{index:06d}.tmp.npy")
         column_major = np.asfortranarray(chunk)  # a column is one contiguous read (close)
+        # the state once the chunk is on disk, made before it is: the commit below only assigns
+        # (no call, so no handler runs inside it), the chunk's count last; the handler, seeing
+        # the chunk renamed but not counted, makes the same assignments (each is idempotent)
+        rows, flushed = [*self._chunk_rows, len(chunk)], self._flushed_rows + len(chunk)
+        csv_due = self._csv_due if self.csv_path is None else [*self._csv_due, chunk]
         try:
             with _naming_a_full_disk(tmp, f"chunk {index:06d}", _npy_bytes(column_major), fwrite=True):
                 np.save(tmp, column_major)
             os.replace(tmp, path)
+            self._chunk, self._flushed_rows, self._last_chunk, self._csv_due, self._chunk_rows = [], flushed, chunk, csv_due, rows
         except BaseException:
+            if len(self._chunk_rows) == index and path.exists():  # renamed: on disk, so counted there
+                self._chunk, self._flushed_rows, self._last_chunk, self._csv_due, self._chunk_rows = [], flushed, chunk, csv_due, rows
             tmp.unlink(missing_ok=True)
             raise
-        self._chunk = []
-        self._chunk_rows.append(len(chunk))
-        self._flushed_rows += len(chunk)
-        self._last_chunk = chunk
-        if self.csv_path is not None:
-            new = not self.csv_path.exists()
-            text = io.StringIO(newline="")
-            writer = csv.writer(text)
-            if new:
-                writer.writerow(self._columns)
+        self._append_csv()
+
+    def _append_csv(self) -> None:
+        """Append the chunks on disk that the CSV does not have yet (all or none of a chunk's
+        rows: a write cut short is cut back, and written again at the next flush or close)."""
+        if self.csv_path is None or not self._csv_due:
+            return
+        due = self._csv_due
+        start = _size(self.csv_path)
+        text = io.StringIO(newline="")
+        writer = csv.writer(text)
+        if start == 0:
+            writer.writerow(self._columns)
+        for chunk in due:
             writer.writerows(chunk.tolist())
-            payload = text.getvalue().encode()
+        payload = text.getvalue().encode()
+        try:
             with _naming_a_full_disk(self.csv_path, "the CSV's rows", len(payload), appended=True), self.csv_path.open("ab") as fh:
                 fh.write(payload)
+            self._csv_due = self._csv_due[len(due) :]
+        except BaseException:
+            if self._csv_due and self._csv_due[0] is due[0]:  # not all of it known written: none of it
+                os.truncate(self.csv_path, start)
+            raise
 
     def data(self) -> Mapping[str, np.ndarray]:
         """Everything recorded so far, as columns: in memory while recording; once closed, the
@@ -265,6 +288,7 @@ class Recorder:
         self._closing = True
         if not self._closed:
             self.flush()
+            self._append_csv()  # what an interrupted flush left unwritten (a flush with no rows pending writes none)
             if self._columns is not None:
                 _write_npz(self.npz_path, self.metadata, self._columns, [self._chunk_path(i) for i in range(len(self._chunk_rows))])
                 _remove_chunks(self.chunk_dir)
