@@ -11,7 +11,14 @@ import pytest
 
 from piezotip import api, scenarios
 from piezotip.analysis.referee import judge
-from piezotip.cosim.control.gentle import carried_nothing_at_first, grip_read_n, lifted_off_friction, load_is_steady, probe_verdict
+from piezotip.cosim.control.gentle import (
+    carried_nothing_at_first,
+    grip_read_n,
+    least_carrying_grip_n,
+    lifted_off_friction,
+    load_is_steady,
+    probe_verdict,
+)
 from piezotip.cosim.loop import CoSimulation
 
 SAFETY = 1.25
@@ -106,6 +113,22 @@ def test_load_is_steady_only_within_the_fraction():
     assert not load_is_steady(chatter, 0.0057)
     assert load_is_steady(chatter, 0.05)
     assert not load_is_steady([0.0, 0.0], 0.5) and not load_is_steady([1.0], 0.5)
+
+
+def test_the_carried_bound_is_the_least_grip_that_carried_the_weight():
+    """A span that began while the pads slid (load = 2 mu G, the table holding the rest) and
+    ended carrying the weight W: the friction is at least W / 2 G only at a grip that carried W.
+    The pads slid at mu = 0.6 up to G = W / 2 mu; the bound at the span's first grip read mu
+    1.5x high (Menagerie's 2F-85, its 1.1 g box: "at least 0.93", dropped)."""
+    mu, weight_n = 0.6, 0.0108
+    grips = [0.0045 * 1.03**k for k in range(30)]
+    span = [(g, min(2.0 * mu * g, weight_n)) for g in grips]
+    least = least_carrying_grip_n(span, weight_n, 0.005)
+    assert weight_n / (2.0 * least) == pytest.approx(mu, rel=0.04)  # the first grip that carried it
+    assert weight_n / (2.0 * span[0][0]) > 1.5 * mu  # the span's first grip: the old bound
+    falling = [(g, weight_n) for g in reversed(grips)]  # a friction drive's contact creeping down, carried all along
+    assert least_carrying_grip_n(falling, weight_n, 0.005) == min(grips)
+    assert least_carrying_grip_n([(0.01, 0.004), (0.02, 0.006)], weight_n, 0.005) == 0.01  # none carried it: the least
 
 
 #: Objects no other test names, across the rating, with the fragile ones of issue 29's table

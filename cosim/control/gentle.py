@@ -226,6 +226,22 @@ def carried_nothing_at_first(span: list[tuple[float, float]], safety: float, fal
     return _grew(g1, g3, safety, falls) and l1 <= 0.0
 
 
+def least_carrying_grip_n(span: list[tuple[float, float]], weight_n: float, fraction: float) -> float:
+    """The least grip of a probe's span of (grip applied, load) samples, N, at which the pads
+    carried the weight ``weight_n`` (N): a sample whose load is within twice ``fraction`` of it
+    (the scatter the lift's own acceleration can give a carried load, :func:`load_is_steady`,
+    whose peak is about twice its deviation).  The friction is at least weight / 2 G there.
+
+    Not the span's first grip: a span that began while the pads still slid up the object (the
+    load still growing with the grip, the table holding the rest) would bound the friction by a
+    grip that did not carry the weight, too high (Menagerie's 2F-85 read "at least 0.93" for its
+    1.1 g box's 0.6 and dropped it; tests/test_grip_economy.py::
+    test_the_carried_bound_is_the_least_grip_that_carried_the_weight).  On a falling span
+    (a drive with dry friction) it is the last grip that still carried it."""
+    carrying = [g for g, load in span if load >= (1.0 - 2.0 * fraction) * weight_n]
+    return min(carrying) if carrying else min(g for g, _ in span)
+
+
 def lifted_off_friction(slides: list[tuple[float, float]], weight_n: float, fraction: float) -> float:
     """The friction the probe carries an object of weight ``weight_n`` (N) with, -: the largest
     read of the sliding spans ``slides`` ((friction read, the span's highest load in N), in order)
@@ -567,9 +583,9 @@ class GentleGrasp(MultimodeGrasp):
         low_n, high_n = sorted((first_n, applied)) if falls else (first_n, applied)
         if abs(elasticity - 0.5) < 2.0 * error and high_n < c.grip_safety**3 * low_n:
             return
-        # The least grip that carried it bounds the friction best (the last on a falling span).
-        carried_from_n = min(g for g, _ in self._span) if falls else first_n
         last = [load for _, load in self._span[-(len(self._span) // 3) :]]
+        # The least grip that carried the weight bounds the friction best.
+        carried_from_n = least_carrying_grip_n(self._span, sum(last) / len(last), self.steady_load_fraction)
         peak_n = max(load for _, load in self._span)
         self._span = [self._span[-1]]
         if elasticity >= 0.5:
@@ -609,8 +625,8 @@ class GentleGrasp(MultimodeGrasp):
         """The load stayed while the grip changed: the object is off the table, its weight the
         load (``weight_n``, the probe's span's last third's, found steady).  The grip that holds
         it is the weight over the friction measured while the pads slid (:func:`lifted_off_friction`); never seen sliding, it
-        was carried at the span's least grip (its
-        friction at least load / 2 G there; where the grip that asks is past the cap,
+        was carried from ``carried_from_n`` on, the least grip whose load was the weight
+        (:func:`least_carrying_grip_n`; its friction at least W / 2 G there; where the grip that asks is past the cap,
         ``carried_mean_n``, the span's mean grip, bounds the friction measured while sliding
         likewise).
 
@@ -832,7 +848,17 @@ class GentleGrasp(MultimodeGrasp):
             # A grip coming down is no slip: the fingertips' slip references wait for it to settle.
             self._slip_watch_from_s = t + 6.0 * self.cfg.load_filter_s
             self._reference_pa = {}
+        speed_m_s = lift.speed_m_s
         lift.rise(self.cfg.lift_speed_m_s, dt_s)
+        if lift.speed_m_s != speed_m_s and self.robot.lift_opens_n(obs.opening_m, 1.0) != 0.0:
+            # A linkage's fingers swing on their arc as the lift speeds up or brakes (their
+            # inertia, RobotLimits.lift_coupling_kg): the pads' pressure rises and falls back over
+            # the fingers' settling, and that fall is no slip (read as one, it raised the 2F-85s'
+            # grip on their 1 g box past 1.5x its need: tests/test_grip_on_fingertips.py::
+            # test_a_linkages_raise_is_not_read_as_a_slip).  The probe has just carried the object
+            # at grip_safety over its need, which covers the raise's m a.
+            self._slip_watch_from_s = t + 6.0 * self.cfg.load_filter_s
+            self._reference_pa = {}
         # The grip stays where the probe set it (raised only by a slip): the load the lift reads
         # while it speeds up and brakes is mostly the gripper's own inertia, not the object's.
         lift.target_m = lift.servo_target(self._weight_n, lift.speed_m_s)
@@ -869,4 +895,12 @@ class GentleGrasp(MultimodeGrasp):
                 self.grip_n = raised_n
 
 
-__all__ = ["GentleGrasp", "carried_nothing_at_first", "grip_read_n", "lifted_off_friction", "load_is_steady", "probe_verdict"]
+__all__ = [
+    "GentleGrasp",
+    "carried_nothing_at_first",
+    "grip_read_n",
+    "least_carrying_grip_n",
+    "lifted_off_friction",
+    "load_is_steady",
+    "probe_verdict",
+]
