@@ -474,12 +474,14 @@ class GraspEnv(gym.Env):
 
     def verdict(self):
         """The referee's :class:`~piezotip.analysis.referee.Verdict` of the episode so far (as finished)."""
-        from piezotip.analysis.run_report import object_needed_grip_n
+        from piezotip.analysis.run_report import object_friction, object_needed_grip_n
 
-        c, needed = self.config.controller, None if self.sim is None else object_needed_grip_n(self.sim.model)
+        c = self.config.controller
+        # the simulated object's friction, as run's summary has it: the need on the contacts' tilts
+        needed, friction = (None, None) if self.sim is None else (object_needed_grip_n(self.sim.model), object_friction(self.sim.model))
         record = self.recording()
         crush = self.config.object.crush_force_n
-        return judge(record, c.lift_height_m, c.hold_s, crush, finished=True, error=self._error, needed_grip=needed)
+        return judge(record, c.lift_height_m, c.hold_s, crush, finished=True, error=self._error, needed_grip=needed, friction=friction)
 
     # -- internals ------------------------------------------------------------------------
 

@@ -272,3 +272,31 @@ def test_events_of_the_policy_are_the_controllers(tmp_path):
 
 def test_piezotip_import_registers_in_this_process_too():
     assert piezotip.gym_registration.ENV_ID in gymnasium.registry
+
+
+def test_the_episodes_verdict_reads_the_need_on_the_contacts_as_run_does(tmp_path):
+    """The raspberry in robosuite's Rethink gripper, pinched above its centre (the multimode
+    grip tilts its contacts ~17 degrees): the episode's verdict needs m g / sum tan(phi - a), as
+    ``run``'s does (the
+    simulated object's friction handed to the referee), not the level m g / 2 mu.  Before: the
+    environment judged without the friction, on the level need, 1.6x lower."""
+    from piezotip.analysis.run_report import object_needed_grip_n
+    from piezotip.reports.gripper_tables import _object_keys, grippers
+
+    if "Rethink" not in grippers():
+        pytest.skip("robosuite is not installed (pip install -e .[grippers])")
+    overrides = {**_object_keys("raspberry-4g"), **grippers()["Rethink"], "controller.kind": "multimode"}
+    report, _ = run_scenario("grasp", [f"{k}={v}" for k, v in overrides.items()], tmp_path, plot=False, quiet=True, preset="fast")
+    assert report["outcome"] == "success" and report["contact_tilt_deg"] > 5.0, report["reason"]
+    env = gymnasium.make(ENV_ID, preset="fast", overrides=overrides)
+    policy = MultimodePolicy.for_env(env)
+    obs, _ = env.reset(seed=0)
+    while True:
+        obs, _, terminated, truncated, info = env.step(policy(obs))
+        if terminated or truncated:
+            break
+    verdict = env.unwrapped.verdict()
+    assert verdict.outcome == report["outcome"]
+    assert verdict.needed_grip_n == pytest.approx(report["needed_grip_n"], rel=1e-6)
+    assert verdict.needed_grip_n > 1.2 * object_needed_grip_n(env.unwrapped.sim.model)  # the level need, below it
+    assert info["verdict"]["needed_grip_n"] == verdict.needed_grip_n  # the last step's info: the same verdict
