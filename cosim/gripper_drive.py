@@ -102,6 +102,9 @@ class GripperDrive:
         sum_d b_d (dq_d/do)^2.
     servo_damping_n_s_m : the servos' velocity gains on the opening along the path, N s/m:
         sum_a kv_a (dl_a/do)^2 (inside the servo: it lags, its force does not show it).
+    servo_stiffness_n_m : the servos' stiffness on the opening along the path, N/m:
+        sum_a kp_a (dl_a/do)^2, kp_a the servo's -biasprm[1] (0 for an actuator with no position
+        feedback: a motor the mount has not made a servo).
     friction_n : the joints' dry friction on the opening along the path, N: sum_d F_d |dq_d/do|.
     mass_kg : the fingers' inertia on the opening at :data:`MASS_POINTS` of the path, kg
         (:func:`opening_inertia_kg`).
@@ -109,7 +112,9 @@ class GripperDrive:
         (:func:`opening_inertia_kg`).
     """
 
-    def __init__(self, model: mujoco.MjModel, parts: GripperParts, path: DrivePath, joints: list[int], kv: np.ndarray) -> None:
+    def __init__(
+        self, model: mujoco.MjModel, parts: GripperParts, path: DrivePath, joints: list[int], kv: np.ndarray, kp: np.ndarray | None = None
+    ) -> None:
         self.actuators = [model.actuator(PREFIX + a.name).id for a in parts.actuators]
         self.force_max = np.array([a.force_max for a in parts.actuators])
         self.ctrl_range = np.array([a.ctrl_range for a in parts.actuators])
@@ -128,6 +133,8 @@ class GripperDrive:
         dofs = [int(model.jnt_dofadr[j]) for j in joints]
         self.joint_damping_n_s_m = speeds**2 @ model.dof_damping[dofs]
         self.servo_damping_n_s_m = (np.asarray(kv)[:, None] * self._slopes**2).sum(axis=0)
+        kp = np.zeros(len(self.actuators)) if kp is None else np.maximum(np.asarray(kp, dtype=float), 0.0)
+        self.servo_stiffness_n_m = (kp[:, None] * self._slopes**2).sum(axis=0)
         self.friction_n = np.abs(speeds) @ model.dof_frictionloss[dofs]
         self.mass_kg, self.lift_coupling_kg = opening_inertia_kg(model, path, joints)
 

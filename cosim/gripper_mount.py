@@ -258,7 +258,8 @@ class MountedGripper:
         """The robot's limits as the scene's model has them: the lift's as the house's, the
         fingers' from the drive (:meth:`GripperDrive.rating_n`, :meth:`GripperDrive.damping_n_s_m`,
         the most of :attr:`GripperDrive.friction_n` along the path, the least of its
-        :attr:`GripperDrive.mass_kg` and the most of its joints' damping)."""
+        :attr:`GripperDrive.mass_kg`, the most of its joints' damping and the median of its
+        servos' stiffness)."""
         drive = self.drive
         fingers = {
             "finger_force_limit_n": drive.rating_n(),
@@ -266,6 +267,7 @@ class MountedGripper:
             "finger_friction_n": float(drive.friction_n.max()),
             "finger_mass_kg": float(drive.mass_kg.min()),
             "finger_joint_damping_n_s_m": float(drive.joint_damping_n_s_m.max()),
+            "finger_servo_stiffness_n_m": float(np.median(drive.servo_stiffness_n_m)),
         }
         path = drive.path
         rise = coupling = ((), ())
@@ -307,8 +309,8 @@ def mount_gripper(config: ScenarioConfig, gel: GelParams | None = None) -> Mount
     if motors:
         _motor_gains(model, parts, actuators, joints, path)
         path, open_ctrl = _free_closing(model, parts, actuators, joints)  # the fingers as the servo moves them
-    kv = -model.actuator_biasprm[actuators, 2]
-    drive = GripperDrive(model, parts, path, joints, kv)
+    kv, kp = -model.actuator_biasprm[actuators, 2], -model.actuator_biasprm[actuators, 1]
+    drive = GripperDrive(model, parts, path, joints, kv, kp)
     widest = drive.home_opening_m - 2.0 * HOME_CLEARANCE_M
     if config.object.size_m > widest:
         raise ValueError(

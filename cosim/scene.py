@@ -142,6 +142,7 @@ def robot_limits(
             "finger_friction_n": 0.0,
             "finger_mass_kg": house_finger_mass_kg(model),
             "finger_joint_damping_n_s_m": joint_damping,
+            "finger_servo_stiffness_n_m": float(house.gainprm[0]),  # on the tendon, whose length is the opening
         }
     return RobotLimits(
         lift_kp_n_m=kp,

@@ -156,6 +156,32 @@ def test_a_soft_servos_fingers_meet_the_object_at_the_touch_speed():
     assert speed_m_s.mean() < 2.0 * c.touch_speed_m_s, (speed_m_s, c.touch_speed_m_s)
 
 
+def test_fingers_that_never_cruise_meet_the_object_at_the_touch_speed():
+    """robosuite's Rethink gripper opens 50 mm; on a 35 mm box its fingers are still speeding up
+    when the target brakes, so the lead their servo keeps at the top pace is never seen: the
+    target stayed millimetres ahead, the drive pushed them on, and they met the box at 12 mm/s
+    (12x the touch speed), pressing a 1.5 g box that crushes at 0.03 N to 0.05 N.  Until the
+    fingers are seen cruising, the lead is the servo's own compliance, 1 / K_o
+    (RobotLimits.finger_servo_stiffness_n_m): they slow to the touch speed and the box is whole."""
+    from test_third_party_grippers import ROBOSUITE, _robosuite_grippers, keys
+
+    file, tips, actuators = ROBOSUITE["rethink"]
+    box = {"object.shape": "box", "object.mass_kg": 0.0015, "object.friction": 0.7, "object.size_m": 0.035, "object.crush_force_n": 0.03}
+    overrides = {**keys(_robosuite_grippers() / file, tips, actuators), **box}
+    sim, times, openings = _close(overrides, preset="fast")
+    c = sim.controller
+    # the file's two position servos, kp 1000 N/m each on a finger that moves half the opening:
+    # 2 x 1000 x 0.5^2 on the opening; the house's, kp 1e4 N/m on the tendon that is the opening
+    assert c.robot.finger_servo_stiffness_n_m == pytest.approx(2 * 1000.0 * 0.5**2, rel=1e-6)
+    assert CoSimulation(scenarios.get("grasp")).controller.robot.finger_servo_stiffness_n_m == pytest.approx(1e4)
+    assert math.isfinite(c.touch_time_s), [e.message for e in c.events]
+    speed_m_s = -np.diff(openings[-6:]) / np.diff(times[-6:])
+    assert speed_m_s.mean() < 2.0 * c.touch_speed_m_s, (speed_m_s, c.touch_speed_m_s)
+    result = piezotip.run("grasp", overrides=overrides, preset="fast")
+    assert result.outcome == "success", result.reason
+    assert result.summary["touch_peak_n"] < box["object.crush_force_n"]
+
+
 def test_the_fingers_speed_up_is_not_a_touch_at_the_fast_presets_steady_readout():
     """Speeding up, the fingers press each pad's gel on its element by rho h0 a: at the fast
     preset's steady readout that is a drop the CUSUM sums past its alarm while the speed-up to

@@ -242,7 +242,8 @@ def test_heavy_object_held_without_losing_the_estimate(tmp_path):
     for side in ("left", "right"):
         # Hundreds of kPa: past where the model holds (the gel's valid strain), so recorded
         # "outside_model" though the readout itself reads on ("ok"), its estimate kept.
-        ok = data[f"{side}_status"][hold] == outside
+        # (a reading the envelope's readout calls "settling" has no estimate, NaN: one or two a hold)
+        ok = (data[f"{side}_status"][hold] == outside) & np.isfinite(data[f"{side}_estimate_pa"][hold])
         assert ok.mean() > 0.95
         est, true = data[f"{side}_estimate_pa"][hold][ok], data[f"{side}_true_pressure_pa"][hold][ok]
         assert np.median(np.abs(est / true - 1)) < 0.05

@@ -433,7 +433,10 @@ class GentleGrasp(MultimodeGrasp):
             f"N/m, reaction {self.touch_reaction_s * 1e3:.3g} ms, detected at {floor:.3g} N",
         )
         self._moved_m_s = 0.0  # the fingers' own closing speed over the last period, m/s (_close_step)
-        self._lead_m_per_n: float | None = None  # their servo's lead behind its target per N of drive (_close_step)
+        # their servo's lead behind its target per N of drive (_close_step): its compliance until
+        # the fingers are seen cruising (a short stroke never is: the Rethink gripper's 35 mm box)
+        stiffness = robot.finger_servo_stiffness_n_m
+        self._lead_m_per_n: float | None = 1.0 / stiffness if stiffness > 0.0 else None
         self._quiet_periods = 0  # periods in a row at the pace with the drive's force steady (_joint_touch)
         self._steady = False  # the target closes at a steady pace, as in the last period (_close_step)
         lowest = min(c.modes)

@@ -121,6 +121,10 @@ class RobotLimits:
     finger_joint_damping_n_s_m : the part of ``finger_damping_n_s_m`` in the fingers' joints,
         N s/m on the opening: what still brakes them when the drive's force is limited (a
         servo's velocity gain is inside its force, which the force limit caps).
+    finger_servo_stiffness_n_m : the finger servo's stiffness on the opening, N/m: the force
+        per metre its target leads the fingers by, sum_a kp_a (dl_a/do)^2 (the median along a
+        mounted drive's path; the house's servo kp); 0 where unknown.  The robot knows its own
+        servo: the lead its fingers keep behind a target they have not yet been seen to follow.
     pad_rise_m : (openings, rises), m: how far the pads' centre lies above its height at home
         at each opening (increasing) of the fingers' free closing; a linkage's fingertips swing
         along an arc as they close, so pads that squeeze an object move it, or the lift, with
@@ -149,6 +153,7 @@ class RobotLimits:
     finger_friction_n: float = 0.0
     finger_mass_kg: float = 0.0
     finger_joint_damping_n_s_m: float = 0.0
+    finger_servo_stiffness_n_m: float = 0.0
     pad_rise_m: tuple[tuple[float, ...], tuple[float, ...]] = ((), ())
     lift_coupling_kg: tuple[tuple[float, ...], tuple[float, ...]] = ((), ())
 
