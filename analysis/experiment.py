@@ -30,7 +30,7 @@ from .referee import needed_grip_n
 from .runner import json_safe
 from .sweep import SweepRun
 from .sweep_output import OUTCOME_COLOUR
-from .sweep_rows import TOUCH_COLUMNS
+from .sweep_rows import GRIP_ECONOMY_COLUMNS, TOUCH_COLUMNS
 
 
 @dataclass(frozen=True)
@@ -110,13 +110,8 @@ COLUMNS = (
     "touch_sense",
     "mode_switches",
     "peak_grip_force_n",
-    "hold_grip_n",
-    "needed_grip_n",
-    "grip_margin",
-    "contact_tilt_deg",
-    "peak_contact_n",
-    "touch_peak_n",
-    "time_to_touch_s",
+    *GRIP_ECONOMY_COLUMNS,
+    *TOUCH_COLUMNS,
     "outside_model",
 )
 
@@ -191,8 +186,7 @@ def experiment_row(row: dict) -> dict:
         "touch_sense": row.get("touch_sense") or "",
         "mode_switches": row["mode_switches"],
         "peak_grip_force_n": row["peak_grip_force_n"],
-        **{key: row.get(key, math.nan) for key in ("hold_grip_n", "needed_grip_n", "grip_margin", "contact_tilt_deg", "peak_contact_n")},
-        **{key: row.get(key, math.nan) for key in TOUCH_COLUMNS},
+        **{key: row.get(key, math.nan) for key in (*GRIP_ECONOMY_COLUMNS, *TOUCH_COLUMNS)},
         "outside_model": row["outside_model"],
     }
 

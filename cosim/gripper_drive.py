@@ -113,7 +113,7 @@ class GripperDrive:
     """
 
     def __init__(
-        self, model: mujoco.MjModel, parts: GripperParts, path: DrivePath, joints: list[int], kv: np.ndarray, kp: np.ndarray | None = None
+        self, model: mujoco.MjModel, parts: GripperParts, path: DrivePath, joints: list[int], kv: np.ndarray, kp: np.ndarray
     ) -> None:
         self.actuators = [model.actuator(PREFIX + a.name).id for a in parts.actuators]
         self.force_max = np.array([a.force_max for a in parts.actuators])
@@ -133,8 +133,7 @@ class GripperDrive:
         dofs = [int(model.jnt_dofadr[j]) for j in joints]
         self.joint_damping_n_s_m = speeds**2 @ model.dof_damping[dofs]
         self.servo_damping_n_s_m = (np.asarray(kv)[:, None] * self._slopes**2).sum(axis=0)
-        kp = np.zeros(len(self.actuators)) if kp is None else np.maximum(np.asarray(kp, dtype=float), 0.0)
-        self.servo_stiffness_n_m = (kp[:, None] * self._slopes**2).sum(axis=0)
+        self.servo_stiffness_n_m = (np.maximum(np.asarray(kp, dtype=float), 0.0)[:, None] * self._slopes**2).sum(axis=0)
         self.friction_n = np.abs(speeds) @ model.dof_frictionloss[dofs]
         self.mass_kg, self.lift_coupling_kg = opening_inertia_kg(model, path, joints)
 

@@ -737,7 +737,7 @@ class GentleGrasp(MultimodeGrasp):
                 # below takes it down at its pace.
                 drive_n, self._moved_dir = max(grip_n, felt_n - self._friction_n), 0
                 if drive_n > grip_n and self._over_periods >= self.cfg.persist:
-                    self._ease_down(t)
+                    self._slip_watch_waits(t)  # a pressure pulled down is no slip
             elif way > 0:
                 # Too light (or the grip wanted rose past the felt): past the friction band's far
                 # edge at the speed that closes the shortfall in four periods (a load change's
@@ -760,7 +760,7 @@ class GentleGrasp(MultimodeGrasp):
                     drive_n = max(grip_n, felt_n - self._friction_n)  # from the band's near edge (held above)
                 drive_n -= 0.25 * FEEL_TOLERANCE * grip_n
                 self._moved_dir = -1
-                self._ease_down(t)
+                self._slip_watch_waits(t)  # a pressure pulled down is no slip
         self._drive_n = drive_n = min(self.grip_cap_n, max(-self.robot.finger_force_limit_n, drive_n))
         # closing on, the grip's rise paid to the fingers' damping, this period only (not kept in the drive)
         drive_n = min(self.grip_cap_n, drive_n + paid_n)
@@ -825,10 +825,10 @@ class GentleGrasp(MultimodeGrasp):
             return 0.0
         return self.robot.finger_joint_damping_n_s_m * rise_n / (self.contact_stiffness_n_m * self.dt_s)
 
-    def _ease_down(self, t: float) -> None:
-        """The drive takes the contact down toward the grip wanted: a pressure pulled down is no
-        slip, so the fingertips' slip references wait until it has settled (six load-filter time
-        constants, as after the probe's grip is set)."""
+    def _slip_watch_waits(self, t: float) -> None:
+        """The fingertips' slip references wait from ``t`` until a pressure the controller itself
+        moves has settled (six load-filter time constants, the settling the hold gives the lift's
+        load): a contact the drive pulls down, a grip coming down or raised, a linkage's swing."""
         self._slip_watch_from_s = t + 6.0 * self.cfg.load_filter_s
         self._reference_pa = {}
 
@@ -837,8 +837,7 @@ class GentleGrasp(MultimodeGrasp):
         has just set has settled on the pads, six load-filter time constants on (the settling
         the hold gives the lift's load): a grip lowered to the one that holds is not a slip."""
         self.lift.speed_m_s = 0.0
-        self._slip_watch_from_s = obs.time_s + 6.0 * self.cfg.load_filter_s
-        self._reference_pa = {}
+        self._slip_watch_waits(obs.time_s)
 
     def _slip(self, t: float, why: str, deficit: float = 1.0) -> None:
         super()._slip(t, why, deficit)
@@ -848,9 +847,7 @@ class GentleGrasp(MultimodeGrasp):
         lift = self.lift
         if self.grip_n > self._grip_goal_n:
             self.grip_n = max(self._grip_goal_n, self.grip_n - self.grip_rate_n_s * dt_s)
-            # A grip coming down is no slip: the fingertips' slip references wait for it to settle.
-            self._slip_watch_from_s = t + 6.0 * self.cfg.load_filter_s
-            self._reference_pa = {}
+            self._slip_watch_waits(t)  # a grip coming down is no slip
         speed_m_s = lift.speed_m_s
         lift.rise(self.cfg.lift_speed_m_s, dt_s)
         if lift.speed_m_s != speed_m_s and self.robot.lift_opens_n(obs.opening_m, 1.0) != 0.0:
@@ -860,8 +857,7 @@ class GentleGrasp(MultimodeGrasp):
             # grip on their 1 g box past 1.5x its need: tests/test_grip_on_fingertips.py::
             # test_a_linkages_raise_is_not_read_as_a_slip).  The probe has just carried the object
             # at grip_safety over its need, which covers the raise's m a.
-            self._slip_watch_from_s = t + 6.0 * self.cfg.load_filter_s
-            self._reference_pa = {}
+            self._slip_watch_waits(t)
         # The grip stays where the probe set it (raised only by a slip): the load the lift reads
         # while it speeds up and brakes is mostly the gripper's own inertia, not the object's.
         lift.target_m = lift.servo_target(self._weight_n, lift.speed_m_s)
@@ -894,7 +890,7 @@ class GentleGrasp(MultimodeGrasp):
                     # until it has settled.  Read as one, it raised Robotiq's 2F-85s' grip past the
                     # new need by a quarter (tests/test_grip_on_fingertips.py::
                     # test_the_2f85s_grip_holds_through_a_load_change).
-                    self._slip_watch_from_s = t + 6.0 * self.cfg.load_filter_s
+                    self._slip_watch_waits(t)
                 self.grip_n = raised_n
 
 
