@@ -128,8 +128,8 @@ def _number(value) -> float | None:
     return None if value is None or (isinstance(value, float) and not math.isfinite(value)) else float(value)
 
 
-def one(run: dict) -> dict:
-    """Run one grasp; the row the tables read (a refused object: outcome ``does_not_fit``)."""
+def one(run: dict, preset: str = "fast") -> dict:
+    """Run one grasp at ``preset``; the row the tables read (a refused object: outcome ``does_not_fit``)."""
     import piezotip
 
     row = {k: run[k] for k in ("gripper", "object", "controller", "scenario", "friction_x", "mass_x")}
@@ -137,7 +137,7 @@ def one(run: dict) -> dict:
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            result = piezotip.run(run["scenario"], overrides=run["overrides"], preset="fast")
+            result = piezotip.run(run["scenario"], overrides=run["overrides"], preset=preset)
     except ValueError as error:
         # an object wider than the open pads, or a varied mass past the gripper's rating
         if "does not fit" not in str(error) and "within the gripper's rated" not in str(error):
@@ -252,6 +252,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--out", type=Path, required=True, help="folder for runs.jsonl and tables.md")
     parser.add_argument("--parts", nargs="+", default=["nominal", "variation", "extras"], choices=["nominal", "variation", "extras"])
     parser.add_argument("--grippers", nargs="+", help="only these (Panda, Rethink, Robotiq, 'Menagerie 2F-85')")
+    parser.add_argument("--preset", default="fast", help="the fidelity preset every run takes (default fast, as docs/grippers.md's tables)")
     args = parser.parse_args(argv)
     found = grippers()
     wanted = args.grippers or ["Panda", "Rethink", "Robotiq", "Menagerie 2F-85"]
@@ -273,7 +274,7 @@ def main(argv: list[str] | None = None) -> int:
         for i, run in enumerate(todo):
             if _key(run) in done:
                 continue
-            row = one(run)
+            row = one(run, args.preset)
             done[_key(run)] = row
             fh.write(json.dumps(row) + "\n")
             fh.flush()
