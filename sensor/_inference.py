@@ -124,8 +124,9 @@ class SteadyInference:
     change (the last m readings); past SUSPECT_STAT this reading is reported "settling".
 
     :meth:`step` returns (a_ss, gain, trusted): ``trusted`` is False while the window is too
-    young for a fit, the last readings suggest a change, the load ramps under the reading
-    (RAMP_SUSPECT_CHI2), or mu is known to worse than _MAX_REL; the caller also requires
+    young for a fit, the last readings suggest a change, the load ramps under the reading with
+    the window reaching back past the ramp's own span (RAMP_SUSPECT_CHI2), or mu is known to
+    worse than _MAX_REL; the caller also requires
     gain <= MAX_GAIN.
 
     Settling time (the contract's, in code): after a load change, the time from the change
@@ -160,6 +161,7 @@ class SteadyInference:
         "q1_x2",
         "q2_a",
         "q2_t",
+        "ramp_from",
         "sig_sq",
         "sig_sq_tau0",
         "sig_sq_tau0_sq",
@@ -215,6 +217,7 @@ class SteadyInference:
         # The last point integrated (t, a, X1, X2), and the point before it (t, a).
         self.has_q1, self.has_q2 = self.known_start, False
         self.w_target = WINDOW_S
+        self.ramp_from = _INF  # when this segment's load was first seen ramping, s (step)
 
     def seed(self, a: complex, t_end: float, dt_s: float) -> None:
         """Fill the window with a settled history (the instrument ran unloaded before the scene)."""
@@ -427,18 +430,41 @@ class SteadyInference:
             self.known_start = False  # the window no longer starts at the known start
         if not self._fit(t):
             return _NAN_ENVELOPE, _INF, False
-        if self._ramp_chi2 > RAMP_SUSPECT_CHI2:
-            trusted = False  # the load changes under this reading (RAMP_SUSPECT_CHI2)
-        # Shorten the window while the load ramps (see RAMP_WINDOW_FRACTION).
-        if self._ramp_chi2 > _RAMP_CHI2:
+        curve_var = 0.0
+        if self._ramp_chi2 > RAMP_SUSPECT_CHI2 or self._ramp_chi2 > _RAMP_CHI2:
+            # The load ramps under this reading: the window the ramp allows (RAMP_WINDOW_FRACTION).
             load = kh.cabs(self._mu - 1.0)
-            w_ramp = RAMP_WINDOW_FRACTION * (load if load > _MIN_LOAD else _MIN_LOAD) / kh.sqrt(self._b2_sq)
-            self.w_target = WINDOW_S if w_ramp > WINDOW_S else (MIN_WINDOW_S if w_ramp < MIN_WINDOW_S else w_ramp)
+            load = load if load > _MIN_LOAD else _MIN_LOAD
+            w_ramp = RAMP_WINDOW_FRACTION * load / kh.sqrt(self._b2_sq)
+            w_ramp = WINDOW_S if w_ramp > WINDOW_S else (MIN_WINDOW_S if w_ramp < MIN_WINDOW_S else w_ramp)
+            span = t - self._rows[self.first * _ROW + _T]
+            if self._ramp_chi2 > RAMP_SUSPECT_CHI2:
+                if self.ramp_from > t:
+                    self.ramp_from = t
+                if span > w_ramp or t - self.ramp_from < self.tau0:
+                    # The window reaches back past the ramp's span (its onset may lie in it), or
+                    # the segment's first ramp is younger than the envelope's own time constant
+                    # (the envelope's transient after a change, which the fit has not absorbed,
+                    # reads as one): RAMP_SUSPECT_CHI2.
+                    trusted = False
+                # The linear-in-time model's error at the window's end, a ramp whose rate changes
+                # on its own time scale (|mu''| ~ |mu1|^2 / load): |mu''| span^2 / 12, in mu's
+                # variance (at high signal to noise it is many of the readings' sigmas).
+                curve = _TWELFTH * self._b2_sq * span * span / load
+                # ...and the load's change over the reading's own period (a lock-in reading
+                # integrates over it): the truth at the period's end is up to |mu1| dt away.
+                lag = t - self._rows[(self.end - 2) * _ROW + _T]
+                curve_var = curve * curve + self._b2_sq * lag * lag
+            # Shorten the window while the load ramps significantly.
+            if self._ramp_chi2 > _RAMP_CHI2:
+                self.w_target = w_ramp
+            elif w_target != WINDOW_S:
+                self.w_target = WINDOW_S
         elif w_target != WINDOW_S:
             self.w_target = WINDOW_S
         if not self._var_mu < _MAX_REL_SQ * self._mu_sq:
             return (kh.cquot(1.0, self._mu) if self._mu_sq > 0 else _NAN_ENVELOPE), _INF, False
-        return kh.cquot(1.0, self._mu), kh.sqrt(self._var_mu) / (self._mu_sq * self.sigma), trusted
+        return kh.cquot(1.0, self._mu), kh.sqrt(self._var_mu + curve_var) / (self._mu_sq * self.sigma), trusted
 
     def _replay(self, readings: list[tuple[float, complex]]) -> None:
         """Restart the segment at the first of ``readings`` (envelope unknown there, one or
@@ -453,7 +479,7 @@ class SteadyInference:
         window's rows from its base on and the ring of fits as lists of floats."""
         rows = [self._rows[k] for k in range((self.first - 1) * _ROW, self.end * _ROW)]
         fits = [self._fits[k] for k in range(_FIT * _FITS)]
-        segment = (self.tr, self.known_start, self.c_known, self.w_target, self.turn, self.n_fits)
+        segment = (self.tr, self.known_start, self.c_known, self.w_target, self.turn, self.n_fits, self.ramp_from)
         points = (self.has_q1, self.q1_t, self.q1_a, self.q1_x1, self.q1_x2, self.has_q2, self.q2_t, self.q2_a)
         return type(self), (self.tau0, self.sigma), (rows, self.end - self.first, fits, segment, points)
 
@@ -463,5 +489,5 @@ class SteadyInference:
             raise ValueError("a SteadyInference's state has rows or fits of other lengths")
         self._rows, self.first, self.end = array("d", rows), 1, size + 1
         self._fits = array("d", fits)
-        self.tr, self.known_start, self.c_known, self.w_target, self.turn, self.n_fits = segment
+        self.tr, self.known_start, self.c_known, self.w_target, self.turn, self.n_fits, self.ramp_from = segment
         self.has_q1, self.q1_t, self.q1_a, self.q1_x1, self.q1_x2, self.has_q2, self.q2_t, self.q2_a = points

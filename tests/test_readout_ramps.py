@@ -1,6 +1,7 @@
 """A reading taken while the load changes under it is "settling", not "ok" (issue 29, item 5):
 :data:`sensor.inference.RAMP_SUSPECT_CHI2`, in the reference and its compiled twin alike, and the
-3-sigma coverage of "ok" readings over whole grasps, load changes included (reports/coverage.py)."""
+3-sigma coverage of "ok" readings over whole grasps, load changes included (reports/coverage.py).
+A load that creeps (a ramp whose own span holds the window) is read, within its sigma."""
 
 import math
 import random
@@ -22,25 +23,35 @@ def ramp_load(t: float) -> complex:
     return 1.0 + 2.0 * math.exp(t) - 0.5j
 
 
-def trusted_share(cls, mu_of_t, seconds: float, seed: int = 7) -> tuple[float, float]:
+def trusted_readings(cls, mu_of_t, seconds: float, seed: int = 7) -> tuple[list[bool], list[float]]:
     """Feed ``cls`` the noisy envelope of tau0 a' = 1 - mu(t) a (physics.md section 6), started
-    settled at mu(0); the share of its readings trusted over the last half (the first half lets
-    a window fill)."""
+    settled at mu(0): whether each reading is trusted, and each trusted one's error against the
+    steady envelope of the load at its time, | |a_ss| - |1 / mu(t)| |, in its stated sigma
+    (the reading's noise times its gain, at least GAIN_FLOOR, as the channel reports it)."""
     rng = random.Random(seed)
     inf = cls(TAU0_S, SIGMA)
     a = 1.0 / mu_of_t(0.0)
     inf.seed(a, 0.0, DT_S)
     n = round(seconds / DT_S)
     sub = 20  # the envelope integrated at 20 substeps a reading
-    flags = []
+    flags, errors = [], []
     for k in range(1, n + 1):
         for j in range(sub):
             t = (k - 1 + j / sub) * DT_S
             a += (1.0 - mu_of_t(t) * a) / TAU0_S * (DT_S / sub)
-        _, gain, ok = inf.step(k * DT_S, a + complex(rng.gauss(0.0, SIGMA), rng.gauss(0.0, SIGMA)))
+        a_ss, gain, ok = inf.step(k * DT_S, a + complex(rng.gauss(0.0, SIGMA), rng.gauss(0.0, SIGMA)))
         flags.append(bool(ok) and gain <= inference.MAX_GAIN)
-    tail = flags[n // 2 :]
-    return sum(tail) / len(tail), n
+        if flags[-1]:
+            errors.append(abs(abs(a_ss) - abs(1.0 / mu_of_t(k * DT_S))) / (SIGMA * max(gain, inference.GAIN_FLOOR)))
+    return flags, errors
+
+
+def trusted_share(cls, mu_of_t, seconds: float, seed: int = 7) -> tuple[float, float]:
+    """The share of :func:`trusted_readings` trusted over the last half (the first half lets a
+    window fill), and the number of readings."""
+    flags, _ = trusted_readings(cls, mu_of_t, seconds, seed)
+    tail = flags[len(flags) // 2 :]
+    return sum(tail) / len(tail), len(flags)
 
 
 @pytest.mark.parametrize("cls", [inference.PySteadyInference, inference.SteadyInference])
@@ -49,6 +60,39 @@ def test_a_held_load_reads_trusted_and_a_ramping_one_settling(cls):
     ramp, _ = trusted_share(cls, ramp_load, 2.0)
     assert held >= 0.97  # the rule's false alarms: 0.25 % by design, the change test's 1 % besides
     assert ramp < 0.5  # 0.36: the rest are readings whose window is too short to show the ramp
+
+
+@pytest.mark.parametrize("cls", [inference.PySteadyInference, inference.SteadyInference])
+@pytest.mark.parametrize("rate_per_s", [0.1, -0.1, -0.3])
+def test_a_creeping_load_reads_trusted_within_its_sigma(cls, rate_per_s):
+    """A load that creeps, e-fold in 3 to 10 s (as MuJoCo's soft dry friction lets a friction
+    drive's contact creep toward its drive's force), up or down: the window fits within the
+    ramp's own span (RAMP_WINDOW_FRACTION), where the linear-in-time model holds, and the
+    readings are trusted; read "settling" whenever the ramp was significant, 4-18 % of them
+    were (robosuite's Panda held a box at the balanced preset with its fingertips blind in 195
+    of 200 periods).  Every trusted one holds the truth within 3 sigma."""
+    mu = (
+        (lambda t: 1.0 + 2.0 * math.exp(rate_per_s * t) - 0.5j)
+        if rate_per_s > 0
+        else (lambda t: 1.0 + (20.0 - 5j) * math.exp(rate_per_s * t))
+    )
+    flags, errors = trusted_readings(cls, mu, 4.0)
+    tail = flags[len(flags) // 4 :]
+    assert sum(tail) / len(tail) >= (0.95 if abs(rate_per_s) < 0.2 else 0.6)
+    assert max(errors) <= 3.0
+
+
+def test_a_ramps_onset_reads_settling_until_the_window_lies_within_the_ramp():
+    """A held load that starts to ramp at 1 s: the readings whose window still reaches back past
+    the ramp's own span (the onset in it) are settling, then trusted; 97 % of the trusted
+    readings hold the truth within 3 sigma, as many as before the rule (the fast-ramp readings
+    trusted are those whose window is too short to show the ramp)."""
+    flags, errors = trusted_readings(inference.SteadyInference, lambda t: 3.0 - 1j + (0.0 if t < 1.0 else 2.0 * (t - 1.0)), 3.0)
+    onset = round(1.0 / DT_S)
+    assert all(flags[onset - 40 : onset])  # held: trusted
+    assert not all(flags[onset : onset + 40])  # the onset is read settling
+    assert sum(flags[-100:]) / 100 > 0.5  # within the ramp: mostly trusted
+    assert sum(e <= 3.0 for e in errors) / len(errors) >= 0.97
 
 
 def test_the_rule_is_what_makes_a_ramping_reading_settling(monkeypatch):
