@@ -453,7 +453,7 @@ class SteadyInference:
                 curve = _TWELFTH * self._b2_sq * span * span / load
                 # ...and the load's change over the reading's own period (a lock-in reading
                 # integrates over it): the truth at the period's end is up to |mu1| dt away.
-                lag = t - self._rows[(self.end - 2) * _ROW + _T]
+                lag = t - self._rows[(self.end - 2) * _ROW + _T] if self.end - 2 >= self.first else 0.0
                 curve_var = curve * curve + self._b2_sq * lag * lag
             # Shorten the window while the load ramps significantly.
             if self._ramp_chi2 > _RAMP_CHI2:
