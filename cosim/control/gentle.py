@@ -545,6 +545,20 @@ class GentleGrasp(MultimodeGrasp):
         self._felt_at_s = t
         return True
 
+    def _probe_base_n(self) -> float:
+        """What the probe's grip grows in proportion to, N: the grip itself, but on a drive with
+        dry friction F_f pressing its fingers (its force past F_f), the contact it presses, the
+        drive's force less F_f or the fingertips' reading, whichever is more: grown in proportion
+        to the drive's force, a contact of 0.03 N under a 1.03 N drive grew by 0.26 N a plateau
+        window, 8x itself, too fast for the readout to follow (its readings settling while a
+        pressure ramps), and the regained contact on a raspberry the pads had slid off ramped to
+        1.4 N unseen at the balanced preset."""
+        friction_n = self._friction_n
+        if friction_n <= 0.0 or self.grip_n <= friction_n:
+            return self.grip_n
+        felt = self._fingertips_grip_n()
+        return max(self.grip_n - friction_n, felt[0] if felt is not None else 0.0, self.grip_floor_n)
+
     def _fingertips_blind(self) -> bool:
         """Whether a pad's readout is settling this period (a ramping pressure, a switch's
         ring-up): it holds its last trusted estimate, which says nothing of the grip now."""
@@ -589,7 +603,7 @@ class GentleGrasp(MultimodeGrasp):
             if self.grip_n >= self.grip_cap_n:
                 self._pads_slide_at_cap(t, lift.raw_load_n)
                 return
-            growth_n_s = min(self.grip_growth_per_s * self.grip_n, self.grip_rate_n_s)
+            growth_n_s = min(self.grip_growth_per_s * self._probe_base_n(), self.grip_rate_n_s)
             self.grip_n = min(self.grip_cap_n, self.grip_n + growth_n_s * dt_s)
         # The goal rises at the probe's pace, plus the sag that the grip's growth adds to a lift
         # whose pads slide (2 mu G / kp), at the friction measured so far (the highest expected
