@@ -78,7 +78,7 @@ cdef class SteadyInference:
         r="double complex", ig2="double complex", c="double complex", b1="double complex", b2="double complex",
         m1="double complex", m2="double complex", i12="double complex",
         worst=double, stat=double, q=double, inv_n=double, i11=double, i22=double, n0=double, n1=double, n2=double,
-        n_fit=double, load=double, w_ramp=double, w_target=double, span=double, curve=double, curve_var=double, lag=double,
+        n_fit=double, load=double, w_ramp=double, w_target=double, span=double, curve=double, curve_var=double, lag=double, w_next=double,
     )
     cpdef (double complex, double, bint) step(self, double t, double complex a) except *
 

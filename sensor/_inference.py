@@ -431,6 +431,7 @@ class SteadyInference:
         if not self._fit(t):
             return _NAN_ENVELOPE, _INF, False
         curve_var = 0.0
+        w_next = WINDOW_S  # the window's target: its longest, shortened while the load ramps significantly
         if self._ramp_chi2 > RAMP_SUSPECT_CHI2 or self._ramp_chi2 > _RAMP_CHI2:
             # The load ramps under this reading: the window the ramp allows (RAMP_WINDOW_FRACTION).
             load = kh.cabs(self._mu - 1.0)
@@ -455,13 +456,10 @@ class SteadyInference:
                 # integrates over it): the truth at the period's end is up to |mu1| dt away.
                 lag = t - self._rows[(self.end - 2) * _ROW + _T] if self.end - 2 >= self.first else 0.0
                 curve_var = curve * curve + self._b2_sq * lag * lag
-            # Shorten the window while the load ramps significantly.
             if self._ramp_chi2 > _RAMP_CHI2:
-                self.w_target = w_ramp
-            elif w_target != WINDOW_S:
-                self.w_target = WINDOW_S
-        elif w_target != WINDOW_S:
-            self.w_target = WINDOW_S
+                w_next = w_ramp
+        if w_target != w_next:
+            self.w_target = w_next
         if not self._var_mu < _MAX_REL_SQ * self._mu_sq:
             return (kh.cquot(1.0, self._mu) if self._mu_sq > 0 else _NAN_ENVELOPE), _INF, False
         return kh.cquot(1.0, self._mu), kh.sqrt(self._var_mu + curve_var) / (self._mu_sq * self.sigma), trusted

@@ -598,7 +598,7 @@ class GentleGrasp(MultimodeGrasp):
         window_full = lift.record(applied, self.robot.pads_height_m(obs.lift_pos_m, obs.opening_m))
         rising = window_full and lift.risen_m() >= 0.5 * c.probe_speed_m_s * (lift.plateau_steps - 1) * dt_s
         growth_n_s = 0.0
-        felt = self._probe_sees(t)
+        sees = self._probe_sees(t)
         if rising and t - self._felt_at_s <= lift.plateau_steps * dt_s:
             if self.grip_n >= self.grip_cap_n:
                 self._pads_slide_at_cap(t, lift.raw_load_n)
@@ -613,7 +613,7 @@ class GentleGrasp(MultimodeGrasp):
         if not rising:
             self._span = []  # held on the table: the load grows, the grip waits
             return
-        if not felt:
+        if not sees:
             return  # the fingertips' grip unread this period (the drive's is not theirs): no evidence
         self._span.append((applied, lift.raw_load_n))
         falls = self.contact_falls
