@@ -489,3 +489,72 @@ def test_a_raspberry_the_pads_slid_off_is_not_crushed_at_the_balanced_preset(gri
     result = piezotip.run("grasp", overrides=overrides, preset="balanced")
     assert result.outcome != "crushed", result.reason
     assert result.summary["peak_contact_n"] < scenarios.OBJECTS["raspberry-4g"].crush_force_n
+
+
+def _robosuite_run(gripper: str, obj: str, preset: str):
+    file, tips, actuators = ROBOSUITE[gripper]
+    overrides = {**keys(_robosuite_grippers() / file, tips, actuators), **_catalogue(obj), "controller.kind": "gentle"}
+    return piezotip.run("grasp", overrides=overrides, preset=preset)
+
+
+def _finger_force_at(result, time_s: float) -> float:
+    data = result.data
+    i = int(np.searchsorted(data["time_s"], time_s))
+    return 0.5 * float(data["left_finger_force_n"][i] + data["right_finger_force_n"][i])
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("gripper", ["panda", "rethink"])
+def test_a_friction_drives_touch_is_eased_down_before_the_lift(gripper):
+    """At the balanced preset the envelope readout sees the touch's ramp tens of milliseconds late,
+    and a drive with dry friction keeps the contact the touch left: robosuite's grippers left the
+    3 g cube 2.5-3x the touch's bound, which the probe found it carried from (friction "at
+    least" a third of the cube's) and held it at 1.7-3.8x its need.  The squeeze eases the
+    contact down, paced on the fingers' joints, to between the floor and the bound before the
+    lift (never below detection: a probe starting there misread the floor's scatter as the
+    grip's change and called the box carried at a hundredth of its weight), and the probe
+    measures the friction while the pads slide."""
+    result = _robosuite_run(gripper, "cube-3g", "balanced")
+    ease = [e for e in result.events if e["kind"] == "ease"]
+    assert ease, [e["message"] for e in result.events]
+    left_n = float(re.search(r"the touch left ([0-9.e-]+) N", ease[0]["message"]).group(1))
+    bound_n = float(re.search(r"over its bound ([0-9.e-]+) N", ease[0]["message"]).group(1))
+    floor_n = bound_n / 3.0  # TOUCH_FLOORS grip floors
+    assert left_n > bound_n
+    lift_s = next(e["time_s"] for e in result.events if e["kind"] == "phase" and e["message"].startswith("lift"))
+    assert floor_n <= _finger_force_at(result, lift_s) <= bound_n
+    assert result.outcome == "success", result.reason
+    carried = next(e["message"] for e in result.events if e["kind"] == "carried")
+    assert "measured while the pads slid" in carried, carried
+    assert result.summary["grip_margin"] <= 1.5
+
+
+def test_a_friction_drives_probe_reads_its_drive_once_its_friction_is_within_the_tolerance(controller):
+    """While the probe closes the fingers, the contact lies in the friction's band under the
+    drive's force, [D - F_f, D], read as its middle: within FEEL_TOLERANCE of the grip from
+    F_f / (2 FEEL_TOLERANCE) + F_f / 2 on, where the probe reads the drive while the fingertips
+    settle; a drive without friction is read alone anyway."""
+    c, friction_n = controller, controller.robot.finger_friction_n
+    threshold_n = 0.5 * friction_n / FEEL_TOLERANCE + 0.5 * friction_n
+    assert not c._drive_reads_grip(0.999 * threshold_n) and c._drive_reads_grip(1.001 * threshold_n)
+    c._fingertips_grip_n, c._fingertips_blind = (lambda: None), (lambda: True)  # a pad settling
+
+    class Obs:
+        grip_force_n = 2.0 * threshold_n
+
+    assert c._grip_felt_n(Obs()) == pytest.approx(2.0 * threshold_n - 0.5 * friction_n)
+    assert c._probe_sees(1.0, 2.0 * threshold_n) and not c._probe_sees(1.0, 0.5 * threshold_n)
+    house = CoSimulation(scenarios.get("grasp")).controller
+    assert not house._drive_reads_grip(50.0)
+
+
+@pytest.mark.slow
+def test_the_pandas_heavy_block_is_lifted_at_the_balanced_preset():
+    """The catalogue's 2 kg block on robosuite's Panda at the balanced preset: the fingertips
+    settle through most of the probe (the pressure ramping under them, four mode switches'
+    ring-ups), and a probe that read only them grew the grip past the need
+    unread, to the drive's 20 N limit, and never lifted the block.  Reading the drive past its
+    friction's tolerance, it lifts it within 1.5x of its need."""
+    result = _robosuite_run("panda", "block-2kg", "balanced")
+    assert result.outcome == "success", result.reason
+    assert result.summary["grip_margin"] <= 1.5

@@ -65,6 +65,7 @@ from typing import TYPE_CHECKING
 
 from piezotip.cosim.control.config import GentleConfig
 from piezotip.sensor import Fingertip
+from piezotip.sensor.inference import WINDOW_S
 
 from .interface import Observation, RobotLimits, pad_names
 from .lift import grip_for_load_n, load_is_steady, ratchet_grip_n
@@ -91,6 +92,13 @@ CLOSING_GAIN = 0.25
 #: The default touch bound in grip floors (``controller.touch_force_n`` None): the touch may add
 #: twice the gentlest grip the fingertip measures to the floor at which it is detected.
 TOUCH_FLOORS = 3.0
+#: The most pulls the squeeze eases a friction drive's touch down by (GentleGrasp._squeeze_eases):
+#: a second one for a contact the first left over the tolerance (the soft friction's creep).
+EASE_PULLS = 2
+#: The periods fingers eased open go on opening after the pull ends (GentleGrasp._ease_step): the
+#: drive's force follows its command a period late and MuJoCo's soft friction follows the force
+#: about as late again (robosuite's fingers: 2-3 periods at 5 ms).
+EASE_LAG_PERIODS = 3
 
 
 def pad_contact_stiffness_n_m(youngs_modulus_pa: float, thickness_m: float, pad_area_m2: float) -> float:
@@ -341,6 +349,17 @@ class GentleGrasp(MultimodeGrasp):
         self._grip_goal_n = 0.0  # the grip the raise brings the probe's down to, N (_carry)
         self._span: list[tuple[float, float]] = []  # (grip applied, raw load) since the last verdict
         self._felt_at_s = -math.inf  # when every fingertip last had a trusted reading in the probe, s (_probe_sees)
+        self._ease_to_m: float | None = None  # the opening the squeeze's pull eases the touch to, m (_squeeze_eases)
+        self._ease_last_m = math.nan  # the opening in the pull's last period, m
+        self._ease_from_s = -math.inf  # when the last pull started, then when it ended, s
+        self._eases = 0  # how many pulls the squeeze made
+        self._ease_contact_n = 0.0  # the contact felt as the pull started, N
+        self._ease_from_m = math.nan  # the opening then, m
+        self._ease_pull_n = 0.0  # the force the pull opens the fingers by, C - D, N
+        self._ease_goal_n = 0.0  # the contact the pull eases to, N: the squeeze's grip after it
+        #: How long the squeeze waits for the fingertips to read the touch, s: the readout's
+        #: longest window, in which a reading that settles settles (sensor.inference.WINDOW_S).
+        self.ease_wait_s = WINDOW_S
         self._weight_n = 0.0  # the object's weight, N: the load the probe found carried
         self._landing_grip_n = math.inf  # the grip the landing's speed is planned for, N (_plan_touchdown)
         #: The grip's growth rate while the pads may slide, 1/s: by the safety factor in one
@@ -398,6 +417,89 @@ class GentleGrasp(MultimodeGrasp):
 
     def _lift_message(self) -> str:
         return f"grip {self.grip_n:.3g} N: probing for the grip that holds"
+
+    def _squeeze_eases(self, obs: Observation, t: float) -> bool:
+        """Whether the squeeze goes on, easing the touch's contact down before the lift, on a drive
+        with dry friction F_f (:attr:`grips_on_fingertips`).
+
+        Such fingers keep the contact the touch left (MuJoCo's soft dry friction lets it creep to
+        the drive's force in about a second), and the touch presses on for as long as the
+        readout takes to see it: with the envelope dynamics (the balanced and accurate presets)
+        the lowest mode's envelope shows a ramping pressure tens of milliseconds late, and
+        robosuite's Panda, touching its 1 g tissue box at the planned 1 mm/s, left 0.030 N on it,
+        2.5x the touch's bound; the probe then found it carried from there (friction at least
+        0.25 for 0.6) and held it at 3x its need.  So, once every fingertip reads (waiting up to
+        the readout's longest window, ``ease_wait_s``), a contact felt over the touch's bound is
+        eased down to the middle of the floor and the bound (:meth:`_ease_step`), and read again.
+        """
+        if not self.grips_on_fingertips:
+            return False
+        if self._ease_to_m is not None:
+            return self._ease_step(obs, t)
+        felt = self._fingertips_grip_n()
+        if felt is None:  # waiting for a reading, from the squeeze's settling or the last pull
+            return t - max(self._ease_from_s, self._t_phase + self.cfg.squeeze_settle_s) < self.ease_wait_s
+        felt_n, sigma_n = felt
+        goal_n = 0.5 * (self.grip_floor_n + self.touch_force_n)
+        if felt_n - 2.0 * sigma_n <= self.touch_force_n or self._eases >= EASE_PULLS:
+            return False
+        self._eases += 1
+        self._ease_goal_n = goal_n
+        self._ease_to_m = obs.opening_m + (felt_n - goal_n) / self.contact_stiffness_n_m
+        self._ease_last_m = self._ease_from_m = obs.opening_m
+        self._ease_from_s, self._ease_contact_n = t, felt_n
+        self._ease_pull_n = 0.125 * self._friction_n
+        self._set_drive(felt_n - self._ease_pull_n)
+        self._event(
+            t,
+            "ease",
+            f"the touch left {felt_n:.3g} N on the fingertips, over its bound {self.touch_force_n:.3g} N: opening the fingers "
+            f"{(self._ease_to_m - obs.opening_m) * 1e6:.3g} um to bring it to {goal_n:.3g} N (pads {self.contact_stiffness_n_m:.3g} N/m)",
+        )
+        return True
+
+    def _ease_step(self, obs: Observation, t: float) -> bool:
+        """A period of the squeeze's ease (:meth:`_squeeze_eases`): the fingers opened to
+        ``_ease_to_m``, by the felt excess over the pads' contact stiffness k (a full face's, the
+        stiffest contact: a softer one is left over the goal, never let go), read on their own
+        joints, the contact C taken as the felt one less k times the opening since.
+
+        A force alone cannot do it: the contact is 30x under the drive's friction F_f, in whose
+        band MuJoCo's soft friction lets the fingers creep at a speed that grows with the force
+        opening them, C - D (D the drive's), and follows it a few periods late.  So the pull is
+        paced: its force starts at F_f / 8 and is raised by half while the fingers open at under
+        a quarter of the pace, halved while they open at over twice it; the pace,
+        (goal - floor) / (EASE_LAG_PERIODS k dt) of opening, lets fingers that go on for
+        EASE_LAG_PERIODS periods after the pull ends press the contact by at most the goal less
+        the floor (the pull ends with the way left within those periods' motion).  Without
+        the pace, a pull at the band's edge opened robosuite's fingers 15 um past the goal after
+        it ended, and left the 100 g box's contact at 0.7 floors, below detection
+        (tests/test_grip_on_fingertips.py::test_a_friction_drives_touch_is_eased_down_before_the_lift)."""
+        k = self.contact_stiffness_n_m
+        moved_m = obs.opening_m - self._ease_last_m
+        self._ease_last_m = obs.opening_m
+        contact_n = self._ease_contact_n - k * (obs.opening_m - self._ease_from_m)
+        left_m = self._ease_to_m - obs.opening_m
+        if left_m <= EASE_LAG_PERIODS * max(moved_m, 0.0) or t - self._ease_from_s >= self.ease_wait_s:
+            self._ease_to_m, self._ease_from_s = None, t
+            self.opening_target, self.grip_n = 0.0, self._ease_goal_n  # squeezed at the goal, and read again
+            return True
+        pace_m = (self._ease_goal_n - self.grip_floor_n) / (EASE_LAG_PERIODS * k)  # per period
+        if moved_m < 0.25 * pace_m:
+            self._ease_pull_n *= 1.5
+        elif moved_m > 2.0 * pace_m:
+            self._ease_pull_n *= 0.5
+        self._ease_pull_n = min(self._ease_pull_n, self._friction_n)
+        self._set_drive(contact_n - self._ease_pull_n)
+        return True
+
+    def _set_drive(self, drive_n: float) -> None:
+        """Command the drive's force ``drive_n`` (N on the closing; negative pulls open) through the
+        squeeze's opening target and force limit."""
+        if drive_n >= 0.0:
+            self.opening_target, self.grip_n = 0.0, drive_n
+        else:
+            self.opening_target, self.grip_n = self.robot.home_opening_m, -drive_n
 
     def _init_touch(self, fingertip: Fingertip, width_prior_m: tuple[float, float] | None) -> None:
         """The touch's bound, the speed that keeps it, and where the fingers slow to it (the
@@ -521,14 +623,27 @@ class GentleGrasp(MultimodeGrasp):
         friction_n = self.robot.finger_friction_n
         felt = self._fingertips_grip_n() if friction_n > 0.0 else None
         if felt is None:
-            return obs.grip_force_n
+            return obs.grip_force_n - 0.5 * friction_n if self._drive_reads_grip(obs.grip_force_n) else obs.grip_force_n
         return grip_read_n(obs.grip_force_n, friction_n, *felt)
 
-    def _probe_sees(self, t: float) -> bool:
+    def _drive_reads_grip(self, drive_n: float) -> bool:
+        """Whether a drive with dry friction F_f reads the grip as well as the fingertips must, at
+        its force ``drive_n`` (N) while the probe closes the fingers: the contact then lies in
+        the friction's band under the drive's force, [drive - F_f, drive], read as its middle to
+        within F_f / 2, within FEEL_TOLERANCE of the grip from F_f / (2 FEEL_TOLERANCE) + F_f / 2
+        on (3.8 F_f).  Past it the probe reads the drive while the fingertips settle: at the
+        balanced preset they settle through most of a heavy object's probe (a pressure ramping,
+        four switches' ring-ups), and a probe reading only them grew robosuite's Panda's grip on
+        its 2 kg block past the need unread, to its 20 N limit, and never lifted it."""
+        friction_n = self._friction_n
+        return friction_n > 0.0 and drive_n - 0.5 * friction_n >= 0.5 * friction_n / FEEL_TOLERANCE
+
+    def _probe_sees(self, t: float, drive_n: float) -> bool:
         """Whether the probe reads the grip on the fingertips this period (time ``t``, s): always
         on a drive without dry friction, whose force is the grip; on one with it, when every
-        pad's readout is trusted (not settling; below detection is a reading, of no grip), noted
-        in ``_felt_at_s``.
+        pad's readout is trusted (not settling; below detection is a reading, of no grip), or its
+        force (``drive_n``, N) reads the grip well enough (:meth:`_drive_reads_grip`), noted in
+        ``_felt_at_s``.
 
         Such a drive's force is the pads' only to within its friction F_f (more than a light
         object's whole grip), and the readout's envelope dynamics (the balanced and accurate
@@ -540,7 +655,7 @@ class GentleGrasp(MultimodeGrasp):
         grip growing e-fold in a few windows runs past the one that holds unseen, and a ramp
         that does not stop keeps the readout settling (tests/test_grip_on_fingertips.py::
         test_friction_drives_probe_on_the_fingertips_at_the_envelope_presets)."""
-        if self.grips_on_fingertips and self._fingertips_blind():
+        if self.grips_on_fingertips and self._fingertips_blind() and not self._drive_reads_grip(drive_n):
             return False
         self._felt_at_s = t
         return True
@@ -598,7 +713,7 @@ class GentleGrasp(MultimodeGrasp):
         window_full = lift.record(applied, self.robot.pads_height_m(obs.lift_pos_m, obs.opening_m))
         rising = window_full and lift.risen_m() >= 0.5 * c.probe_speed_m_s * (lift.plateau_steps - 1) * dt_s
         growth_n_s = 0.0
-        sees = self._probe_sees(t)
+        sees = self._probe_sees(t, obs.grip_force_n)
         if rising and t - self._felt_at_s <= lift.plateau_steps * dt_s:
             if self.grip_n >= self.grip_cap_n:
                 self._pads_slide_at_cap(t, lift.raw_load_n)

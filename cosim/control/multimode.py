@@ -501,7 +501,7 @@ class MultimodeGrasp:
         if self._braking:  # the fingers stopped: squeeze at the grip floor
             self.opening_target, self.grip_n, self._braking = 0.0, self.grip_floor_n, False
         self._felt_in_squeeze.update(pad for pad, sel in self.selectors.items() if sel.trusted and sel.status == "ok")
-        if t - self._t_phase < self.cfg.squeeze_settle_s:
+        if t - self._t_phase < self.cfg.squeeze_settle_s or self._squeeze_eases(obs, t):
             return
         # A touch leaves the floor's pressure on the pads; a fingertip that reads nothing was
         # alarmed by something else (its own pad's inertia as the fingers jerk): close on.
@@ -560,6 +560,11 @@ class MultimodeGrasp:
             return
         self.lift.tare()  # what the lift carries before lifting is not the object's
         self._enter(Phase.LIFT, t, self._lift_message())
+
+    def _squeeze_eases(self, obs: Observation, t: float) -> bool:
+        """Whether the squeeze goes on easing the touch's contact down before the lift (a drive
+        whose dry friction holds it: gentle.py); never here, where the drive's force is the grip."""
+        return False
 
     def _lift_message(self) -> str:
         """What the lift phase's event says it starts from."""
