@@ -339,7 +339,7 @@ class GentleGrasp(MultimodeGrasp):
         self._moved_dir = 0  # the way the drive is moving the fingers: +1 closing, -1 opening, 0 holding
         self._over_periods = 0  # readings in a row of a grip felt over its tolerance (_drive_for_grip)
         self._held_opening_m = math.nan  # the opening in the last period the grip was closed on the fingertips, m
-        self._pull_ref = (math.inf, 0.0)  # (opening m, grip felt N) at the fingertips' last reading (_pulled_to_grip)
+        self._felt_ref = (math.inf, 0.0)  # (opening m, grip felt N) at the fingertips' last reading (_joint_contact_n)
         self._last_grip_n = math.inf  # the grip wanted in the last period closed on the fingertips, N
         self._grip_rose_s = -math.inf  # when it last rose, s
         #: The pad-object friction: measured while the pads slide in the probe (_transfer); until
@@ -882,23 +882,37 @@ class GentleGrasp(MultimodeGrasp):
         still_m = 0.1 * self.touch_speed_m_s * self.dt_s
         self._held_opening_m = obs.opening_m
         if self._fingertips_blind():
-            # Blind (a pad's readout settling: a ramping pressure, a switch's ring-up).  A push
-            # kept on blind runs on unseen: the Panda, closing on its 1 g tissue box by a 5 mm/s
+            # Blind (a pad's readout settling: a ramping pressure, a switch's ring-up): the
+            # contact is the fingers' joints' since the last reading (:meth:`_joint_contact_n`).
+            # A push kept on unseen ran on: the Panda, closing on its 1 g tissue box by a 5 mm/s
             # push past its friction, pressed it to 0.58 N (24x) in the 0.6 s its readout read the
-            # ramp it made "settling".  So a push stops at the grip, in the friction's band; a hold
-            # under the grip (the tolerance's proportional hold below) comes up to it, not to let
-            # the contact creep down unseen (the Panda's box at 1.15x, held at 1 % of its grip,
-            # crept to 0.76x and fell); a pull, a small step from the band's near edge, is kept
-            # (tests/test_grip_on_fingertips.py::test_a_push_is_not_kept_while_the_fingertips_are_blind)
-            # only as far as the fingers' joints say the contact is still over the grip
-            # (:meth:`_pulled_to_grip`).
-            if self._moved_dir > 0:
-                drive_n, self._moved_dir = grip_n, 0
-            elif self._moved_dir == 0 or self._pulled_to_grip(obs.opening_m, grip_n):
-                drive_n, self._moved_dir = max(drive_n, grip_n), 0
+            # ramp it made "settling"; a pull kept on unseen pulled its rubber ball's contact from
+            # 0.38 N to 0.18 N, under the 0.33 N grip, and dropped it.  So a push or a pull goes
+            # on only until the joints say the contact has reached the grip, then stops in the
+            # friction's band; a hold under the grip (the tolerance's proportional hold below)
+            # comes up to it, not to let the contact creep down unseen (the Panda's box at 1.15x,
+            # held at 1 % of its grip, crept to 0.76x and fell); and a grip wanted that rises over
+            # the contact (a load change's answer, a slip's) is pushed for at once, a pad settling
+            # or not: stopped at the grip, the Panda's fingers stood in the friction's band while
+            # grasp-disturb's load came on, and the box fell (tests/test_grip_on_fingertips.py::
+            # test_a_push_is_not_kept_while_the_fingertips_are_blind,
+            # ::test_a_pull_kept_while_blind_stops_where_the_joints_say_the_grip_is,
+            # ::test_a_load_change_is_answered_while_the_fingertips_settle).
+            contact_n = self._joint_contact_n(obs.opening_m)
+            reached = contact_n >= grip_n if self._moved_dir > 0 else contact_n <= grip_n
+            if self._moved_dir != 0 and reached:
+                drive_n = grip_n if self._moved_dir > 0 else max(drive_n, grip_n)
+                self._moved_dir = 0
+            elif self._moved_dir == 0:
+                if push_n > 0.0 and contact_n < grip_n:
+                    most_n = self.cfg.grip_safety * grip_n + self._friction_n
+                    drive_n = min(self._closing_drive_n(grip_n, grip_n - contact_n), most_n)
+                    self._moved_dir, paid_n = 1, push_n
+                else:
+                    drive_n = max(drive_n, grip_n)
         if felt is not None:
             felt_n, sigma_n = felt
-            self._pull_ref = (obs.opening_m, felt_n)
+            self._felt_ref = (obs.opening_m, felt_n)
             off_n = grip_n - felt_n
             # within [1 - FEEL_TOLERANCE / 2, 1 + FEEL_TOLERANCE] of the grip (and 2 sigma): never
             # much under it, a margin over it for the fingers' momentum as a pull stops
@@ -968,17 +982,15 @@ class GentleGrasp(MultimodeGrasp):
             return drive_n, self.opening_target
         return -drive_n, self.robot.home_opening_m
 
-    def _pulled_to_grip(self, opening_m: float, grip_n: float) -> bool:
-        """Whether fingers pulled open have eased the contact down to ``grip_n`` (N), by their own
-        joints: the contact last felt less the pads' contact stiffness k times the opening since
-        (``_pull_ref``; k a full face's, the stiffest contact: the estimate is never over the
-        contact, so the pull stops at the grip or before it, and a softer contact, a sphere's, is
-        left over the grip rather than under it).  A pull kept while the fingertips settle ran on unseen: robosuite's Panda,
-        easing its rubber ball's contact from 0.38 N toward the 0.33 N grip, pulled its fingers
-        0.33 mm open through 0.6 s of a pad settling, and dropped the ball at 0.18 N
-        (tests/test_grip_on_fingertips.py::test_a_pull_kept_while_blind_stops_where_the_joints_say_the_grip_is)."""
-        opened_from_m, felt_n = self._pull_ref
-        return felt_n - self.contact_stiffness_n_m * (opening_m - opened_from_m) <= grip_n
+    def _joint_contact_n(self, opening_m: float) -> float:
+        """The grip on the fingertips by the fingers' own joints, N: the grip last felt less the
+        pads' contact stiffness k times the opening since (``_felt_ref``).  k is a full face's,
+        the stiffest contact: the contact's change is never taken for less than it is, so a pull
+        or a push blind stops at the grip or before it (a softer contact, a sphere's, is left
+        over the grip by a pull and under it by a push, for the fingertips to correct once they
+        read)."""
+        opened_from_m, felt_n = self._felt_ref
+        return felt_n - self.contact_stiffness_n_m * (opening_m - opened_from_m)
 
     def _linkage_drive_n(self, obs: Observation, grip_n: float) -> float:
         """The drive's force that brings the pads of a linkage without dry friction to ``grip_n``,
