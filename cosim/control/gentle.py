@@ -984,11 +984,14 @@ class GentleGrasp(MultimodeGrasp):
 
     def _joint_contact_n(self, opening_m: float) -> float:
         """The grip on the fingertips by the fingers' own joints, N: the grip last felt less the
-        pads' contact stiffness k times the opening since (``_felt_ref``).  k is a full face's,
-        the stiffest contact: the contact's change is never taken for less than it is, so a pull
-        or a push blind stops at the grip or before it (a softer contact, a sphere's, is left
-        over the grip by a pull and under it by a push, for the fingertips to correct once they
-        read)."""
+        pads' contact stiffness k times the opening since (``_felt_ref``).  k is a full face's at
+        small strain (:func:`pad_contact_stiffness_n_m`), the stiffest contact there: a pull or a
+        push blind stops at the grip or before it, and a softer contact, a sphere's, is left over
+        the grip by a pull and under it by a push, for the fingertips to correct once they read.
+        A loaded gel is stiffer (Gent's law; robosuite's Rethink pads' contact rose 1.1 N over
+        1.43 mm at about 1 N, 770 N/m against the 480 N/m here), so a heavy grip's rise is read
+        short and a blind push runs on past it (docs/grippers.md, the fifth session's "not
+        yet")."""
         opened_from_m, felt_n = self._felt_ref
         return felt_n - self.contact_stiffness_n_m * (opening_m - opened_from_m)
 
