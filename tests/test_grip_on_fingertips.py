@@ -50,10 +50,12 @@ class _Obs:
 
 
 class _At:
-    """An observation of fingers ``by_m`` (m) more open than _Obs's."""
+    """An observation of fingers ``by_m`` (m) more open than _Obs's, their drive reading
+    ``drive_n`` (N)."""
 
-    def __init__(self, by_m: float) -> None:
+    def __init__(self, by_m: float, drive_n: float = 0.0) -> None:
         self.opening_m = _Obs.opening_m + by_m
+        self.grip_force_n = drive_n
 
 
 def _drive(c, felt_n: float, grip_n: float, t: float = 10.0, sigma_n: float = 1e-4):
@@ -416,6 +418,25 @@ def test_a_load_change_is_answered_while_the_fingertips_settle(controller):
     assert limit_n > 0.15 + friction_n and opening_m == c.opening_target and c._moved_dir == 1
     assert c._drive_for_grip(_At(-0.5 * 0.05 / k), 10.01, 0.15)[0] > 0.15 + friction_n  # half way: on
     assert c._drive_for_grip(_At(-1.01 * 0.05 / k), 10.015, 0.15)[0] == 0.15  # there by the joints: held
+
+
+def test_a_blind_push_stops_where_the_drive_past_its_friction_says_the_grip_is(controller):
+    """A loaded gel stiffens, and the joints' small-strain estimate reads a heavy grip's rise short
+    (robosuite's Rethink pushed its box's contact to 1.4x the grip at the accurate preset): fingers
+    closing slide through their friction, so their drive's reading less F_f presses the pads, and
+    a blind push stops where that reaches the grip.  A grip wanted that rises again while they
+    close is pushed for at the new grip, its rise not paid to the damping twice."""
+    c, k, friction_n = controller, controller.contact_stiffness_n_m, controller.robot.finger_friction_n
+    _drive(c, 0.1, 0.1)
+    c._fingertips_grip_n, c._fingertips_blind = (lambda: None), (lambda: True)
+    c._drive_for_grip(_Obs(), 10.005, 0.15)
+    closing = -0.2 * 0.05 / k  # a fifth of the way by the joints
+    first_n = c._drive_for_grip(_At(closing, 0.15 + friction_n - 0.01), 10.01, 0.15)[0]
+    assert first_n > 0.15 + friction_n and c._moved_dir == 1  # the drive says short of it: on
+    again_n = c._drive_for_grip(_At(2 * closing, 0.15 + friction_n - 0.01), 10.015, 0.2)[0]  # the grip wanted rose again
+    assert again_n > 0.2 + friction_n and again_n <= c.cfg.grip_safety * 0.2 + friction_n
+    limit_n, _ = c._drive_for_grip(_At(3 * closing, 0.2 + friction_n), 10.02, 0.2)  # the drive says there
+    assert limit_n == 0.2 and c._moved_dir == 0
 
 
 @pytest.mark.slow

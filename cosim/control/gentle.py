@@ -899,17 +899,24 @@ class GentleGrasp(MultimodeGrasp):
             # ::test_a_pull_kept_while_blind_stops_where_the_joints_say_the_grip_is,
             # ::test_a_load_change_is_answered_while_the_fingertips_settle).
             contact_n = self._joint_contact_n(obs.opening_m)
+            if opened_m < -still_m:
+                # Closing, the fingers slide through their friction: the drive's force (its
+                # reading less the joints' damping at their speed) less F_f presses the pads.
+                # It reads a loaded gel's stiffening, which the joints' small-strain estimate
+                # does not (robosuite's Rethink pushed its box's contact to 1.4x the grip).
+                contact_n = max(contact_n, obs.grip_force_n - self._friction_n)
             reached = contact_n >= grip_n if self._moved_dir > 0 else contact_n <= grip_n
-            if self._moved_dir != 0 and reached:
+            if self._moved_dir >= 0 and push_n > 0.0 and contact_n < grip_n:
+                # the grip wanted rose over the contact: pushed for (again, at the new grip)
+                most_n = self.cfg.grip_safety * grip_n + self._friction_n
+                drive_n = min(self._closing_drive_n(grip_n, grip_n - contact_n), most_n)
+                paid_n = push_n if self._moved_dir == 0 else 0.0  # fingers already closing are not paid the rise again
+                self._moved_dir = 1
+            elif self._moved_dir != 0 and reached:
                 drive_n = grip_n if self._moved_dir > 0 else max(drive_n, grip_n)
                 self._moved_dir = 0
             elif self._moved_dir == 0:
-                if push_n > 0.0 and contact_n < grip_n:
-                    most_n = self.cfg.grip_safety * grip_n + self._friction_n
-                    drive_n = min(self._closing_drive_n(grip_n, grip_n - contact_n), most_n)
-                    self._moved_dir, paid_n = 1, push_n
-                else:
-                    drive_n = max(drive_n, grip_n)
+                drive_n = max(drive_n, grip_n)
         if felt is not None:
             felt_n, sigma_n = felt
             self._felt_ref = (obs.opening_m, felt_n)
@@ -990,8 +997,7 @@ class GentleGrasp(MultimodeGrasp):
         the grip by a pull and under it by a push, for the fingertips to correct once they read.
         A loaded gel is stiffer (Gent's law; robosuite's Rethink pads' contact rose 1.1 N over
         1.43 mm at about 1 N, 770 N/m against the 480 N/m here), so a heavy grip's rise is read
-        short and a blind push runs on past it (docs/grippers.md, the fifth session's "not
-        yet")."""
+        short: a blind push reads the drive past its friction as well (:meth:`_drive_for_grip`)."""
         opened_from_m, felt_n = self._felt_ref
         return felt_n - self.contact_stiffness_n_m * (opening_m - opened_from_m)
 
