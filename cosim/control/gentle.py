@@ -476,16 +476,15 @@ class GentleGrasp(MultimodeGrasp):
         the pace, a pull at the band's edge opened robosuite's fingers 15 um past the goal after
         it ended, and left the 100 g box's contact at 0.7 floors, below detection
         (tests/test_grip_on_fingertips.py::test_a_friction_drives_touch_is_eased_down_before_the_lift)."""
-        k = self.contact_stiffness_n_m
         moved_m = obs.opening_m - self._ease_last_m
         self._ease_last_m = obs.opening_m
-        contact_n = self._ease_contact_n - k * (obs.opening_m - self._ease_from_m)
+        contact_n = self._joint_contact_n(obs.opening_m, (self._ease_from_m, self._ease_contact_n))
         left_m = self._ease_to_m - obs.opening_m
         if left_m <= EASE_LAG_PERIODS * max(moved_m, 0.0) or t - self._ease_from_s >= self.ease_wait_s:
             self._ease_to_m, self._ease_from_s = None, t
             self.opening_target, self.grip_n = 0.0, self._ease_goal_n  # squeezed at the goal, and read again
             return True
-        pace_m = (self._ease_goal_n - self.grip_floor_n) / (EASE_LAG_PERIODS * k)  # per period
+        pace_m = (self._ease_goal_n - self.grip_floor_n) / (EASE_LAG_PERIODS * self.contact_stiffness_n_m)  # per period
         if moved_m < 0.25 * pace_m:
             self._ease_pull_n *= 1.5
         elif moved_m > 2.0 * pace_m:
@@ -989,16 +988,17 @@ class GentleGrasp(MultimodeGrasp):
             return drive_n, self.opening_target
         return -drive_n, self.robot.home_opening_m
 
-    def _joint_contact_n(self, opening_m: float) -> float:
+    def _joint_contact_n(self, opening_m: float, felt_ref: tuple[float, float] | None = None) -> float:
         """The grip on the fingertips by the fingers' own joints, N: the grip last felt less the
-        pads' contact stiffness k times the opening since (``_felt_ref``).  k is a full face's at
+        pads' contact stiffness k times the opening since (``felt_ref``, (opening m, grip felt N):
+        by default ``_felt_ref``, the hold's last reading; the squeeze's ease passes its own).  k is a full face's at
         small strain (:func:`pad_contact_stiffness_n_m`), the stiffest contact there: a pull or a
         push blind stops at the grip or before it, and a softer contact, a sphere's, is left over
         the grip by a pull and under it by a push, for the fingertips to correct once they read.
         A loaded gel is stiffer (Gent's law; robosuite's Rethink pads' contact rose 1.1 N over
         1.43 mm at about 1 N, 770 N/m against the 480 N/m here), so a heavy grip's rise is read
         short: a blind push reads the drive past its friction as well (:meth:`_drive_for_grip`)."""
-        opened_from_m, felt_n = self._felt_ref
+        opened_from_m, felt_n = self._felt_ref if felt_ref is None else felt_ref
         return felt_n - self.contact_stiffness_n_m * (opening_m - opened_from_m)
 
     def _linkage_drive_n(self, obs: Observation, grip_n: float) -> float:
