@@ -175,3 +175,61 @@ def test_the_grip_follows_the_load_never_down_and_never_over_its_cap():
     assert ratchet_grip_n(2.0, 5.0, 10.0, 100.0, DT_S) == pytest.approx(2.5)  # at the grip rate
     assert ratchet_grip_n(9.9, 50.0, 10.0, 100.0, DT_S) == 10.0  # never over the cap
     assert math.isfinite(ratchet_grip_n(0.0, 1.0, 10.0, 100.0, DT_S))
+
+
+def _descend(lift: LiftPlan, landing_m: float, margin_m: float, end_m_s: float) -> tuple[list[float], list[float]]:
+    """Lower the goal as the place does (braking to ``end_m_s`` by ``margin_m`` over the landing, a
+    capped landing speed by the margin's share) until it reaches ``landing_m``: the goal's
+    heights and speeds, a period apart."""
+    heights, speeds = [], []
+    while lift.goal_m > landing_m:
+        lift.lower(lift.goal_m - landing_m - margin_m, 0.1, end_m_s, DT_S, margin_m)
+        heights.append(lift.goal_m)
+        speeds.append(lift.speed_m_s)
+    return heights, speeds
+
+
+def _descent(cap_m_s: float, margin_m: float = 0.005, end_m_s: float = 0.02) -> tuple[list[float], list[float]]:
+    lift = plan()
+    lift.goal_m = lift.target_m = 0.05
+    lift.touchdown_cap_m_s = cap_m_s
+    return _descend(lift, 0.0, margin_m, end_m_s)
+
+
+def test_a_slow_landing_keeps_the_margins_time_not_its_distance():
+    """LiftPlan.lower with a landing speed capped under the touchdown speed: the lift brakes to
+    the touchdown speed by the margin over the landing as before, and to the cap by the margin's
+    cap / speed share, so it spends the margin's time at the touchdown speed (M / v) at the cap
+    before the landing, not the margin's distance (M / c: 5 mm at 1.4 mm/s is 3.6 s, which ran a
+    light object's place out of the scenario's time)."""
+    margin_m, end_m_s, cap_m_s = 0.005, 0.02, 0.0014
+    heights, speeds = _descent(cap_m_s, margin_m, end_m_s)
+    assert speeds[-1] == pytest.approx(cap_m_s, rel=1e-9)
+    # at the cap from M c / v over the landing on, within a period's travel at the touchdown speed
+    capped_from = min(h for h, v in zip(heights, speeds, strict=True) if v > cap_m_s * (1 + 1e-9))
+    assert capped_from == pytest.approx(margin_m * cap_m_s / end_m_s, abs=end_m_s * DT_S)
+    # never faster than the touchdown speed's stage alone, which is at that speed at the landing
+    free_heights, free_speeds = _descent(math.inf, margin_m, end_m_s)
+    assert all(v <= fv * (1 + 1e-9) for v, fv in zip(speeds, free_speeds, strict=False))
+    assert free_speeds[-1] == pytest.approx(end_m_s)
+    # what the slow stage adds to the free descent, the closed form of its three pieces (at v to
+    # the braking, braking at a from v to c, M c / v at c, against M / v at v), within the time at
+    # c of the period's travel at v the cap may be reached late by (above)
+    v, c, a = end_m_s, cap_m_s, 0.5
+    braking_m = (v * v - c * c) / (2 * a)
+    slow_s = (margin_m - margin_m * c / v - braking_m) / v + (v - c) / a + margin_m / v
+    assert (len(heights) - len(free_heights)) * DT_S == pytest.approx(slow_s - margin_m / v, abs=v * DT_S / c)
+    assert slow_s - margin_m / v < 0.1 * (margin_m / c)  # the old cap over the whole margin: 3.6 s
+
+
+def test_a_landing_cap_over_the_touchdown_speed_leaves_the_descent_as_it_was():
+    """A cap at or over the touchdown speed (a heavy object's landing): the margin passed to
+    LiftPlan.lower changes nothing."""
+    lift = plan()
+    lift.goal_m = lift.target_m = 0.05
+    lift.touchdown_cap_m_s = 0.05
+    heights = []
+    while lift.goal_m > 0.0:
+        lift.lower(lift.goal_m - 0.005, 0.1, 0.02, DT_S)
+        heights.append(lift.goal_m)
+    assert _descent(0.05)[0] == heights

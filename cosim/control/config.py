@@ -146,6 +146,11 @@ class MultimodeConfig(MotionConfig):
     touchdown_margin_m : the descent slows to the touchdown speed this far above the lift's
         braking distance over where the object rested, m: an object that crept down in the
         fingers by up to this (a quarter of the 20 mm pad) still lands at the touchdown speed.
+        Where the object rested is the lift's home, or for the gentle controller where its pads
+        were first seen to carry the weight (they slide up the object first).  A landing speed
+        capped under the touchdown speed (the gentle controller's, for a light object) is
+        reached by the margin's time at the touchdown speed, not its distance, over the landing
+        (``LiftPlan.lower``).
     friction_assumed : friction coefficient the grip starts from (the controller never knows
         the object's): 0.8, the low end of a silicone film on dry common objects (0.8-1.2,
         models/gripper.xml).  A lower real friction is measured during the lift (the friction

@@ -61,6 +61,7 @@ smoothly (models/README.md, "Sliding pads").
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 from piezotip.cosim.control.config import GentleConfig
@@ -95,7 +96,7 @@ TOUCH_FLOORS = 3.0
 #: The most pulls the squeeze eases a friction drive's touch down by (GentleGrasp._squeeze_eases):
 #: a second one for a contact the first left over the tolerance (the soft friction's creep).
 EASE_PULLS = 2
-#: The periods fingers eased open go on opening after the pull ends (GentleGrasp._ease_step): the
+#: The periods fingers eased open go on opening after the pull ends (GentleGrasp._pull_drive_n): the
 #: drive's force follows its command a period late and MuJoCo's soft friction follows the force
 #: about as late again (robosuite's fingers: 2-3 periods at 5 ms).
 EASE_LAG_PERIODS = 3
@@ -295,6 +296,20 @@ def grip_read_n(drive_n: float, drive_error_n: float, felt_n: float | None, felt
     return (w_drive * drive_n + w_felt * felt_n) / (w_drive + w_felt)
 
 
+@dataclass(slots=True)
+class Pull:
+    """A paced pull opening a friction drive's fingers (:meth:`GentleGrasp._pull_drive_n`): its
+    state, changed each period."""
+
+    to_m: float  #: the opening it eases the contact to, m
+    from_m: float  #: the opening as it started, m
+    contact_n: float  #: the contact felt then, N
+    from_s: float  #: when it started, s
+    pace_m: float  #: the opening per period whose run-on the contact can take, m
+    pull_n: float  #: the force it opens the fingers by, C - D, N
+    last_m: float  #: the opening in its last period, m
+
+
 @register("gentle", config=GentleConfig, experiment=True, senses=True)
 class GentleGrasp(MultimodeGrasp):
     """The multimode controller with the friction probe (the module docstring): the same
@@ -350,15 +365,14 @@ class GentleGrasp(MultimodeGrasp):
         self._grip_goal_n = 0.0  # the grip the raise brings the probe's down to, N (_carry)
         self._span: list[tuple[float, float]] = []  # (grip applied, raw load) since the last verdict
         self._unslid: list[tuple[float, float]] = []  # the same since the pads were last seen to slide (_transfer)
+        self._unslid_lift_m: list[float] = []  # the lift's height at each of them, m
+        self._lifted_off_m = -math.inf  # the lift's height as the pads first carried the weight, m (_rested_lift_m)
         self._felt_at_s = -math.inf  # when every fingertip last had a trusted reading in the probe, s (_probe_sees)
-        self._ease_to_m: float | None = None  # the opening the squeeze's pull eases the touch to, m (_squeeze_eases)
-        self._ease_last_m = math.nan  # the opening in the pull's last period, m
-        self._ease_from_s = -math.inf  # when the last pull started, then when it ended, s
+        self._ease: Pull | None = None  # the squeeze's pull easing the touch down (_squeeze_eases)
+        self._ease_from_s = -math.inf  # when the squeeze's last pull ended, s
         self._eases = 0  # how many pulls the squeeze made
-        self._ease_contact_n = 0.0  # the contact felt as the pull started, N
-        self._ease_from_m = math.nan  # the opening then, m
-        self._ease_pull_n = 0.0  # the force the pull opens the fingers by, C - D, N
-        self._ease_goal_n = 0.0  # the contact the pull eases to, N: the squeeze's grip after it
+        self._ease_goal_n = 0.0  # the contact the squeeze's pull eases to, N: the squeeze's grip after it
+        self._hold_pull: Pull | None = None  # the carry's pull easing a contact held over the grip (_drive_for_grip)
         #: How long the squeeze waits for the fingertips to read the touch, s: the readout's
         #: longest window, in which a reading that settles settles (sensor.inference.WINDOW_S).
         self.ease_wait_s = WINDOW_S
@@ -417,6 +431,15 @@ class GentleGrasp(MultimodeGrasp):
             f"{friction:.3g}, pads {self.contact_stiffness_n_m:.3g} N/m, the fingers' stop {give_way_s * 1e3:.3g} ms)",
         )
 
+    def _rested_lift_m(self) -> float:
+        """Where the object rested, as the lift's height, m: where the pads were first seen to carry
+        its weight (the lowest such height since they last slid), or the lift's home if lower.
+        The pads slide up the object while the probe measures the friction, and it leaves the
+        table that much higher: robosuite's Rethink gripper slid 6 mm up its 100 g box at the
+        balanced preset, past the descent's 5 mm margin over the home, and landed it at the full
+        lift speed.  The object left the table at that height or below it."""
+        return max(self.robot.home_lift_m, self._lifted_off_m)
+
     def _lift_message(self) -> str:
         return f"grip {self.grip_n:.3g} N: probing for the grip that holds"
 
@@ -432,12 +455,18 @@ class GentleGrasp(MultimodeGrasp):
         2.5x the touch's bound; the probe then found it carried from there (friction at least
         0.25 for 0.6) and held it at 3x its need.  So, once every fingertip reads (waiting up to
         the readout's longest window, ``ease_wait_s``), a contact felt over the touch's bound is
-        eased down to the middle of the floor and the bound (:meth:`_ease_step`), and read again.
+        eased down to the middle of the floor and the bound (:meth:`_pull_drive_n`), and read again.
         """
         if not self.grips_on_fingertips:
             return False
-        if self._ease_to_m is not None:
-            return self._ease_step(obs, t)
+        if self._ease is not None:
+            drive_n = self._pull_drive_n(self._ease, obs, t)
+            if drive_n is None:
+                self._ease, self._ease_from_s = None, t
+                self.opening_target, self.grip_n = 0.0, self._ease_goal_n  # squeezed at the goal, and read again
+            else:
+                self._set_drive(drive_n)
+            return True
         felt = self._fingertips_grip_n()
         if felt is None:  # waiting for a reading, from the squeeze's settling or the last pull
             return t - max(self._ease_from_s, self._t_phase + self.cfg.squeeze_settle_s) < self.ease_wait_s
@@ -447,52 +476,62 @@ class GentleGrasp(MultimodeGrasp):
             return False
         self._eases += 1
         self._ease_goal_n = goal_n
-        self._ease_to_m = obs.opening_m + (felt_n - goal_n) / self.contact_stiffness_n_m
-        self._ease_last_m = self._ease_from_m = obs.opening_m
-        self._ease_from_s, self._ease_contact_n = t, felt_n
-        self._ease_pull_n = 0.125 * self._friction_n
-        self._set_drive(felt_n - self._ease_pull_n)
+        # paced so that the run-on presses the contact by at most the goal less the floor
+        self._ease = self._start_pull(obs, t, felt_n, felt_n - goal_n, goal_n - self.grip_floor_n)
+        self._set_drive(felt_n - self._ease.pull_n)
         self._event(
             t,
             "ease",
             f"the touch left {felt_n:.3g} N on the fingertips, over its bound {self.touch_force_n:.3g} N: opening the fingers "
-            f"{(self._ease_to_m - obs.opening_m) * 1e6:.3g} um to bring it to {goal_n:.3g} N (pads {self.contact_stiffness_n_m:.3g} N/m)",
+            f"{(self._ease.to_m - obs.opening_m) * 1e6:.3g} um to bring it to {goal_n:.3g} N (pads {self.contact_stiffness_n_m:.3g} N/m)",
         )
         return True
 
-    def _ease_step(self, obs: Observation, t: float) -> bool:
-        """A period of the squeeze's ease (:meth:`_squeeze_eases`): the fingers opened to
-        ``_ease_to_m``, by the felt excess over the pads' contact stiffness k (a full face's, the
-        stiffest contact: a softer one is left over the goal, never let go), read on their own
-        joints, the contact C taken as the felt one less k times the opening since.
+    def _start_pull(self, obs: Observation, t: float, felt_n: float, excess_n: float, run_on_n: float) -> Pull:
+        """A paced pull (:meth:`_pull_drive_n`) that takes ``excess_n`` (N) off a contact felt at
+        ``felt_n`` (N) by opening the fingers by it over the pads' contact stiffness, at the pace
+        whose EASE_LAG_PERIODS of run-on press the contact by at most ``run_on_n`` (N)."""
+        k = self.contact_stiffness_n_m
+        return Pull(
+            to_m=obs.opening_m + excess_n / k,
+            from_m=obs.opening_m,
+            contact_n=felt_n,
+            from_s=t,
+            pace_m=run_on_n / (EASE_LAG_PERIODS * k),
+            pull_n=0.125 * self._friction_n,
+            last_m=obs.opening_m,
+        )
 
-        A force alone cannot do it: the contact is 30x under the drive's friction F_f, in whose
+    def _pull_drive_n(self, pull: Pull, obs: Observation, t: float) -> float | None:
+        """A period of a paced pull on a drive with dry friction F_f: the drive's force (N on the
+        closing, negative pulls open) that opens the fingers toward ``pull.to_m``, read on their own
+        joints, the contact C taken as the felt one less the pads' contact stiffness k (a full
+        face's, the stiffest contact at small strain: a softer one is left over the goal, never
+        let go) times the opening since; None once the pull ends, with its run-on left to go (or
+        after the readout's longest window).
+
+        A force alone cannot do it: the contact is far under the drive's friction F_f, in whose
         band MuJoCo's soft friction lets the fingers creep at a speed that grows with the force
         opening them, C - D (D the drive's), and follows it a few periods late.  So the pull is
         paced: its force starts at F_f / 8 and is raised by half while the fingers open at under
-        a quarter of the pace, halved while they open at over twice it; the pace,
-        (goal - floor) / (EASE_LAG_PERIODS k dt) of opening, lets fingers that go on for
-        EASE_LAG_PERIODS periods after the pull ends press the contact by at most the goal less
-        the floor (the pull ends with the way left within those periods' motion).  Without
-        the pace, a pull at the band's edge opened robosuite's fingers 15 um past the goal after
-        it ended, and left the 100 g box's contact at 0.7 floors, below detection
+        a quarter of the pace, halved while they open at over twice it; the pace lets fingers
+        that go on for EASE_LAG_PERIODS periods after the pull ends press the contact by at most
+        the run-on it was started with (the pull ends with the way left within those periods'
+        motion).  Without the pace, a pull at the band's edge opened robosuite's fingers 15 um past
+        the goal after it ended, and left the 100 g box's contact at 0.7 floors, below detection
         (tests/test_grip_on_fingertips.py::test_a_friction_drives_touch_is_eased_down_before_the_lift)."""
-        moved_m = obs.opening_m - self._ease_last_m
-        self._ease_last_m = obs.opening_m
-        contact_n = self._joint_contact_n(obs.opening_m, (self._ease_from_m, self._ease_contact_n))
-        left_m = self._ease_to_m - obs.opening_m
-        if left_m <= EASE_LAG_PERIODS * max(moved_m, 0.0) or t - self._ease_from_s >= self.ease_wait_s:
-            self._ease_to_m, self._ease_from_s = None, t
-            self.opening_target, self.grip_n = 0.0, self._ease_goal_n  # squeezed at the goal, and read again
-            return True
-        pace_m = (self._ease_goal_n - self.grip_floor_n) / (EASE_LAG_PERIODS * self.contact_stiffness_n_m)  # per period
-        if moved_m < 0.25 * pace_m:
-            self._ease_pull_n *= 1.5
-        elif moved_m > 2.0 * pace_m:
-            self._ease_pull_n *= 0.5
-        self._ease_pull_n = min(self._ease_pull_n, self._friction_n)
-        self._set_drive(contact_n - self._ease_pull_n)
-        return True
+        moved_m = obs.opening_m - pull.last_m
+        pull.last_m = obs.opening_m
+        contact_n = self._joint_contact_n(obs.opening_m, (pull.from_m, pull.contact_n))
+        left_m = pull.to_m - obs.opening_m
+        if left_m <= EASE_LAG_PERIODS * max(moved_m, 0.0) or t - pull.from_s >= self.ease_wait_s:
+            return None
+        if moved_m < 0.25 * pull.pace_m:
+            pull.pull_n *= 1.5
+        elif moved_m > 2.0 * pull.pace_m:
+            pull.pull_n *= 0.5
+        pull.pull_n = min(pull.pull_n, self._friction_n)
+        return contact_n - pull.pull_n
 
     def _set_drive(self, drive_n: float) -> None:
         """Command the drive's force ``drive_n`` (N on the closing; negative pulls open) through the
@@ -733,6 +772,7 @@ class GentleGrasp(MultimodeGrasp):
             return  # the fingertips' grip unread this period (the drive's is not theirs): no evidence
         self._span.append((applied, lift.raw_load_n))
         self._unslid.append(self._span[-1])
+        self._unslid_lift_m.append(obs.lift_pos_m)
         falls = self.contact_falls
         elasticity, error, grip_n, load_n = probe_verdict(self._span, c.grip_safety, falls)
         if math.isinf(error):
@@ -759,7 +799,14 @@ class GentleGrasp(MultimodeGrasp):
         # box from 8 mN, and the next span began at 32 mN: "friction at least 0.17" for 0.6,
         # held at 4.9x; tests/test_grip_on_fingertips.py::
         # test_the_carried_bound_is_the_least_grip_since_the_pads_last_slid).
-        carried_from_n = least_carrying_grip_n(self._unslid, sum(last) / len(last), self.steady_load_fraction)
+        weight_n = sum(last) / len(last)
+        carried_from_n = least_carrying_grip_n(self._unslid, weight_n, self.steady_load_fraction)
+        carrying = [
+            lift_m
+            for (_, load), lift_m in zip(self._unslid, self._unslid_lift_m, strict=True)
+            if load >= (1.0 - 2.0 * self.steady_load_fraction) * weight_n
+        ]
+        lifted_off_m = min(carrying) if carrying else obs.lift_pos_m
         peak_n = max(load for _, load in self._span)
         self._span = [self._span[-1]]
         if elasticity >= 0.5:
@@ -783,7 +830,7 @@ class GentleGrasp(MultimodeGrasp):
                 )
                 return
             self._slides.append((read, peak_n))
-            self._unslid = [self._span[-1]]
+            self._unslid, self._unslid_lift_m = [self._span[-1]], self._unslid_lift_m[-1:]
             self.friction, self._slid = read, True
             return
         if not load_is_steady(last, self.steady_load_fraction):
@@ -794,7 +841,8 @@ class GentleGrasp(MultimodeGrasp):
         # The weight is the load found steady, the last third's: the plateau window can still
         # hold the stick-slip before it, and read the weight low (tests/test_third_party_grippers.py::
         # test_the_gentle_probe_reads_the_pandas_contact_creeping_down_from_the_touch[glass-jar-300g-0.27]).
-        self._carry(obs, t, sum(last) / len(last), carried_from_n, grip_n)
+        self._lifted_off_m = lifted_off_m
+        self._carry(obs, t, weight_n, carried_from_n, grip_n)
 
     def _carry(self, obs: Observation, t: float, weight_n: float, carried_from_n: float, carried_mean_n: float) -> None:
         """The load stayed while the grip changed: the object is off the table, its weight the
@@ -875,6 +923,16 @@ class GentleGrasp(MultimodeGrasp):
             return grip_n, self.opening_target
         if grip_n > self._last_grip_n:  # raised (a slip's or a load change's answer): no pull for a while
             self._grip_rose_s = t
+            if self._hold_pull is not None:  # a pull is over: held at the grip, then closed on if under it
+                self._hold_pull, self._moved_dir, self._drive_n = None, 0, grip_n
+        if self._hold_pull is not None:
+            pulled_n = self._pull_drive_n(self._hold_pull, obs, t)
+            if pulled_n is not None:
+                self._last_grip_n, self._held_opening_m = grip_n, obs.opening_m
+                self._slip_watch_waits(t)  # a pressure pulled down is no slip
+                self._drive_n = pulled_n
+                return (pulled_n, self.opening_target) if pulled_n >= 0.0 else (-pulled_n, self.robot.home_opening_m)
+            self._hold_pull, self._moved_dir, self._drive_n, self._over_periods = None, 0, grip_n, 0
         push_n, paid_n = self._rise_push_n(grip_n - self._last_grip_n), 0.0
         self._last_grip_n = grip_n
         felt = self._fingertips_grip_n()
@@ -986,6 +1044,24 @@ class GentleGrasp(MultimodeGrasp):
                 most_n = self.cfg.grip_safety * grip_n + self._friction_n
                 drive_n = min(self._closing_drive_n(grip_n, off_n), most_n)
                 self._moved_dir, paid_n = 1, push_n
+            elif (
+                self._over_periods >= self.cfg.persist
+                and t - self._grip_rose_s >= 6.0 * self.cfg.load_filter_s
+                and felt_n - self._friction_n < grip_n
+                and self._moved_dir >= 0
+            ):
+                # Too hard, and held in the friction's band (its near edge, felt - F_f, under the
+                # grip): a pull from the grip down by a share of the grip a period moves nothing
+                # until it has come down by nearly F_f, and the contact creeps down at its own
+                # pace meanwhile (robosuite's Rethink held its tissue box at 4x the grip for
+                # the whole hold: 0.042 N down to 0.011 N in 1.7 s).  The fingers are opened by
+                # half the excess over the pads' contact stiffness, paced on their joints so that
+                # the run-on stays within the tolerance's lower half, and read again: half, as a
+                # loaded gel is stiffer than the small-strain face (up to twice here: a pull by the
+                # whole excess would let go of the object where it is).
+                self._hold_pull = self._start_pull(obs, t, felt_n, 0.5 * (felt_n - grip_n), 0.5 * FEEL_TOLERANCE * grip_n)
+                drive_n, self._moved_dir = felt_n - self._hold_pull.pull_n, -1
+                self._slip_watch_waits(t)
             elif self._over_periods >= self.cfg.persist and t - self._grip_rose_s >= 6.0 * self.cfg.load_filter_s:
                 # Too hard for ``persist`` readings (sliding pads' chatter reads high one period
                 # and low the next): pulled open from the band's near edge on by the excess over

@@ -566,6 +566,12 @@ class MultimodeGrasp:
         whose dry friction holds it: gentle.py); never here, where the drive's force is the grip."""
         return False
 
+    def _rested_lift_m(self) -> float:
+        """The lift's height at which the object it carries rested on the table, m: where the lift
+        was as the fingers touched it (its home); the gentle controller's pads slide up the
+        object before it leaves the table, and it lands that much higher (gentle.py)."""
+        return self.robot.home_lift_m
+
     def _lift_message(self) -> str:
         """What the lift phase's event says it starts from."""
         return f"grip {self.grip_n:.3g} N, assumed friction {self.friction:g}"
@@ -796,10 +802,11 @@ class MultimodeGrasp:
         c, lift = self.cfg, self.lift
         if self.gave_up is None and self._carried_checks(obs, t, True):
             return
-        touchdown = self.robot.home_lift_m
+        touchdown = self._rested_lift_m()
         # Full speed, braking at the lift's acceleration to the touchdown speed by
-        # ``touchdown_margin_m`` above where the object rested, then the touchdown speed.
-        lift.lower(lift.goal_m - touchdown - c.touchdown_margin_m, c.lift_speed_m_s, c.touchdown_speed_m_s, dt_s)
+        # ``touchdown_margin_m`` above where the object rested, then the touchdown speed (and, a
+        # landing speed capped below it, that cap by the same time's travel at it: LiftPlan.lower).
+        lift.lower(lift.goal_m - touchdown - c.touchdown_margin_m, c.lift_speed_m_s, c.touchdown_speed_m_s, dt_s, c.touchdown_margin_m)
         lift.target_m = lift.servo_target(lift.held_load_n, -lift.speed_m_s)
         table_has_weight = lift.table_took_weight(c.touchdown_speed_m_s, c.table_load_fraction)
         below = obs.lift_pos_m < touchdown - c.touchdown_margin_m
