@@ -434,10 +434,12 @@ class GentleGrasp(MultimodeGrasp):
     def _rested_lift_m(self) -> float:
         """Where the object rested, as the lift's height, m: where the pads were first seen to carry
         its weight (the lowest such height since they last slid), or the lift's home if lower.
-        The pads slide up the object while the probe measures the friction, and it leaves the
-        table that much higher: robosuite's Rethink gripper slid 6 mm up its 100 g box at the
-        balanced preset, past the descent's 5 mm margin over the home, and landed it at the full
-        lift speed.  The object left the table at that height or below it."""
+        The pads slide up the object while the probe measures the friction (2-3 mm on the house
+        gripper, 6 mm on robosuite's Rethink gripper at the balanced preset), and it lands that
+        much higher: braking by a 1 mm margin over the home, the default box met the table at
+        34 mm/s and pressed the pads to 1.27 N (tests/test_gentle_touch.py::
+        test_the_descent_slows_by_its_margin_over_where_the_object_left_the_table).  The object
+        left the table at that height or below it."""
         return max(self.robot.home_lift_m, self._lifted_off_m)
 
     def _lift_message(self) -> str:
