@@ -61,6 +61,7 @@ smoothly (models/README.md, "Sliding pads").
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -235,11 +236,17 @@ def carried_nothing_at_first(span: list[tuple[float, float]], safety: float, fal
     return _grew(g1, g3, safety, falls) and l1 <= 0.0
 
 
-def least_carrying_grip_n(span: list[tuple[float, float]], weight_n: float, fraction: float) -> float:
-    """The least grip of a probe's span of (grip applied, load) samples, N, at which the pads
-    carried the weight ``weight_n`` (N): a sample whose load is within twice ``fraction`` of it
-    (the scatter the lift's own acceleration can give a carried load, :func:`load_is_steady`,
-    whose peak is about twice its deviation).  The friction is at least weight / 2 G there.
+def carries_weight(load_n: float, weight_n: float, fraction: float) -> bool:
+    """Whether a probe's load ``load_n`` (N) is the weight ``weight_n`` (N) carried: within twice
+    ``fraction`` of it (the scatter the lift's own acceleration can give a carried load,
+    :func:`load_is_steady`, whose peak is about twice its deviation)."""
+    return load_n >= (1.0 - 2.0 * fraction) * weight_n
+
+
+def least_carrying_grip_n(span: Sequence[tuple[float, ...]], weight_n: float, fraction: float) -> float:
+    """The least grip of a probe's span of (grip applied, load, ...) samples, N, at which the pads
+    carried the weight ``weight_n`` (N) (:func:`carries_weight`).  The friction is at least
+    weight / 2 G there.
 
     Not the span's first grip: a span that began while the pads still slid up the object (the
     load still growing with the grip, the table holding the rest) would bound the friction by a
@@ -247,8 +254,8 @@ def least_carrying_grip_n(span: list[tuple[float, float]], weight_n: float, frac
     1.1 g box's 0.6 and dropped it; tests/test_grip_economy.py::
     test_the_carried_bound_is_the_least_grip_that_carried_the_weight).  On a falling span
     (a drive with dry friction) it is the last grip that still carried it."""
-    carrying = [g for g, load in span if load >= (1.0 - 2.0 * fraction) * weight_n]
-    return min(carrying) if carrying else min(g for g, _ in span)
+    carrying = [g for g, load, *_ in span if carries_weight(load, weight_n, fraction)]
+    return min(carrying) if carrying else min(g for g, *_ in span)
 
 
 def lifted_off_friction(slides: list[tuple[float, float]], weight_n: float, fraction: float) -> float:
@@ -364,8 +371,8 @@ class GentleGrasp(MultimodeGrasp):
         self._slides: list[tuple[float, float]] = []  # each sliding span's (friction read, highest load N) (_carry)
         self._grip_goal_n = 0.0  # the grip the raise brings the probe's down to, N (_carry)
         self._span: list[tuple[float, float]] = []  # (grip applied, raw load) since the last verdict
-        self._unslid: list[tuple[float, float]] = []  # the same since the pads were last seen to slide (_transfer)
-        self._unslid_lift_m: list[float] = []  # the lift's height at each of them, m
+        #: (grip applied N, raw load N, the lift's height m) since the pads were last seen to slide (_transfer)
+        self._unslid: list[tuple[float, float, float]] = []
         self._lifted_off_m = -math.inf  # the lift's height as the pads first carried the weight, m (_rested_lift_m)
         self._felt_at_s = -math.inf  # when every fingertip last had a trusted reading in the probe, s (_probe_sees)
         self._ease: Pull | None = None  # the squeeze's pull easing the touch down (_squeeze_eases)
@@ -538,10 +545,15 @@ class GentleGrasp(MultimodeGrasp):
     def _set_drive(self, drive_n: float) -> None:
         """Command the drive's force ``drive_n`` (N on the closing; negative pulls open) through the
         squeeze's opening target and force limit."""
+        self.grip_n, self.opening_target = self._limit_and_target(drive_n, 0.0)
+
+    def _limit_and_target(self, drive_n: float, closing_target_m: float) -> tuple[float, float]:
+        """The force limit (N) and opening target (m) that drive the fingers with the signed force
+        ``drive_n`` (N on the closing): toward ``closing_target_m`` at it, or, negative, open
+        toward home at its size."""
         if drive_n >= 0.0:
-            self.opening_target, self.grip_n = 0.0, drive_n
-        else:
-            self.opening_target, self.grip_n = self.robot.home_opening_m, -drive_n
+            return drive_n, closing_target_m
+        return -drive_n, self.robot.home_opening_m
 
     def _init_touch(self, fingertip: Fingertip, width_prior_m: tuple[float, float] | None) -> None:
         """The touch's bound, the speed that keeps it, and where the fingers slow to it (the
@@ -773,8 +785,7 @@ class GentleGrasp(MultimodeGrasp):
         if not sees:
             return  # the fingertips' grip unread this period (the drive's is not theirs): no evidence
         self._span.append((applied, lift.raw_load_n))
-        self._unslid.append(self._span[-1])
-        self._unslid_lift_m.append(obs.lift_pos_m)
+        self._unslid.append((applied, lift.raw_load_n, obs.lift_pos_m))
         falls = self.contact_falls
         elasticity, error, grip_n, load_n = probe_verdict(self._span, c.grip_safety, falls)
         if math.isinf(error):
@@ -803,11 +814,7 @@ class GentleGrasp(MultimodeGrasp):
         # test_the_carried_bound_is_the_least_grip_since_the_pads_last_slid).
         weight_n = sum(last) / len(last)
         carried_from_n = least_carrying_grip_n(self._unslid, weight_n, self.steady_load_fraction)
-        carrying = [
-            lift_m
-            for (_, load), lift_m in zip(self._unslid, self._unslid_lift_m, strict=True)
-            if load >= (1.0 - 2.0 * self.steady_load_fraction) * weight_n
-        ]
+        carrying = [lift_m for _, load, lift_m in self._unslid if carries_weight(load, weight_n, self.steady_load_fraction)]
         lifted_off_m = min(carrying) if carrying else obs.lift_pos_m
         peak_n = max(load for _, load in self._span)
         self._span = [self._span[-1]]
@@ -832,7 +839,7 @@ class GentleGrasp(MultimodeGrasp):
                 )
                 return
             self._slides.append((read, peak_n))
-            self._unslid, self._unslid_lift_m = [self._span[-1]], self._unslid_lift_m[-1:]
+            self._unslid = self._unslid[-1:]
             self.friction, self._slid = read, True
             return
         if not load_is_steady(last, self.steady_load_fraction):
@@ -933,7 +940,7 @@ class GentleGrasp(MultimodeGrasp):
                 self._last_grip_n, self._held_opening_m = grip_n, obs.opening_m
                 self._slip_watch_waits(t)  # a pressure pulled down is no slip
                 self._drive_n = pulled_n
-                return (pulled_n, self.opening_target) if pulled_n >= 0.0 else (-pulled_n, self.robot.home_opening_m)
+                return self._limit_and_target(pulled_n, self.opening_target)
             self._hold_pull, self._moved_dir, self._drive_n, self._over_periods = None, 0, grip_n, 0
         push_n, paid_n = self._rise_push_n(grip_n - self._last_grip_n), 0.0
         self._last_grip_n = grip_n
@@ -1079,9 +1086,7 @@ class GentleGrasp(MultimodeGrasp):
         self._drive_n = drive_n = min(self.grip_cap_n, max(-self.robot.finger_force_limit_n, drive_n))
         # closing on, the grip's rise paid to the fingers' damping, this period only (not kept in the drive)
         drive_n = min(self.grip_cap_n, drive_n + paid_n)
-        if drive_n >= 0.0:
-            return drive_n, self.opening_target
-        return -drive_n, self.robot.home_opening_m
+        return self._limit_and_target(drive_n, self.opening_target)
 
     def _joint_contact_n(self, opening_m: float, felt_ref: tuple[float, float] | None = None) -> float:
         """The grip on the fingertips by the fingers' own joints, N: the grip last felt less the
@@ -1225,6 +1230,7 @@ class GentleGrasp(MultimodeGrasp):
 __all__ = [
     "GentleGrasp",
     "carried_nothing_at_first",
+    "carries_weight",
     "grip_read_n",
     "least_carrying_grip_n",
     "lifted_off_friction",
