@@ -13,6 +13,7 @@ from piezotip import api, scenarios
 from piezotip.analysis.referee import judge
 from piezotip.cosim.control.gentle import (
     carried_nothing_at_first,
+    fingers_closed_for,
     grip_read_n,
     least_carrying_grip_n,
     lifted_off_friction,
@@ -337,3 +338,19 @@ def test_objects_no_test_tunes_on_are_held_within_one_and_a_half_of_their_need_a
     assert result.outcome == "success", result.reason
     assert 1.0 < s["grip_margin"] <= 1.5
     assert s["peak_contact_n"] < obj["object.crush_force_n"]
+
+
+def test_a_grip_read_to_rise_counts_only_where_the_fingers_closed():
+    """fingers_closed_for: a rise of the grip read between a span's first and last thirds asks the
+    fingers' mean opening to have fallen between them; a fall is never asked (the fingers open, or
+    close on an object narrowing under the pads); a span too short for a verdict passes."""
+    grips = [0.0096, 0.0097, 0.0102, 0.012, 0.0121, 0.0122]  # robosuite's Panda reading its can's creep
+    opened = [(g, 0.0249, 0.059976 + (1e-6 if i >= 4 else 0.0)) for i, g in enumerate(grips)]
+    assert not fingers_closed_for(opened)
+    still = [(g, 0.0249, 0.059976) for g in grips]
+    assert not fingers_closed_for(still)
+    closing = [(g, 0.0249, 0.059976 - (1e-7 if i >= 4 else 0.0)) for i, g in enumerate(grips)]
+    assert fingers_closed_for(closing)
+    falling = [(g, 0.0249, 0.059976 - 1e-5 * i) for i, g in enumerate(reversed(grips))]
+    assert fingers_closed_for(falling)
+    assert fingers_closed_for(still[:5])  # a third of one sample: no verdict is read from it

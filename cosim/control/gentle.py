@@ -164,15 +164,15 @@ def approach_pace_m_s(opening_m: float, slow_from_m: float, touch_m_s: float, to
     return max(touch_m_s, min(top_m_s, braking))
 
 
-def _thirds(span: list[tuple[float, float]]) -> tuple[int, float, float, float, float] | None:
+def _thirds(span: Sequence[tuple[float, ...]]) -> tuple[int, float, float, float, float] | None:
     """(n, mean grip of the first n samples, of the last n, mean load of the first n, of the last
     n), N, with n a third of ``span``; None under two samples a third."""
     n = len(span) // 3
     if n < 2:
         return None
     first, last = span[:n], span[-n:]
-    g1, g3 = (sum(g for g, _ in part) / n for part in (first, last))
-    l1, l3 = (sum(load for _, load in part) / n for part in (first, last))
+    g1, g3 = (sum(g for g, *_ in part) / n for part in (first, last))
+    l1, l3 = (sum(load for _, load, *_ in part) / n for part in (first, last))
     return n, g1, g3, l1, l3
 
 
@@ -184,7 +184,7 @@ def _grew(g1: float, g3: float, safety: float, falls: bool = False) -> bool:
     return max(g3 / g1, g1 / g3) >= safety if falls else g3 >= safety * g1
 
 
-def probe_verdict(span: list[tuple[float, float]], safety: float, falls: bool = False) -> tuple[float, float, float, float]:
+def probe_verdict(span: Sequence[tuple[float, ...]], safety: float, falls: bool = False) -> tuple[float, float, float, float]:
     """(elasticity d ln L / d ln G, its standard error, mean grip, mean load) of a probe's span of
     (grip applied, load) samples, N, from the means of its first and last thirds.
 
@@ -207,18 +207,18 @@ def probe_verdict(span: list[tuple[float, float]], safety: float, falls: bool = 
         return 0.0, math.inf, 0.0, 0.0
     n, g1, g3, l1, l3 = thirds
     first, last = span[:n], span[-n:]
-    g_mean = sum(g for g, _ in span) / len(span)
-    l_mean = sum(load for _, load in span) / len(span)
+    g_mean = sum(g for g, *_ in span) / len(span)
+    l_mean = sum(load for _, load, *_ in span) / len(span)
     if not _grew(g1, g3, safety, falls) or l1 <= 0.0 or l3 <= 0.0:
         return 0.0, math.inf, g_mean, l_mean
     growth = math.log(g3 / g1)
-    var1 = sum((load - l1) ** 2 for _, load in first) / (n - 1)
-    var3 = sum((load - l3) ** 2 for _, load in last) / (n - 1)
+    var1 = sum((load - l1) ** 2 for _, load, *_ in first) / (n - 1)
+    var3 = sum((load - l3) ** 2 for _, load, *_ in last) / (n - 1)
     error = math.sqrt(var1 / (n * l1 * l1) + var3 / (n * l3 * l3)) / abs(growth)
     return math.log(l3 / l1) / growth, error, g_mean, l_mean
 
 
-def carried_nothing_at_first(span: list[tuple[float, float]], safety: float, falls: bool = False) -> bool:
+def carried_nothing_at_first(span: Sequence[tuple[float, ...]], safety: float, falls: bool = False) -> bool:
     """Whether a probe's span of (grip applied, load) samples, N, long enough for a verdict (its
     last third's mean grip ``safety`` times its first third's, or with ``falls`` a ``safety``-th
     of it: :func:`probe_verdict`), carried nothing over its first
@@ -234,6 +234,32 @@ def carried_nothing_at_first(span: list[tuple[float, float]], safety: float, fal
         return False
     _, g1, g3, l1, _ = thirds
     return _grew(g1, g3, safety, falls) and l1 <= 0.0
+
+
+def fingers_closed_for(span: Sequence[tuple[float, float, float]]) -> bool:
+    """Whether a probe's span of (grip applied N, load N, opening m) samples saw the fingers close
+    if its grip was read to rise, on a drive with dry friction: fingers that do not close do not
+    press their contact harder, so a grip read to rise while they stood still or opened is the
+    reading's own drift, not a change of grip the load could answer.  A rise between the span's
+    first and last thirds (their mean grips) asks for the fingers' mean opening to have fallen
+    between them; by how much, the reading cannot say (it over-reads a small patch by a factor
+    that grows with the load: a glass jar's line contact read a rise 2.3x what the pads' loaded
+    full-face stiffness gives for the fingers' motion).  A fall is not asked: the contact falls
+    as the fingers open, and as well while they close on an object that narrows under the pads (a
+    sphere they slide up).  True where a third holds fewer than two samples (no verdict is read
+    from such a span).
+
+    Without it the envelope readout's lag, catching up with a contact that crept up before the
+    span, read a 26 % rise at a constant 11 mN while the fingers opened 1 um: robosuite's Panda
+    called its 500 g can "carried" at 25 mN of load as its pads slid, raised it and lost it
+    (tests/test_grip_on_fingertips.py::test_a_grip_read_to_rise_while_the_fingers_stood_still_is_no_verdict)."""
+    n = len(span) // 3
+    if n < 2:
+        return True
+    first, last = span[:n], span[-n:]
+    rise_n = sum(s[0] for s in last) - sum(s[0] for s in first)
+    closed_m = sum(s[2] for s in first) - sum(s[2] for s in last)
+    return rise_n <= 0.0 or closed_m > 0.0
 
 
 def carries_weight(load_n: float, weight_n: float, fraction: float) -> bool:
@@ -370,7 +396,7 @@ class GentleGrasp(MultimodeGrasp):
         self._slid = False  # the probe has seen the pads slide (self.friction is measured)
         self._slides: list[tuple[float, float]] = []  # each sliding span's (friction read, highest load N) (_carry)
         self._grip_goal_n = 0.0  # the grip the raise brings the probe's down to, N (_carry)
-        self._span: list[tuple[float, float]] = []  # (grip applied, raw load) since the last verdict
+        self._span: list[tuple[float, float, float]] = []  # (grip applied N, raw load N, opening m) since the last verdict
         #: (grip applied N, raw load N, the lift's height m) since the pads were last seen to slide (_transfer)
         self._unslid: list[tuple[float, float, float]] = []
         self._lifted_off_m = -math.inf  # the lift's height as the pads first carried the weight, m (_rested_lift_m)
@@ -784,7 +810,7 @@ class GentleGrasp(MultimodeGrasp):
             return
         if not sees:
             return  # the fingertips' grip unread this period (the drive's is not theirs): no evidence
-        self._span.append((applied, lift.raw_load_n))
+        self._span.append((applied, lift.raw_load_n, obs.opening_m))
         self._unslid.append((applied, lift.raw_load_n, obs.lift_pos_m))
         falls = self.contact_falls
         elasticity, error, grip_n, load_n = probe_verdict(self._span, c.grip_safety, falls)
@@ -802,7 +828,9 @@ class GentleGrasp(MultimodeGrasp):
         low_n, high_n = sorted((first_n, applied)) if falls else (first_n, applied)
         if abs(elasticity - 0.5) < 2.0 * error and high_n < c.grip_safety**3 * low_n:
             return
-        last = [load for _, load in self._span[-(len(self._span) // 3) :]]
+        if elasticity < 0.5 and self.grips_on_fingertips and not fingers_closed_for(self._span):
+            return  # the grip read rose while the fingers did not close: the reading's drift, no verdict yet
+        last = [load for _, load, *_ in self._span[-(len(self._span) // 3) :]]
         # The least grip that carried the weight bounds the friction best: the least of every
         # span since the pads were last seen to slide, not of this one only.  A span whose load
         # reached the weight while the table still let go of it (its last third not yet steady)
@@ -816,7 +844,7 @@ class GentleGrasp(MultimodeGrasp):
         carried_from_n = least_carrying_grip_n(self._unslid, weight_n, self.steady_load_fraction)
         carrying = [lift_m for _, load, lift_m in self._unslid if carries_weight(load, weight_n, self.steady_load_fraction)]
         lifted_off_m = min(carrying) if carrying else obs.lift_pos_m
-        peak_n = max(load for _, load in self._span)
+        peak_n = max(load for _, load, *_ in self._span)
         self._span = [self._span[-1]]
         if elasticity >= 0.5:
             # The load grew with the grip: the pads slide at their friction limit, 2 mu G.  The
@@ -1260,6 +1288,7 @@ __all__ = [
     "GentleGrasp",
     "carried_nothing_at_first",
     "carries_weight",
+    "fingers_closed_for",
     "grip_read_n",
     "least_carrying_grip_n",
     "lifted_off_friction",
