@@ -253,13 +253,12 @@ def fingers_closed_for(span: Sequence[tuple[float, float, float]]) -> bool:
     span, read a 26 % rise at a constant 11 mN while the fingers opened 1 um: robosuite's Panda
     called its 500 g can "carried" at 25 mN of load as its pads slid, raised it and lost it
     (tests/test_grip_on_fingertips.py::test_a_grip_read_to_rise_while_the_fingers_stood_still_is_no_verdict)."""
-    n = len(span) // 3
-    if n < 2:
+    thirds = _thirds(span)
+    if thirds is None:
         return True
-    first, last = span[:n], span[-n:]
-    rise_n = sum(s[0] for s in last) - sum(s[0] for s in first)
-    closed_m = sum(s[2] for s in first) - sum(s[2] for s in last)
-    return rise_n <= 0.0 or closed_m > 0.0
+    n, g1, g3, _, _ = thirds
+    closed_m = sum(s[2] for s in span[:n]) - sum(s[2] for s in span[-n:])
+    return g3 <= g1 or closed_m > 0.0
 
 
 def carries_weight(load_n: float, weight_n: float, fraction: float) -> bool:
