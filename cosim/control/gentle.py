@@ -1048,7 +1048,7 @@ class GentleGrasp(MultimodeGrasp):
                 # preset, which it then held at 1.81x its need (tests/test_grip_on_fingertips.py::
                 # test_a_blind_hold_whose_joints_see_the_contact_creep_up_holds_the_drive_under_the_grip).
                 # The pressure let down is no slip (read as one on the Rethink's egg: 1.76x).
-                drive_n = max(grip_n - excess_n / FEEL_TOLERANCE, contact_n - self._friction_n)
+                drive_n = self._held_within_tolerance_n(grip_n, contact_n)
                 self._slip_watch_waits(t)
             else:  # under the grip by the joints (or no reading yet in the carry): brought up to it
                 drive_n = max(drive_n, grip_n)
@@ -1109,8 +1109,8 @@ class GentleGrasp(MultimodeGrasp):
             # ball at 1.57x its need); so it settles within (r - 1) / (1 + r / T) of the grip
             # (tests/test_grip_on_fingertips.py::
             # test_within_its_tolerance_the_contact_creeps_to_the_grip_whatever_the_element_over_reads).
-            held_n = grip_n - (felt_n - grip_n) / FEEL_TOLERANCE if way == 0 else grip_n
-            drive_n, self._moved_dir = max(held_n, felt_n - self._friction_n), 0
+            held_n = self._held_within_tolerance_n(grip_n, felt_n) if way == 0 else max(grip_n, felt_n - self._friction_n)
+            drive_n, self._moved_dir = held_n, 0
             if way < 0 and self._over_periods >= self.cfg.persist:
                 # Over the tolerance and held under it (at the grip, or the band's near edge),
                 # the contact creeps down to the drive: a pressure let down is no slip (read as
@@ -1158,6 +1158,13 @@ class GentleGrasp(MultimodeGrasp):
             self._moved_dir = -1
             self._slip_watch_waits(t)  # a pressure pulled down is no slip
         return drive_n, paid_n
+
+    def _held_within_tolerance_n(self, grip_n: float, contact_n: float) -> float:
+        """The drive's force (N) that holds a contact ``contact_n`` (N, the fingertips' reading or,
+        blind, the joints' stand-in for it) within FEEL_TOLERANCE of the grip ``grip_n`` (N): the
+        grip less the contact's excess over FEEL_TOLERANCE (zero at the tolerance's top), never
+        under the friction band's near edge about the contact, F_f under it (:meth:`_felt_drive_n`)."""
+        return max(grip_n - (contact_n - grip_n) / FEEL_TOLERANCE, contact_n - self._friction_n)
 
     def _joint_contact_n(self, opening_m: float, felt_ref: tuple[float, float] | None = None) -> float:
         """The grip on the fingertips by the fingers' own joints, N: the grip last felt less the
