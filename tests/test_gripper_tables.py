@@ -3,6 +3,10 @@ are whole grasps, run by hand; here the rows are made up, so the counting is che
 
 from __future__ import annotations
 
+import json
+
+import pytest
+
 from piezotip.reports import gripper_tables as gt
 from piezotip.scenarios import OBJECTS
 
@@ -46,3 +50,50 @@ def test_the_tables_count_successes_and_name_every_failure():
     assert "| all | 1 of 1 | 1 of 2 |" in text
     assert f"panda gentle: successes' margins 1.70-1.70x; over 1.5x: {name}" in text
     assert f"- panda gentle {name} (friction x1.1, mass x1): dropped 1.30: dropped here" in text
+
+
+def test_two_runs_of_the_tables_are_compared_run_for_run():
+    """``--compare``: per gripper and controller, the feasible runs within the goal (1.5x) and the
+    successes, before -> after; then the runs that changed, each marked where it crossed the goal
+    or failed; a margin moved by less than MARGIN_STEP is not listed, and neither is a run that
+    does not fit or a run in one table only."""
+    a, b, c = list(OBJECTS)[:3]
+    before = [
+        _row("panda", a, "gentle", "success", margin=7.36),
+        _row("panda", a, "gentle", "success", friction_x=0.9, margin=1.40),
+        _row("panda", b, "gentle", "success", margin=1.30),
+        _row("panda", c, "gentle", "success", margin=1.20),
+        _row("panda", c, "gentle", "does_not_fit", friction_x=1.1, margin=None),
+        _row("panda", c, "gentle", "success", friction_x=0.9, mass_x=0.9),
+    ]
+    after = [
+        _row("panda", a, "gentle", "success", margin=1.16),
+        _row("panda", a, "gentle", "success", friction_x=0.9, margin=1.40 + 0.5 * gt.MARGIN_STEP),
+        _row("panda", b, "gentle", "crushed", margin=1.25),
+        _row("panda", c, "gentle", "success", margin=1.20 + 2.0 * gt.MARGIN_STEP),
+        _row("panda", c, "gentle", "does_not_fit", friction_x=1.1, margin=None),
+    ]
+    text = gt.compare(before, after)
+    assert "| panda | gentle | 4 of 5 -> 3 of 4 | 5 -> 3 |" in text
+    crossed = "success 7.36x, touch 0.01 N -> success 1.16x, touch 0.01 N (now within 1.5x)"
+    assert f"- panda gentle {a} (friction x1, mass x1): {crossed}" in text
+    assert f"- panda gentle {b} (friction x1, mass x1): success 1.30x, touch 0.01 N -> crushed 1.25x, touch 0.01 N **failed**" in text
+    assert f"- panda gentle {c} (friction x1, mass x1): success 1.20x, touch 0.01 N -> success 1.30x, touch 0.01 N" in text
+    assert "changed (3 of 5 runs in both):" in text
+    assert f"{a} (friction x0.9" not in text  # moved by less than MARGIN_STEP
+
+
+def test_compare_reads_two_folders_and_names_one_without_runs(tmp_path, capsys):
+    before, after, empty = tmp_path / "before", tmp_path / "after", tmp_path / "empty"
+    for folder, margin in ((before, 2.0), (after, 1.2)):
+        folder.mkdir()
+        (folder / "runs.jsonl").write_text(json.dumps(_row("rethink", next(iter(OBJECTS)), "gentle", "success", margin=margin)) + "\n")
+    empty.mkdir()
+    assert gt.main(["--compare", str(before), str(after)]) == 0
+    assert "| rethink | gentle | 0 of 1 -> 1 of 1 | 1 -> 1 |" in capsys.readouterr().out
+    with pytest.raises(SystemExit):
+        gt.main(["--compare", str(before), str(empty)])
+    assert f"{empty / 'runs.jsonl'} not found" in capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        gt.main([])
+    assert "--out is required" in capsys.readouterr().err
