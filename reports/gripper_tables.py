@@ -52,6 +52,8 @@ GOAL_MARGIN = 1.5
 #: tables' factors moved by 0.1 %, light objects' margins moved by up to 0.16 (docs/grippers.md,
 #: seventh session).
 MARGIN_STEP = 0.05
+#: The object names :func:`runs` gives its ``extras`` (grasp-disturb's box and the wafer), beside the catalogue's.
+EXTRAS = ("grasp-disturb", "wafer-2g")
 #: The issue's wafer (reports/touch_trade.py's, at 30 mm).
 WAFER = {"object.shape": "box", "object.mass_kg": 0.002, "object.size_m": 0.03, "object.friction": 0.39, "object.crush_force_n": 0.05}
 
@@ -239,7 +241,7 @@ def tables(rows: list[dict]) -> str:
             ok = [r for r in varied if r["gripper"] == g and r["controller"] == k and r["outcome"] == "success" and r.get("grip_margin")]
             if ok:
                 margins = [r["grip_margin"] for r in ok]
-                over = sorted({r["object"] for r in ok if r["grip_margin"] > 1.5})
+                over = sorted({r["object"] for r in ok if r["grip_margin"] > GOAL_MARGIN})
                 lines.append(f"{g} {k}: successes' margins {min(margins):.2f}-{max(margins):.2f}x; over 1.5x: {', '.join(over) or 'none'}")
         lines.append("")
     failures = [r for r in rows if r["outcome"] not in ("success", "does_not_fit")]
@@ -251,7 +253,7 @@ def tables(rows: list[dict]) -> str:
                 f"- {r['gripper']} {r['controller']} {r['object']} (friction x{r['friction_x']:g}, mass x{r['mass_x']:g}): "
                 f"{r['outcome']} {margin}: {r['reason']}"
             )
-    extras = [r for r in rows if r["object"] in ("grasp-disturb", "wafer-2g")]
+    extras = [r for r in rows if r["object"] in EXTRAS]
     if extras:
         lines.append("")
         lines.append("extras:")
@@ -307,7 +309,7 @@ def compare(before: list[dict], after: list[dict]) -> str:
         m0, m1 = was.get("grip_margin"), row.get("grip_margin")
         crossed = _within(was) != _within(row)
         moved = m0 is not None and m1 is not None and abs(m1 - m0) > MARGIN_STEP
-        extra = row["object"] in ("wafer-2g", "grasp-disturb") and (_brief(was) != _brief(row))
+        extra = row["object"] in EXTRAS and (_brief(was) != _brief(row))
         if was["outcome"] == row["outcome"] and not crossed and not moved and not extra:
             continue
         if was["outcome"] != row["outcome"]:
@@ -323,12 +325,17 @@ def compare(before: list[dict], after: list[dict]) -> str:
     return "\n".join(lines)
 
 
+def _rows(journal: Path) -> list[dict]:
+    """The rows of a runs.jsonl, one a line (blank lines skipped)."""
+    return [json.loads(line) for line in journal.read_text().splitlines() if line.strip()]
+
+
 def _journal(folder: Path) -> list[dict]:
     """The rows of ``folder``'s runs.jsonl; a FileNotFoundError naming it where there is none."""
     path = folder / "runs.jsonl"
     if not path.is_file():
         raise FileNotFoundError(f"{path} not found: --compare takes two folders that --out wrote")
-    return [json.loads(line) for line in path.read_text().splitlines() if line.strip()]
+    return _rows(path)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -356,12 +363,7 @@ def main(argv: list[str] | None = None) -> int:
     keys = {name: found[name] for name in wanted if name in found}
     args.out.mkdir(parents=True, exist_ok=True)
     journal = args.out / "runs.jsonl"
-    done = {}
-    if journal.is_file():
-        for line in journal.read_text().splitlines():
-            if line.strip():
-                row = json.loads(line)
-                done[_key(row)] = row
+    done = {_key(row): row for row in _rows(journal)} if journal.is_file() else {}
     todo = runs(tuple(args.parts), keys)
     start = time.perf_counter()
     with journal.open("a") as fh:
