@@ -12,6 +12,7 @@ import pytest
 from piezotip import api, scenarios
 from piezotip.analysis.referee import judge
 from piezotip.cosim.control.gentle import (
+    carried_at_cap,
     carried_nothing_at_first,
     fingers_closed_for,
     grip_read_n,
@@ -354,3 +355,29 @@ def test_a_grip_read_to_rise_counts_only_where_the_fingers_closed():
     falling = [(g, 0.0249, 0.059976 - 1e-5 * i) for i, g in enumerate(reversed(grips))]
     assert fingers_closed_for(falling)
     assert fingers_closed_for(still[:5])  # a third of one sample: no verdict is read from it
+
+
+def test_a_probe_at_its_cap_decides_on_the_span_it_has():
+    """carried_at_cap: robosuite's Panda lifted its 2.2 kg block (0.9x friction) at 13 N of its
+    20 N cap, and the load stayed at the weight while the grip grew 1.2x from the span's first
+    third to its last: too little for the verdict below the cap (grip_safety, which the cap left
+    no room for), and the probe gave up, "never lifted", with the block off the table.  At the
+    cap the span decides as it is: a load that did not follow the grip (the elasticity's 2-sigma
+    interval under 1/2) and is steady is carried; a load that followed it (pads sliding at the
+    cap), a grip that did not change, a load that scatters (stick-slip) or nothing carried is not."""
+    fraction, min_load_n = 0.006, 0.01
+    grips = _ramp(30, 14.0, 1.01)  # 1.35x over the span, its thirds 1.22x apart
+    carried = [(g, 21.58 * (1 + 1e-4 * (-1) ** k)) for k, g in enumerate(grips)]
+    assert math.isinf(probe_verdict(carried, SAFETY)[1])  # below the cap: not yet told
+    assert carried_at_cap(carried, fraction, min_load_n)
+    assert not carried_at_cap([(g, 1.2 * g) for g in grips], fraction, min_load_n)  # sliding at the cap
+    assert not carried_at_cap([(20.0, 21.58)] * 30, fraction, min_load_n)  # the grip never changed: nothing told
+    assert not carried_at_cap([(g, 0.005) for g in grips], fraction, min_load_n)  # nothing carried
+    chatter = [(g, 21.58 * (1 + 0.05 * (-1) ** k)) for k, g in enumerate(grips)]
+    assert probe_verdict(chatter, 1.0)[0] < 0.5 and not carried_at_cap(chatter, fraction, min_load_n)  # not steady
+    assert not carried_at_cap(carried[:5], fraction, min_load_n)  # under two samples a third: nothing to tell
+    # a load that rose 0.3x as fast as a grip that grew by 2 %, within a scatter that leaves the
+    # elasticity's 2-sigma interval across 1/2: not yet told apart from sliding
+    barely = [(g, 21.58 * (g / 14.0) ** 0.3 * (1 + 0.005 * (-1) ** k)) for k, g in enumerate(_ramp(30, 14.0, 1.001))]
+    elasticity, error, *_ = probe_verdict(barely, 1.0)
+    assert elasticity < 0.5 <= elasticity + 2 * error and not carried_at_cap(barely, fraction, min_load_n)

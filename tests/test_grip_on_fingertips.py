@@ -112,6 +112,88 @@ def test_a_grip_felt_too_light_closes_the_fingers_past_their_friction_at_once(co
     assert limit_n == pytest.approx(controller.cfg.grip_safety * 0.1 + friction_n)
 
 
+@pytest.fixture
+def prober(tmp_path):
+    """The gentle controller on the sticky gripper, probing (the lift phase), both pads reading
+    40 Pa (the contact left by the touch's ease), its lift climbing at the probe's pace."""
+    c = CoSimulation(scenarios.get("grasp", keys(sticky_gripper(tmp_path)), "fast")).controller
+    c.phase, c._t_phase = Phase.LIFT, 0.0
+    for sel in c.selectors.values():
+        sel.trusted, sel.status, sel.mode, sel.estimate_pa, sel.uncertainty_pa = True, "ok", sel.modes[0], 40.0, 2.0
+    c.test_lift_m, c.test_t = 0.0, 5.0
+    for _ in range(c.lift.plateau_steps + 2):  # the lift's window filled, rising
+        _probe_period(c)
+    return c
+
+
+def _probe_period(c, load_n: float = 0.0) -> None:
+    """One period of the probe (GentleGrasp._transfer), the lift a period's climb higher."""
+    from types import SimpleNamespace
+
+    c.test_t += c.dt_s
+    c.test_lift_m += c.cfg.probe_speed_m_s * c.dt_s
+    c.lift.raw_load_n = load_n
+    obs = SimpleNamespace(time_s=c.test_t, lift_pos_m=c.test_lift_m, opening_m=0.03, grip_force_n=0.05, lift_vel_m_s=c.cfg.probe_speed_m_s)
+    c._transfer(obs, c.test_t, c.dt_s)
+
+
+def test_the_probes_span_reads_one_pad_while_the_other_settles_and_grows_on_both(prober):
+    """A friction drive's probe reads the grip on the fingertips.  With the envelope readout a
+    pad's reading settles on each ramp, and robosuite's Panda at the accurate preset read both
+    pads at once a tenth of the time once its 2 g wafer left the table: the verdict, waiting for
+    both, came only once the grip had grown by grip_safety^3, and the wafer was crushed (0.056 N
+    of its 0.05).  The object presses both pads alike, so the span takes the one that reads (the
+    wafer: 0.040 N); the grip still grows only within a plateau window of a reading of both
+    (grown on one, it grows while the other's readout settles on the ramp it makes: 0.09 N)."""
+    c = prober
+    area = c.robot.pad_area_m2
+    left, right = (c.selectors[pad] for pad in c.pads)
+    right.trusted = False  # settling
+    n, grip_n = len(c._span), c.grip_n
+    _probe_period(c)
+    assert len(c._span) == n + 1
+    assert c._span[-1][0] == pytest.approx(40.0 * area, rel=0.05)  # the left pad's reading (the drive's is 1.2 N)
+    left.trusted = False  # both settling: no reading, no sample
+    _probe_period(c)
+    assert len(c._span) == n + 1
+    left.trusted = True
+    for _ in range(c.lift.plateau_steps):  # the right pad settling: grown for a plateau window after both read
+        _probe_period(c)
+    assert c.grip_n > grip_n
+    grown_n = c.grip_n
+    for _ in range(c.lift.plateau_steps):  # and no further, the left pad's readings taken all the while
+        _probe_period(c)
+    assert c.grip_n == grown_n and len(c._span) == n + 1 + 2 * c.lift.plateau_steps
+
+
+def test_a_contact_lost_in_the_probe_forgets_the_friction_read_on_it_and_the_drive_comes_down_to_the_regained_one(prober):
+    """Every pad reading no load while the probe climbs: the contact the pads slid on is gone (a
+    sphere's pads slid off it above its centre, and the fingers regain it higher up, tilted
+    further: robosuite's Panda's raspberry at 2 degrees, then 13).  The friction read while the
+    pads slid over it is forgotten (held by it, the raspberry was at 0.83x its need on the
+    regained contact at the accurate preset, and fell), and the friction is the highest expected
+    again.  The probe's grip grew on while nothing was read, past the drive's friction: at the
+    first reading of the regained contact the drive comes down to it (the raspberry carried from
+    the ramp that followed was held at 10.9x its need)."""
+    c = prober
+    c._slid, c.friction, c._slides = True, 0.6, [(0.6, 0.01)]
+    for sel in c.selectors.values():
+        sel.status = "below_detection"
+    _probe_period(c)
+    assert not c._slid and c._slides == [] and c.friction == c.cfg.friction_max
+    assert len(c._unslid) == 2  # the samples since the slide: the last before the loss, and this period's
+    c.grip_n = 0.9  # grown past the friction's band while nothing was read
+    _probe_period(c)
+    assert c.grip_n >= 0.9  # nothing read yet: as it was (and growing)
+    left = c.selectors[c.pads[0]]
+    left.status, left.estimate_pa = "ok", 200.0
+    _probe_period(c)
+    assert c.grip_n == pytest.approx(200.0 * c.robot.pad_area_m2)
+    c.grip_n = 0.9
+    _probe_period(c)
+    assert c.grip_n >= 0.9  # once only: the probe grows from there
+
+
 def test_a_push_is_not_kept_while_the_fingertips_are_blind(controller):
     """A push past the friction's band, the fingertips then blind (a pad's readout settling on
     the ramp the push makes): the fingers are pushed on only until their joints say the contact

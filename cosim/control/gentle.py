@@ -212,6 +212,8 @@ def probe_verdict(span: Sequence[tuple[float, ...]], safety: float, falls: bool 
     if not _grew(g1, g3, safety, falls) or l1 <= 0.0 or l3 <= 0.0:
         return 0.0, math.inf, g_mean, l_mean
     growth = math.log(g3 / g1)
+    if growth == 0.0:  # (``safety`` 1: a grip that did not change tells nothing)
+        return 0.0, math.inf, g_mean, l_mean
     var1 = sum((load - l1) ** 2 for _, load, *_ in first) / (n - 1)
     var3 = sum((load - l3) ** 2 for _, load, *_ in last) / (n - 1)
     error = math.sqrt(var1 / (n * l1 * l1) + var3 / (n * l3 * l3)) / abs(growth)
@@ -234,6 +236,23 @@ def carried_nothing_at_first(span: Sequence[tuple[float, ...]], safety: float, f
         return False
     _, g1, g3, l1, _ = thirds
     return _grew(g1, g3, safety, falls) and l1 <= 0.0
+
+
+def carried_at_cap(span: Sequence[tuple[float, ...]], fraction: float, min_load_n: float, falls: bool = False) -> bool:
+    """Whether a probe's span of (grip applied, load) samples, N, ended by the grip's cap, shows
+    the object carried: its load did not follow the grip (the elasticity's 2-sigma interval
+    under 1/2, :func:`probe_verdict` asking the grip only to have changed, not by the safety
+    factor it can no longer grow by), a load over ``min_load_n`` (N), and steady over the span's
+    last third within ``fraction`` (:func:`load_is_steady`).
+
+    The safety factor the probe's verdict otherwise waits for is room under the cap, which a
+    heavy object near the gripper's limit does not leave: robosuite's Panda lifted its 2.2 kg
+    block (0.9x friction, needing 12 N of its 20 N) at 13 N, the load stayed at the weight while
+    the grip grew 1.2x from the span's first third to its last, and the cap came first: "the
+    pads slide at 21.6 N of load", never lifted, with the block off the table."""
+    elasticity, error, _, load_n = probe_verdict(span, 1.0, falls)
+    last = [load for _, load, *_ in span[-max(len(span) // 3, 1) :]]
+    return math.isfinite(error) and elasticity + 2.0 * error < 0.5 and load_n > min_load_n and load_is_steady(last, fraction)
 
 
 def fingers_closed_for(span: Sequence[tuple[float, float, float]]) -> bool:
@@ -394,6 +413,7 @@ class GentleGrasp(MultimodeGrasp):
         self.friction = c.friction_max
         self._slid = False  # the probe has seen the pads slide (self.friction is measured)
         self._slides: list[tuple[float, float]] = []  # each sliding span's (friction read, highest load N) (_carry)
+        self._regaining = False  # the pads lost the object in the probe; the drive waits to read it again (_forget_slides)
         self._grip_goal_n = 0.0  # the grip the raise brings the probe's down to, N (_carry)
         self._span: list[tuple[float, float, float]] = []  # (grip applied N, raw load N, opening m) since the last verdict
         #: (grip applied N, raw load N, the lift's height m) since the pads were last seen to slide (_transfer)
@@ -729,8 +749,9 @@ class GentleGrasp(MultimodeGrasp):
         presets) reads "settling" while the pressure ramps under a pad and for a ring-up after a
         switch: a probe reading the drive then takes grips off by F_f for the fingertips' (robosuite's
         Panda read the 100 g box's friction 0.27 for 1.0, or called it carried on the table).  So
-        the probe's span takes only the periods the fingertips read, and its grip grows only
-        while they have read within a plateau window (the load's answer time): blind longer, a
+        the probe's span takes only the periods the fingertips read (a pad's reading while the
+        other settles among them: :meth:`_transfer`), and its grip grows only while every pad
+        has read within a plateau window (the load's answer time): blind longer, a
         grip growing e-fold in a few windows runs past the one that holds unseen, and a ramp
         that does not stop keeps the readout settling (tests/test_grip_on_fingertips.py::
         test_friction_drives_probe_on_the_fingertips_at_the_envelope_presets)."""
@@ -752,6 +773,35 @@ class GentleGrasp(MultimodeGrasp):
             return self.grip_n
         felt = self._fingertips_grip_n()
         return max(self.grip_n - friction_n, felt[0] if felt is not None else 0.0, self.grip_floor_n)
+
+    def _carried_at_cap(self) -> bool:
+        """Whether the probe's span, its grip at the cap, shows the object carried
+        (:func:`carried_at_cap`), its fingers seen to close over it where the grip is read on the
+        fingertips (:func:`fingers_closed_for`, as the verdict below the cap asks)."""
+        span = self._span
+        if self.grips_on_fingertips and not fingers_closed_for(span):
+            return False
+        return carried_at_cap(span, self.steady_load_fraction, self.robot.min_load_n, self.contact_falls)
+
+    def _forget_slides(self) -> None:
+        """Every pad reads no load while the probe climbs: the contact the friction was read on is
+        gone, and the one the fingers regain is elsewhere on the object (a sphere's higher up it,
+        tilted further: robosuite's Panda's pads slid off its raspberry at 2 degrees and regained it
+        at 13, where the wedge holds up a third less, tan(phi - a)).  Read over the contact that is
+        gone, the friction held the raspberry at 0.83x what it needed at the accurate preset, and it
+        fell.  The slides' reads and the samples since they ended are forgotten; the friction is the
+        highest expected again, until the pads slide on the new contact or carry from it.
+
+        On a drive with dry friction the probe's grip grew on while the pads read nothing, past
+        the friction's band (the Panda's 25 mN to 0.93 N in a second), and the fingers close on
+        the regained contact with all of it, the readout settling through the ramp: carried from
+        there, the raspberry was held at 10.9x its need.  At the first reading of the regained
+        contact the drive is brought down to it (``_regaining``), so that the contact stops where
+        it is read and the probe grows from there (2.1x)."""
+        self._slides.clear()
+        self._unslid = self._unslid[-1:]
+        self._slid, self.friction = False, self.cfg.friction_max
+        self._regaining = self.grips_on_fingertips
 
     def _fingertips_blind(self) -> bool:
         """Whether a pad's readout is settling this period (a ramping pressure, a switch's
@@ -792,13 +842,17 @@ class GentleGrasp(MultimodeGrasp):
         window_full = lift.record(applied, self.robot.pads_height_m(obs.lift_pos_m, obs.opening_m))
         rising = window_full and lift.risen_m() >= 0.5 * c.probe_speed_m_s * (lift.plateau_steps - 1) * dt_s
         growth_n_s = 0.0
+        at_cap = False
         sees = self._probe_sees(t, obs.grip_force_n)
         if rising and t - self._felt_at_s <= lift.plateau_steps * dt_s:
-            if self.grip_n >= self.grip_cap_n:
+            if self.grip_n < self.grip_cap_n:
+                growth_n_s = min(self.grip_growth_per_s * self._probe_base_n(), self.grip_rate_n_s)
+                self.grip_n = min(self.grip_cap_n, self.grip_n + growth_n_s * dt_s)
+            elif sees and self._span:
+                at_cap = True  # the grip can grow no more: the span as it is decides (below)
+            else:
                 self._pads_slide_at_cap(t, lift.raw_load_n)
                 return
-            growth_n_s = min(self.grip_growth_per_s * self._probe_base_n(), self.grip_rate_n_s)
-            self.grip_n = min(self.grip_cap_n, self.grip_n + growth_n_s * dt_s)
         # The goal rises at the probe's pace, plus the sag that the grip's growth adds to a lift
         # whose pads slide (2 mu G / kp), at the friction measured so far (the highest expected
         # until then): the lift keeps rising while the pads slide, and the pads slide up the
@@ -807,12 +861,36 @@ class GentleGrasp(MultimodeGrasp):
         if not rising:
             self._span = []  # held on the table: the load grows, the grip waits
             return
+        if self._slid and all(sel.empty for sel in self.selectors.values()):
+            self._forget_slides()
+        if self._regaining:
+            regained = self._fingertips_grip_n(every_pad=False)
+            if regained is not None:  # the contact regained: the drive brought down to it (_forget_slides)
+                self._regaining = False
+                self.grip_n = min(self.grip_n, max(regained[0], self.grip_floor_n))
         if not sees:
-            return  # the fingertips' grip unread this period (the drive's is not theirs): no evidence
+            # A pad settles while the other reads: the object presses both pads alike (a
+            # two-finger grip's contacts balance), so the one that reads is the grip's reading for
+            # the span, which the verdict needs as often as it comes (robosuite's Panda at the
+            # accurate preset reads both pads at once a tenth of the time once the 2 g wafer is
+            # off the table, and its verdict waited for the grip to grow by grip_safety^3 and
+            # crushed it).  The grip grows only within a plateau window of every pad's reading
+            # (_probe_sees), as before: grown on a pad's reading, it grows while the other's
+            # readout settles on the ramp it makes, and the wafer was pressed harder still.
+            felt = self._fingertips_grip_n(every_pad=False)
+            if felt is None:
+                return  # the fingertips' grip unread this period (the drive's is not theirs): no evidence
+            applied = max(grip_read_n(obs.grip_force_n, self._friction_n, *felt), 0.0)
         self._span.append((applied, lift.raw_load_n, obs.opening_m))
         self._unslid.append((applied, lift.raw_load_n, obs.lift_pos_m))
         falls = self.contact_falls
-        elasticity, error, grip_n, load_n = probe_verdict(self._span, c.grip_safety, falls)
+        if at_cap:
+            if not self._carried_at_cap():
+                self._pads_slide_at_cap(t, lift.raw_load_n)
+                return
+            elasticity, error, grip_n, load_n = probe_verdict(self._span, 1.0, falls)
+        else:
+            elasticity, error, grip_n, load_n = probe_verdict(self._span, c.grip_safety, falls)
         if math.isinf(error):
             if carried_nothing_at_first(self._span, c.grip_safety, falls):
                 self._span = self._span[-1:]  # the span starts again where the pads carry a load

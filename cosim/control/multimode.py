@@ -721,18 +721,23 @@ class MultimodeGrasp:
         felt = self._check_felt if self.robot.finger_friction_n > 0.0 else None
         return g0 if felt is None or felt[0] <= 0.0 else felt[0]
 
-    def _fingertips_grip_n(self) -> tuple[float, float] | None:
+    def _fingertips_grip_n(self, every_pad: bool = True) -> tuple[float, float] | None:
         """The grip the fingertips read, N per finger, and its sigma: each pad's trusted "ok"
         estimate times the pad's area (a full-face contact), their mean; None unless every pad
-        has one."""
-        area, felt_n, variance = self.robot.pad_area_m2, 0.0, 0.0
+        has one (``every_pad``), or, without it, unless one has (the object presses both pads
+        alike: their mean is of those that read)."""
+        area, felt_n, variance, n = self.robot.pad_area_m2, 0.0, 0.0, 0
         for pad in self.pads:
             sel = self.selectors[pad]
             if not (sel.trusted and sel.status == "ok" and math.isfinite(sel.uncertainty_pa)):
-                return None
+                if every_pad:
+                    return None
+                continue
             felt_n += sel.estimate_pa * area
             variance += (sel.uncertainty_pa * area) ** 2
-        n = len(self.pads)
+            n += 1
+        if n == 0:
+            return None
         return felt_n / n, math.sqrt(variance) / n
 
     def _window_load_is_steady(self, speed_m_s: float) -> bool:
