@@ -112,29 +112,35 @@ def test_a_grip_felt_too_light_closes_the_fingers_past_their_friction_at_once(co
     assert limit_n == pytest.approx(controller.cfg.grip_safety * 0.1 + friction_n)
 
 
+class _Probing:
+    """The gentle controller ``c`` on the sticky gripper, probing (the lift phase): each
+    :meth:`period` is one of GentleGrasp._transfer, the lift a period's climb higher."""
+
+    def __init__(self, c) -> None:
+        self.c, self.t, self.lift_m = c, 5.0, 0.0
+
+    def period(self) -> None:
+        from types import SimpleNamespace
+
+        c = self.c
+        self.t += c.dt_s
+        self.lift_m += c.cfg.probe_speed_m_s * c.dt_s
+        obs = SimpleNamespace(time_s=self.t, lift_pos_m=self.lift_m, opening_m=0.03, grip_force_n=0.05, lift_vel_m_s=c.cfg.probe_speed_m_s)
+        c._transfer(obs, self.t, c.dt_s)
+
+
 @pytest.fixture
 def prober(tmp_path):
-    """The gentle controller on the sticky gripper, probing (the lift phase), both pads reading
-    40 Pa (the contact left by the touch's ease), its lift climbing at the probe's pace."""
+    """The gentle controller on the sticky gripper, probing, both pads reading 40 Pa (the contact
+    left by the touch's ease), its lift's window filled with the probe's climb."""
     c = CoSimulation(scenarios.get("grasp", keys(sticky_gripper(tmp_path)), "fast")).controller
     c.phase, c._t_phase = Phase.LIFT, 0.0
     for sel in c.selectors.values():
         sel.trusted, sel.status, sel.mode, sel.estimate_pa, sel.uncertainty_pa = True, "ok", sel.modes[0], 40.0, 2.0
-    c.test_lift_m, c.test_t = 0.0, 5.0
-    for _ in range(c.lift.plateau_steps + 2):  # the lift's window filled, rising
-        _probe_period(c)
-    return c
-
-
-def _probe_period(c, load_n: float = 0.0) -> None:
-    """One period of the probe (GentleGrasp._transfer), the lift a period's climb higher."""
-    from types import SimpleNamespace
-
-    c.test_t += c.dt_s
-    c.test_lift_m += c.cfg.probe_speed_m_s * c.dt_s
-    c.lift.raw_load_n = load_n
-    obs = SimpleNamespace(time_s=c.test_t, lift_pos_m=c.test_lift_m, opening_m=0.03, grip_force_n=0.05, lift_vel_m_s=c.cfg.probe_speed_m_s)
-    c._transfer(obs, c.test_t, c.dt_s)
+    probing = _Probing(c)
+    for _ in range(c.lift.plateau_steps + 2):
+        probing.period()
+    return probing
 
 
 def test_the_probes_span_reads_one_pad_while_the_other_settles_and_grows_on_both(prober):
@@ -145,24 +151,24 @@ def test_the_probes_span_reads_one_pad_while_the_other_settles_and_grows_on_both
     of its 0.05).  The object presses both pads alike, so the span takes the one that reads (the
     wafer: 0.040 N); the grip still grows only within a plateau window of a reading of both
     (grown on one, it grows while the other's readout settles on the ramp it makes: 0.09 N)."""
-    c = prober
+    c, period = prober.c, prober.period
     area = c.robot.pad_area_m2
     left, right = (c.selectors[pad] for pad in c.pads)
     right.trusted = False  # settling
     n, grip_n = len(c._span), c.grip_n
-    _probe_period(c)
+    period()
     assert len(c._span) == n + 1
     assert c._span[-1][0] == pytest.approx(40.0 * area, rel=0.05)  # the left pad's reading (the drive's is 1.2 N)
     left.trusted = False  # both settling: no reading, no sample
-    _probe_period(c)
+    period()
     assert len(c._span) == n + 1
     left.trusted = True
     for _ in range(c.lift.plateau_steps):  # the right pad settling: grown for a plateau window after both read
-        _probe_period(c)
+        period()
     assert c.grip_n > grip_n
     grown_n = c.grip_n
     for _ in range(c.lift.plateau_steps):  # and no further, the left pad's readings taken all the while
-        _probe_period(c)
+        period()
     assert c.grip_n == grown_n and len(c._span) == n + 1 + 2 * c.lift.plateau_steps
 
 
@@ -175,22 +181,22 @@ def test_a_contact_lost_in_the_probe_forgets_the_friction_read_on_it_and_the_dri
     again.  The probe's grip grew on while nothing was read, past the drive's friction: at the
     first reading of the regained contact the drive comes down to it (the raspberry carried from
     the ramp that followed was held at 10.9x its need)."""
-    c = prober
+    c, period = prober.c, prober.period
     c._slid, c.friction, c._slides = True, 0.6, [(0.6, 0.01)]
     for sel in c.selectors.values():
         sel.status = "below_detection"
-    _probe_period(c)
+    period()
     assert not c._slid and c._slides == [] and c.friction == c.cfg.friction_max
     assert len(c._unslid) == 2  # the samples since the slide: the last before the loss, and this period's
     c.grip_n = 0.9  # grown past the friction's band while nothing was read
-    _probe_period(c)
+    period()
     assert c.grip_n >= 0.9  # nothing read yet: as it was (and growing)
     left = c.selectors[c.pads[0]]
     left.status, left.estimate_pa = "ok", 200.0
-    _probe_period(c)
+    period()
     assert c.grip_n == pytest.approx(200.0 * c.robot.pad_area_m2)
     c.grip_n = 0.9
-    _probe_period(c)
+    period()
     assert c.grip_n >= 0.9  # once only: the probe grows from there
 
 
