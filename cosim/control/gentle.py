@@ -883,14 +883,11 @@ class GentleGrasp(MultimodeGrasp):
             applied = max(grip_read_n(obs.grip_force_n, self._friction_n, *felt), 0.0)
         self._span.append((applied, lift.raw_load_n, obs.opening_m))
         self._unslid.append((applied, lift.raw_load_n, obs.lift_pos_m))
+        if at_cap and not self._carried_at_cap():
+            self._pads_slide_at_cap(t, lift.raw_load_n)
+            return
         falls = self.contact_falls
-        if at_cap:
-            if not self._carried_at_cap():
-                self._pads_slide_at_cap(t, lift.raw_load_n)
-                return
-            elasticity, error, grip_n, load_n = probe_verdict(self._span, 1.0, falls)
-        else:
-            elasticity, error, grip_n, load_n = probe_verdict(self._span, c.grip_safety, falls)
+        elasticity, error, grip_n, load_n = probe_verdict(self._span, 1.0 if at_cap else c.grip_safety, falls)
         if math.isinf(error):
             if carried_nothing_at_first(self._span, c.grip_safety, falls):
                 self._span = self._span[-1:]  # the span starts again where the pads carry a load
