@@ -14,6 +14,7 @@ from piezotip.analysis.referee import judge
 from piezotip.cosim.control.gentle import (
     carried_at_cap,
     carried_nothing_at_first,
+    contact_fades,
     fingers_closed_for,
     grip_read_n,
     least_carrying_grip_n,
@@ -381,3 +382,22 @@ def test_a_probe_at_its_cap_decides_on_the_span_it_has():
     barely = [(g, 21.58 * (g / 14.0) ** 0.3 * (1 + 0.005 * (-1) ** k)) for k, g in enumerate(_ramp(30, 14.0, 1.001))]
     elasticity, error, *_ = probe_verdict(barely, 1.0)
     assert elasticity < 0.5 <= elasticity + 2 * error and not carried_at_cap(barely, fraction, min_load_n)
+
+
+def test_a_contact_fades_where_its_reading_and_the_load_fall_together():
+    """contact_fades: pads sliding up a sphere that narrows under them carry 2 mu N, so the lift's
+    load falls with the contact; robosuite's Panda's raspberry at the balanced preset read 9.0 mN,
+    then 6.4 mN (sigma 0.4 mN) as the load fell from 39.7 to 29.3 mN while the probe's grip rose:
+    fading.  Its 2 g wafer, off the table, read 27.7 mN, then 26.2 mN (sigma 0.45 mN) on both pads
+    after a settling while its contact rose and its load stayed at 19.6 mN of a highest 19.9:
+    not fading (a carried object's load is its weight).  Nor is a fall within 2 sigma, or one
+    while the grip did not rise (the fingers standing still in their friction band, the contact
+    creeps down to the drive's lower command)."""
+    assert contact_fades(0.0064, 0.0004, 0.0090, True, 0.0293, 0.0397)
+    assert not contact_fades(0.0262, 0.00045, 0.0277, True, 0.0196, 0.0199)  # the wafer, carried
+    assert not contact_fades(0.0064, 0.0004, 0.0090, False, 0.0293, 0.0397)  # the grip did not rise
+    assert not contact_fades(0.0083, 0.0004, 0.0090, True, 0.0293, 0.0397)  # within 2 sigma
+    # the load's fall must be at least the share 2 sigma is of the reading (0.8 / 9.0 mN: 8.9 %)
+    top_load_n = 0.0397
+    assert contact_fades(0.0064, 0.0004, 0.0090, True, 0.90 * top_load_n, top_load_n)
+    assert not contact_fades(0.0064, 0.0004, 0.0090, True, 0.92 * top_load_n, top_load_n)

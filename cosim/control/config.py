@@ -267,6 +267,11 @@ class MultimodeConfig(MotionConfig):
             )
 
 
+#: GentleConfig.slowest_climb's default: a quarter of the probe's pace (docs/grippers.md, eleventh
+#: session: the trade measured on robosuite's Panda's raspberry, 14 variations at two presets).
+SLOWEST_CLIMB_DEFAULT = 0.25
+
+
 @dataclass(frozen=True)
 class GentleConfig(MultimodeConfig):
     """The gentle grasp's settings (cosim/control/gentle.py): the multimode controller's, and its
@@ -301,6 +306,12 @@ class GentleConfig(MultimodeConfig):
     touch_band_sigmas : how many of the camera's sigmas (``perception.width_sigma_m``) wider
         than its width the fingers slow to their touch speed, -: 3 (a Gaussian error past 3
         sigma comes once in 740 objects).
+    slowest_climb : the slowest the probe's climb goes, as a share of ``probe_speed_m_s``, on a
+        drive with dry friction where the fingertips read the contact fade under pads sliding up
+        an object that narrows under them (cosim/control/gentle.py, ``GentleGrasp._pace_climb``:
+        the pace halves at each fade, down to this), -: SLOWEST_CLIMB_DEFAULT.  A trade: slower,
+        the fingers' creep keeps the contact, but the probe's grip, growing per second, grows
+        further before the object leaves the table (docs/grippers.md, eleventh session).
     """
 
     kind: str = "gentle"
@@ -309,14 +320,26 @@ class GentleConfig(MultimodeConfig):
     probe_speed_m_s: float = 0.001
     touch_force_n: float | None = None
     touch_band_sigmas: float = 3.0
+    slowest_climb: float = SLOWEST_CLIMB_DEFAULT
 
     def validate(self) -> None:
         super().validate()
         _positive("controller.friction_max", self.friction_max)
+        value = self.slowest_climb
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not 0 < value <= 1:
+            raise ValueError(f"controller.slowest_climb must be a share of the probe's pace in (0, 1], got {value!r}")
         _positive("controller.probe_speed_m_s", self.probe_speed_m_s)
         if self.touch_force_n is not None:
             _positive("controller.touch_force_n", self.touch_force_n)
         _positive("controller.touch_band_sigmas", self.touch_band_sigmas)
 
 
-__all__ = ["MAX_PERSIST_S", "ControllerConfig", "GentleConfig", "MotionConfig", "MultimodeConfig", "ScriptedConfig"]
+__all__ = [
+    "MAX_PERSIST_S",
+    "SLOWEST_CLIMB_DEFAULT",
+    "ControllerConfig",
+    "GentleConfig",
+    "MotionConfig",
+    "MultimodeConfig",
+    "ScriptedConfig",
+]

@@ -26,8 +26,10 @@ more than the grip it needs, and more again where its checks misread MuJoCo's cr
 The gentle one knows neither mass nor friction and measures both:
 
 - *the probe* (:meth:`GentleGrasp._transfer`): from the grip floor, the lift's goal rises at
-  ``probe_speed_m_s``; while the lift follows it (the pads slide up the object, or the object is
-  off the table) the grip grows exponentially, by ``grip_safety`` per plateau window; while the
+  ``probe_speed_m_s`` (slower where the fingertips read the contact fade under pads that slide
+  up an object narrowing under them, on a drive with dry friction: :meth:`GentleGrasp._pace_climb`);
+  while the lift follows it (the pads slide up the object, or the object is off the table) the
+  grip grows exponentially, by ``grip_safety`` per plateau window; while the
   pads hold the object on the table the grip waits and the load grows.  Over each span in which
   the grip grew by ``grip_safety`` (:func:`probe_verdict`; or fell by it, on a drive with dry
   friction, whose contact creeps down from the touch's toward the lower command), a load that
@@ -162,6 +164,23 @@ def approach_pace_m_s(opening_m: float, slow_from_m: float, touch_m_s: float, to
     half_step = 0.5 * accel_m_s2 * dt_s
     braking = math.sqrt((touch_m_s + half_step) ** 2 + 2.0 * accel_m_s2 * distance_m) - half_step
     return max(touch_m_s, min(top_m_s, braking))
+
+
+def contact_fades(felt_n: float, sigma_n: float, top_felt_n: float, grip_rose: bool, load_n: float, top_load_n: float) -> bool:
+    """Whether a pad's contact fades under pads that slide up an object that narrows under them:
+    its reading ``felt_n`` (N, sigma ``sigma_n``) has fallen more than 2 sigma below the highest
+    it read since the probe's pace last changed (``top_felt_n``) while the probe's grip rose
+    (``grip_rose``), and the lift's load ``load_n`` (N) has fallen from the highest it carried
+    in the probe (``top_load_n``) by at least the share 2 sigma is of that reading.
+
+    Pads that slide carry 2 mu N, so their load falls with the contact; a carried object's load
+    stays at its weight however its readings drift (robosuite's Panda's 2 g wafer, off the table,
+    read 5 % lower on both pads after a settling while its contact rose: slowed there, the
+    climb's change of speed read in the load held the verdict back and the grip pressed it to
+    0.049 N of its 0.05)."""
+    if not (grip_rose and felt_n < top_felt_n - 2.0 * sigma_n):
+        return False
+    return load_n < (1.0 - 2.0 * sigma_n / top_felt_n) * top_load_n
 
 
 def _thirds(span: Sequence[tuple[float, ...]]) -> tuple[int, float, float, float, float] | None:
@@ -414,6 +433,12 @@ class GentleGrasp(MultimodeGrasp):
         self._slid = False  # the probe has seen the pads slide (self.friction is measured)
         self._slides: list[tuple[float, float]] = []  # each sliding span's (friction read, highest load N) (_carry)
         self._regaining = False  # the pads lost the object in the probe; the drive waits to read it again (_forget_slides)
+        #: The probe's climb as a share of ``probe_speed_m_s``, and the share it moves toward
+        #: (:meth:`_pace_climb`), -.
+        self.climb_pace = self._pace_goal = 1.0
+        self._pad_top: dict[str, tuple[float, float]] = {}  # each pad's highest reading (N) since the pace changed, the grip then (N)
+        self._pad_first: dict[str, float] = {}  # each pad's first reading since the pace changed, N
+        self._load_top = 0.0  # the highest load the lift carried in the probe (its window's mean), N
         self._grip_goal_n = 0.0  # the grip the raise brings the probe's down to, N (_carry)
         self._span: list[tuple[float, float, float]] = []  # (grip applied N, raw load N, opening m) since the last verdict
         #: (grip applied N, raw load N, the lift's height m) since the pads were last seen to slide (_transfer)
@@ -803,6 +828,54 @@ class GentleGrasp(MultimodeGrasp):
         self._slid, self.friction = False, self.cfg.friction_max
         self._regaining = self.grips_on_fingertips
 
+    def _pace_climb(self) -> None:
+        """The probe's climb slowed where the pads' contact fades under them, on a drive with dry
+        friction (:attr:`grips_on_fingertips`), once a period with the lift's window full.
+
+        The pads slide up the object while the probe reads its friction; where the object narrows
+        above the contact (a sphere gripped at or above its centre) the fingers must close after
+        it, v tan a at a climb v, and in their drive's friction band they only creep, at their
+        drive's force over MuJoCo's soft friction (about G / 600-1000 N s/m: 0.02-0.04 mm/s at a
+        light object's grip).  robosuite's Panda's pads meet its 4 g raspberry at its equator and
+        lost it within 0.8 mm of climb; the fingers then closed on all the probe's blind growth
+        and regained it 13 degrees up, where it needs a third more, and held it at 2-2.9x its need.
+        Where any pad's reading fades while the grip rises (:func:`contact_fades`) the climb's
+        pace halves, down to ``controller.slowest_climb``, and where a pad reads 2 sigma over its first reading
+        since, it doubles back toward the full pace: the narrowing slows with the climb and the
+        creep catches up.  The pace moves to its goal over a plateau window, as a step in the
+        lift's speed is read in its load (m a) as the load not being steady.  The grip's growth is
+        the probe's own, per second: slowing it too made the raspberry's probe outlast the
+        scenario at the accurate preset."""
+        lift = self.lift
+        load_n = lift.window_load_n()
+        self._load_top = max(self._load_top, load_n)
+        area = self.robot.pad_area_m2
+        fading = rising = False
+        for pad in self.pads:
+            sel = self.selectors[pad]
+            if not (sel.trusted and sel.status == "ok" and math.isfinite(sel.uncertainty_pa)):
+                continue
+            felt_n, sigma_n = sel.estimate_pa * area, sel.uncertainty_pa * area
+            top_n, top_grip_n = self._pad_top.get(pad, (-math.inf, math.inf))
+            first_n = self._pad_first.setdefault(pad, felt_n)
+            if contact_fades(felt_n, sigma_n, top_n, self.grip_n > top_grip_n, load_n, self._load_top):
+                fading = True
+            elif felt_n > first_n + 2.0 * sigma_n:
+                rising = True
+            if felt_n > top_n:
+                self._pad_top[pad] = (felt_n, self.grip_n)
+        goal = self._pace_goal
+        if fading:
+            self._pace_goal = max(self.cfg.slowest_climb, 0.5 * goal)
+        elif rising:
+            self._pace_goal = min(1.0, 2.0 * goal)
+        if fading or (rising and goal < 1.0):  # the pace's goal changed: the readings since count anew
+            self._pad_top.clear()
+            self._pad_first.clear()
+        step = 1.0 / lift.plateau_steps
+        pace = self.climb_pace
+        self.climb_pace = min(self._pace_goal, pace + step) if pace < self._pace_goal else max(self._pace_goal, pace - step)
+
     def _fingertips_blind(self) -> bool:
         """Whether a pad's readout is settling this period (a ramping pressure, a switch's
         ring-up): it holds its last trusted estimate, which says nothing of the grip now."""
@@ -840,7 +913,10 @@ class GentleGrasp(MultimodeGrasp):
             return
         applied = max(self._grip_felt_n(obs), 0.0)
         window_full = lift.record(applied, self.robot.pads_height_m(obs.lift_pos_m, obs.opening_m))
-        rising = window_full and lift.risen_m() >= 0.5 * c.probe_speed_m_s * (lift.plateau_steps - 1) * dt_s
+        if window_full and self.grips_on_fingertips:
+            self._pace_climb()
+        pace_m_s = self.climb_pace * c.probe_speed_m_s
+        rising = window_full and lift.risen_m() >= 0.5 * pace_m_s * (lift.plateau_steps - 1) * dt_s
         growth_n_s = 0.0
         at_cap = False
         sees = self._probe_sees(t, obs.grip_force_n)
@@ -853,11 +929,12 @@ class GentleGrasp(MultimodeGrasp):
             else:
                 self._pads_slide_at_cap(t, lift.raw_load_n)
                 return
-        # The goal rises at the probe's pace, plus the sag that the grip's growth adds to a lift
-        # whose pads slide (2 mu G / kp), at the friction measured so far (the highest expected
-        # until then): the lift keeps rising while the pads slide, and the pads slide up the
-        # object at about the probe's pace, not faster.
-        lift.climb(c.probe_speed_m_s + 2.0 * self.friction * growth_n_s / self.robot.lift_kp_n_m, dt_s)
+        # The goal rises at the probe's pace (slowed where the contact fades: _pace_climb), plus
+        # the sag that the grip's growth adds to a lift whose pads slide (2 mu G / kp), at the
+        # friction measured so far (the highest expected until then): the lift keeps rising
+        # while the pads slide, and the pads slide up the object at about the probe's pace, not
+        # faster.
+        lift.climb(pace_m_s + 2.0 * self.friction * growth_n_s / self.robot.lift_kp_n_m, dt_s)
         if not rising:
             self._span = []  # held on the table: the load grows, the grip waits
             return
@@ -1384,6 +1461,7 @@ __all__ = [
     "GentleGrasp",
     "carried_nothing_at_first",
     "carries_weight",
+    "contact_fades",
     "fingers_closed_for",
     "grip_read_n",
     "least_carrying_grip_n",
