@@ -220,7 +220,7 @@ def test_the_probe_climbs_slower_where_the_contact_fades_and_back_where_it_reads
             lift.raw_load_n = load_n
             lift.record(c.grip_n, 0.0)
             c.grip_n *= growth
-            c._pace_climb()
+            c._pace_climb(0.03)
 
     c.grip_n, c._pad_top = 0.01, {}  # the probe from its floor
     read(40.0, 0.03, steps, growth=1.0)  # the load's highest: 30 mN

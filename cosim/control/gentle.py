@@ -166,19 +166,27 @@ def approach_pace_m_s(opening_m: float, slow_from_m: float, touch_m_s: float, to
     return max(touch_m_s, min(top_m_s, braking))
 
 
-def contact_fades(felt_n: float, sigma_n: float, top_felt_n: float, grip_rose: bool, load_n: float, top_load_n: float) -> bool:
+def contact_fades(
+    felt_n: float, sigma_n: float, top_felt_n: float, grip_rose: bool, opened: bool, load_n: float, top_load_n: float
+) -> bool:
     """Whether a pad's contact fades under pads that slide up an object that narrows under them:
     its reading ``felt_n`` (N, sigma ``sigma_n``) has fallen more than 2 sigma below the highest
     it read since the probe's pace last changed (``top_felt_n``) while the probe's grip rose
-    (``grip_rose``), and the lift's load ``load_n`` (N) has fallen from the highest it carried
-    in the probe (``top_load_n``) by at least the share 2 sigma is of that reading.
+    (``grip_rose``) and the fingers did not open (``opened``: they closed after the object, or
+    stood), and the lift's load ``load_n`` (N) has fallen from the highest it carried in the
+    probe (``top_load_n``) by at least the share 2 sigma is of that reading.
 
     Pads that slide carry 2 mu N, so their load falls with the contact; a carried object's load
     stays at its weight however its readings drift (robosuite's Panda's 2 g wafer, off the table,
     read 5 % lower on both pads after a settling while its contact rose: slowed there, the
     climb's change of speed read in the load held the verdict back and the grip pressed it to
-    0.049 N of its 0.05)."""
-    if not (grip_rose and felt_n < top_felt_n - 2.0 * sigma_n):
+    0.049 N of its 0.05).  Nor is a contact that falls as the fingers open: that is the touch's
+    leftover creeping down toward the probe's lower command, the fingers giving way in their
+    friction band, not the object narrowing under them (read as a fade, it slowed the probe on
+    flat boxes, whose grip then grew further before they left the table: the tests' slide
+    gripper's 3 g box carried at 30 mN for 23, and its hold, starting from that leftover, rang
+    at 0.11 N)."""
+    if opened or not (grip_rose and felt_n < top_felt_n - 2.0 * sigma_n):
         return False
     return load_n < (1.0 - 2.0 * sigma_n / top_felt_n) * top_load_n
 
@@ -436,7 +444,8 @@ class GentleGrasp(MultimodeGrasp):
         #: The probe's climb as a share of ``probe_speed_m_s``, and the share it moves toward
         #: (:meth:`_pace_climb`), -.
         self.climb_pace = self._pace_goal = 1.0
-        self._pad_top: dict[str, tuple[float, float]] = {}  # each pad's highest reading (N) since the pace changed, the grip then (N)
+        #: each pad's highest reading (N) since the pace changed, the grip (N) and the opening (m) then
+        self._pad_top: dict[str, tuple[float, float, float]] = {}
         self._pad_first: dict[str, float] = {}  # each pad's first reading since the pace changed, N
         self._load_top = 0.0  # the highest load the lift carried in the probe (its window's mean), N
         self._grip_goal_n = 0.0  # the grip the raise brings the probe's down to, N (_carry)
@@ -828,7 +837,7 @@ class GentleGrasp(MultimodeGrasp):
         self._slid, self.friction = False, self.cfg.friction_max
         self._regaining = self.grips_on_fingertips
 
-    def _pace_climb(self) -> None:
+    def _pace_climb(self, opening_m: float) -> None:
         """The probe's climb slowed where the pads' contact fades under them, on a drive with dry
         friction (:attr:`grips_on_fingertips`), once a period with the lift's window full.
 
@@ -839,10 +848,11 @@ class GentleGrasp(MultimodeGrasp):
         light object's grip).  robosuite's Panda's pads meet its 4 g raspberry at its equator and
         lost it within 0.8 mm of climb; the fingers then closed on all the probe's blind growth
         and regained it 13 degrees up, where it needs a third more, and held it at 2-2.9x its need.
-        Where any pad's reading fades while the grip rises (:func:`contact_fades`) the climb's
-        pace halves, down to ``controller.slowest_climb``, and where a pad reads 2 sigma over its first reading
-        since, it doubles back toward the full pace: the narrowing slows with the climb and the
-        creep catches up.  The pace moves to its goal over a plateau window, as a step in the
+        Where any pad's reading fades while the grip rises and the fingers, at ``opening_m`` (m),
+        have not opened (:func:`contact_fades`) the climb's pace halves, down to
+        ``controller.slowest_climb``, and where a pad reads 2 sigma over its first reading since,
+        it doubles back toward the full pace: the narrowing slows with the climb and the creep
+        catches up.  The pace moves to its goal over a plateau window, as a step in the
         lift's speed is read in its load (m a) as the load not being steady.  The grip's growth is
         the probe's own, per second: slowing it too made the raspberry's probe outlast the
         scenario at the accurate preset."""
@@ -856,14 +866,14 @@ class GentleGrasp(MultimodeGrasp):
             if not (sel.trusted and sel.status == "ok" and math.isfinite(sel.uncertainty_pa)):
                 continue
             felt_n, sigma_n = sel.estimate_pa * area, sel.uncertainty_pa * area
-            top_n, top_grip_n = self._pad_top.get(pad, (-math.inf, math.inf))
+            top_n, top_grip_n, top_opening_m = self._pad_top.get(pad, (-math.inf, math.inf, -math.inf))
             first_n = self._pad_first.setdefault(pad, felt_n)
-            if contact_fades(felt_n, sigma_n, top_n, self.grip_n > top_grip_n, load_n, self._load_top):
+            if contact_fades(felt_n, sigma_n, top_n, self.grip_n > top_grip_n, opening_m > top_opening_m, load_n, self._load_top):
                 fading = True
             elif felt_n > first_n + 2.0 * sigma_n:
                 rising = True
             if felt_n > top_n:
-                self._pad_top[pad] = (felt_n, self.grip_n)
+                self._pad_top[pad] = (felt_n, self.grip_n, opening_m)
         goal = self._pace_goal
         if fading:
             self._pace_goal = max(self.cfg.slowest_climb, 0.5 * goal)
@@ -914,7 +924,7 @@ class GentleGrasp(MultimodeGrasp):
         applied = max(self._grip_felt_n(obs), 0.0)
         window_full = lift.record(applied, self.robot.pads_height_m(obs.lift_pos_m, obs.opening_m))
         if window_full and self.grips_on_fingertips:
-            self._pace_climb()
+            self._pace_climb(obs.opening_m)
         pace_m_s = self.climb_pace * c.probe_speed_m_s
         rising = window_full and lift.risen_m() >= 0.5 * pace_m_s * (lift.plateau_steps - 1) * dt_s
         growth_n_s = 0.0
