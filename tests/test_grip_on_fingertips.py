@@ -205,11 +205,12 @@ def test_the_probe_climbs_slower_where_the_contact_fades_and_back_where_it_reads
     """The pads slide up the object in the probe, and over a sphere held at its centre the fingers
     must close after it as it narrows; in their drive's friction band they only creep (robosuite's
     Panda lost its raspberry within 0.8 mm of climb, regained it 13 degrees up, and held it at 2-2.9x
-    its need).  Where a pad's reading fades while the grip rises and the lift's load falls with it
-    (contact_fades), the climb's pace halves, to ``controller.slowest_climb`` at the least, moving there over a
-    plateau window (a step in the lift's speed reads as a load that is not steady); a reading 2
-    sigma over the first since doubles it back.  A reading that falls while the load stays (a
-    carried object's) changes nothing."""
+    its need).  Where a pad's reading fades while the grip rises, the fingers do not open and the
+    lift's load falls with it (contact_fades), the climb's pace halves, to
+    ``controller.slowest_climb`` at the least, moving there over a plateau window (a step in the
+    lift's speed reads as a load that is not steady); a reading 2 sigma over the first since
+    doubles it back.  A reading that falls while the load stays (a carried object's) changes
+    nothing."""
     c, lift = prober.c, prober.c.lift
     steps = lift.plateau_steps
 
