@@ -859,13 +859,12 @@ class GentleGrasp(MultimodeGrasp):
         lift = self.lift
         load_n = lift.window_load_n()
         self._load_top = max(self._load_top, load_n)
-        area = self.robot.pad_area_m2
         fading = rising = False
         for pad in self.pads:
-            sel = self.selectors[pad]
-            if not (sel.trusted and sel.status == "ok" and math.isfinite(sel.uncertainty_pa)):
+            reading = self._pad_grip_n(pad)
+            if reading is None:
                 continue
-            felt_n, sigma_n = sel.estimate_pa * area, sel.uncertainty_pa * area
+            felt_n, sigma_n = reading
             top_n, top_grip_n, top_opening_m = self._pad_top.get(pad, (-math.inf, math.inf, -math.inf))
             first_n = self._pad_first.setdefault(pad, felt_n)
             if contact_fades(felt_n, sigma_n, top_n, self.grip_n > top_grip_n, opening_m > top_opening_m, load_n, self._load_top):

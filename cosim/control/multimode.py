@@ -726,19 +726,27 @@ class MultimodeGrasp:
         estimate times the pad's area (a full-face contact), their mean; None unless every pad
         has one (``every_pad``), or, without it, unless one has (the object presses both pads
         alike: their mean is of those that read)."""
-        area, felt_n, variance, n = self.robot.pad_area_m2, 0.0, 0.0, 0
+        felt_n, variance, n = 0.0, 0.0, 0
         for pad in self.pads:
-            sel = self.selectors[pad]
-            if not (sel.trusted and sel.status == "ok" and math.isfinite(sel.uncertainty_pa)):
+            reading = self._pad_grip_n(pad)
+            if reading is None:
                 if every_pad:
                     return None
                 continue
-            felt_n += sel.estimate_pa * area
-            variance += (sel.uncertainty_pa * area) ** 2
+            felt_n += reading[0]
+            variance += reading[1] ** 2
             n += 1
         if n == 0:
             return None
         return felt_n / n, math.sqrt(variance) / n
+
+    def _pad_grip_n(self, pad: str) -> tuple[float, float] | None:
+        """One pad's reading of the grip, N, and its sigma: its trusted "ok" estimate times the
+        pad's area (a full-face contact); None where it has none this period."""
+        sel, area = self.selectors[pad], self.robot.pad_area_m2
+        if not (sel.trusted and sel.status == "ok" and math.isfinite(sel.uncertainty_pa)):
+            return None
+        return sel.estimate_pa * area, sel.uncertainty_pa * area
 
     def _window_load_is_steady(self, speed_m_s: float) -> bool:
         """Whether the window's load is a weight's.  A load that did not follow the grip's
