@@ -201,6 +201,53 @@ def test_a_contact_lost_in_the_probe_forgets_the_friction_read_on_it_and_the_dri
     assert c.grip_n >= 0.9  # once only: the probe grows from there
 
 
+def test_a_probe_blind_past_its_friction_over_a_steady_load_takes_its_friction_off_the_drive(prober):
+    """The probe's grip grows only within a plateau window of every pad's reading; on a drive with
+    dry friction F_f pushed past its band (its force over the contact felt by more than F_f) the
+    fingers slide closed on, unread, whatever the growth does, toward the drive less F_f.  Where
+    the load has stopped following (steady over the window: the object is being carried), the
+    drive comes down by F_f once, to the band's middle about the contact it presses, and the
+    fingers stop there; robosuite's Rethink gripper, blind through a switch's ring-up as its 60 g
+    egg left the table at the accurate preset, pressed it on from 0.52 N to 1.27 N and held it at
+    1.73x its need (1.44x).  Not within the band (the contact creeps there), not while the load
+    still follows the grip (the pads slide: a 500 g can's probe lost its contact so), and once per
+    blind spell."""
+    c, lift = prober.c, prober.c.lift
+    friction_n, steps = c.robot.finger_friction_n, lift.plateau_steps
+    felt_n = c._fingertips_grip_n()[0]
+
+    def blind(periods: int, load_n: float = 0.2, growth: float = 0.0) -> None:
+        for sel in c.selectors.values():
+            sel.trusted, sel.status = False, "settling"
+        for k in range(periods):
+            lift.raw_load_n = load_n * (1.0 + growth * k)
+            prober.period()
+
+    lift.raw_load_n = 0.2
+    for _ in range(steps):
+        prober.period()  # every pad reads: the load steady over the window
+    assert c._felt_at_s == prober.t
+    c.grip_n = felt_n + 2.5 * friction_n  # past the band's far edge about the contact felt, by more than F_f
+    pushed_n = c.grip_n
+    blind(steps)  # within a plateau window of the reading: grown on
+    assert c.grip_n > pushed_n
+    grown_n = c.grip_n
+    blind(1)
+    assert c.grip_n == pytest.approx(grown_n - friction_n)  # blind past the window: F_f off, once
+    blind(steps)
+    assert c.grip_n == pytest.approx(grown_n - friction_n)
+    # within the band, or the load still following the grip: nothing taken off
+    for grip_n, growth in ((felt_n + 0.5 * friction_n, 0.0), (felt_n + 1.5 * friction_n, 0.05)):
+        for sel in c.selectors.values():
+            sel.trusted, sel.status = True, "ok"
+        lift.raw_load_n = 0.2
+        for _ in range(steps):
+            prober.period()
+        c.grip_n = grip_n
+        blind(steps + 3, growth=growth)
+        assert c.grip_n >= grip_n, (grip_n, growth)
+
+
 def test_the_probe_climbs_slower_where_the_contact_fades_and_back_where_it_reads_a_rise(prober):
     """The pads slide up the object in the probe, and over a sphere held at its centre the fingers
     must close after it as it narrows; in their drive's friction band they only creep (robosuite's
