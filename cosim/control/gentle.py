@@ -1129,7 +1129,9 @@ class GentleGrasp(MultimodeGrasp):
         pulls open: the opening target at home, the limit its size) on by the excess over a
         plateau window a period, so that the fingers ease the contact down about as fast as the
         fingertips see it; within the tolerance it is held at
-        the felt grip, in the middle of the band (a push or pull under F_f moves nothing).  The
+        the grip less the felt excess over the tolerance (a push or pull under F_f moves nothing,
+        and the contact creeps toward the drive), and over it, while the fingers close or the
+        fingertips are blind, by the same rule carried on (:meth:`_held_within_tolerance_n`).  The
         fingertips' slip watch waits while the drive pulls the pressure down."""
         if self._friction_n <= 0.0:
             return self._linkage_drive_n(obs, grip_n), self.opening_target
@@ -1306,7 +1308,7 @@ class GentleGrasp(MultimodeGrasp):
             held_n = self._held_within_tolerance_n(grip_n, felt_n) if way <= 0 else max(grip_n, felt_n - self._friction_n)
             drive_n, self._moved_dir = held_n, 0
             if way < 0 and self._over_periods >= self.cfg.persist:
-                # Over the tolerance and held under it (at the grip, or the band's near edge),
+                # Over the tolerance and held under it (by the tolerance's rule carried on),
                 # the contact creeps down to the drive: a pressure let down is no slip (read as
                 # one, the Panda's 100 g box, left at 1.7x by the probe, was raised to 1.56x).
                 self._slip_watch_waits(t)
