@@ -275,6 +275,9 @@ _STATUS_STYLE = {
 
 #: The lowest pressure the run plot shows, Pa (the log axis's floor; a band reaching zero runs off it).
 _PRESSURE_FLOOR_PA = 0.1
+#: A crush limit more than this many times the largest force drawn is written in the force
+#: panel's legend, off its scale, rather than setting the scale (the forces would be a flat line).
+CRUSH_OFF_SCALE = 5.0
 
 
 def estimate_readings(data: dict[str, np.ndarray], side: str) -> dict[str, np.ndarray]:
@@ -408,10 +411,22 @@ def run_figure(config: ScenarioConfig, fingertip: Fingertip, data: dict[str, np.
         how = f"; hold margin {margin:.2f}x" if math.isfinite(margin) else "; never carried"
         label = f"needed grip {report['needed_grip_n']:.3g} N per finger{how}"
         ax_f.axhline(report["needed_grip_n"], color="tab:green", ls="--", lw=1.2, label=label)
-    if config.object.crush_force_n is not None:
-        ax_f.axhline(config.object.crush_force_n, color="red", ls="-.", lw=1.2, label=f"crush limit {config.object.crush_force_n:.3g} N")
     ax_f.set(ylabel="force on the object [N]")
     ax_f.set_ylim(bottom=0.0)
+    crush_n = config.object.crush_force_n
+    if crush_n is not None:
+        # A crush limit far over every force drawn would flatten them to the panel's floor (an
+        # egg's 25 N over its 0.7 N grip): the panel keeps their scale and the legend says where
+        # the limit is.
+        drawn = [data["left_finger_force_n"], data["right_finger_force_n"], drive, *peaks]
+        if report is not None and math.isfinite(report.get("needed_grip_n", math.nan)):
+            drawn.append(np.array([report["needed_grip_n"]]))
+        top_n = max((float(np.nanmax(d)) for d in drawn if np.isfinite(d).any()), default=0.0)
+        label = f"crush limit {crush_n:.3g} N"
+        if top_n > 0.0 and crush_n > CRUSH_OFF_SCALE * top_n:
+            ax_f.set_ylim(0.0, 1.15 * top_n)
+            label += f" (off the scale: {crush_n / top_n:.3g}x the largest force drawn)"
+        ax_f.axhline(crush_n, color="red", ls="-.", lw=1.2, label=label)
 
     ax_h.plot(t, 1e3 * (data["object_height_m"] - data["object_height_m"][0]), label="object")
     ax_h.plot(t, 1e3 * (data["lift_m"] - data["lift_m"][0]), "--", label="gripper")

@@ -97,6 +97,14 @@ def test_force_panel_draws_the_truth_the_needed_grip_and_the_crush_limit(recorde
     y = np.asarray(drive.get_ydata(), dtype=float)
     assert np.isnan(y[~touching]).all() and np.isfinite(y[touching]).all()
     assert "grip margin 2.24x" in fig.axes[0].get_title()
+    # a crush limit far over every force drawn: written off the scale, the forces keep theirs
+    largest = max(float(np.nanmax(data[k])) for k in ("left_finger_force_n", "right_finger_force_n", "grip_force_n"))
+    robust = dataclasses.replace(config, object=dataclasses.replace(config.object, crush_force_n=100.0 * largest))
+    ax_f = _axes(run_report.run_figure(robust, tip, data, REPORT), "force on the object")
+    crush = next(ln for ln in ax_f.lines if "crush" in ln.get_label())
+    assert "off the scale: 100x" in crush.get_label()
+    assert largest <= ax_f.get_ylim()[1] < 2.0 * largest
+    assert ax_f.get_ylim()[1] == pytest.approx(1.15 * largest)
     # no crush limit, no crush line
     fig = run_report.run_figure(config, tip, data, REPORT)
     ax_f = _axes(fig, "force on the object")
