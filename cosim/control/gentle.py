@@ -794,8 +794,9 @@ class GentleGrasp(MultimodeGrasp):
         if self.grips_on_fingertips and self._fingertips_blind() and not self._drive_reads_grip(drive_n):
             return False
         self._felt_at_s = t
-        felt = self._fingertips_grip_n()  # what the fingers press, for a blind spell to come (_transfer)
-        self._felt_seen_n, self._blind_eased = (felt[0] if felt is not None else math.inf), False
+        if self.grips_on_fingertips:  # what the fingers press, for a blind spell to come (_transfer)
+            felt = self._fingertips_grip_n()
+            self._felt_seen_n, self._blind_eased = (felt[0] if felt is not None else math.inf), False
         return True
 
     def _probe_base_n(self) -> float:
@@ -955,7 +956,7 @@ class GentleGrasp(MultimodeGrasp):
             # window old (the Panda's 500 g can, carried from 2.1 N by then, fell back)
             # (tests/test_grip_on_fingertips.py::test_a_probe_blind_past_its_friction_over_a_steady_load_takes_its_friction_off_the_drive).
             loads = [entry[2] for entry in lift.window]
-            if sum(loads) / len(loads) > self.robot.min_load_n and load_is_steady(loads, self.steady_load_fraction):
+            if lift.window_load_n() > self.robot.min_load_n and load_is_steady(loads, self.steady_load_fraction):
                 self._blind_eased = True
                 self.grip_n -= self._friction_n
         # The goal rises at the probe's pace (slowed where the contact fades: _pace_climb), plus
@@ -1222,23 +1223,18 @@ class GentleGrasp(MultimodeGrasp):
             self._moved_dir = 0
         elif self._moved_dir == 0:
             excess_n = contact_n - grip_n
-            if 0.0 < excess_n <= FEEL_TOLERANCE * grip_n and math.isfinite(self._felt_ref[0]):
+            if excess_n > 0.0 and math.isfinite(self._felt_ref[0]):
                 # Held, the joints stand in for the fingertips as a reading would be taken (the
-                # within-tolerance rule of _felt_drive_n): the contact creeps toward the drive's
-                # force, in newtons, and the grip wanted is in the element's units, which over-read
-                # a curved patch (the egg's 1.6x); held at the grip while a pad settled for 0.8 s,
-                # robosuite's Panda's fingers crept 0.33 mm closed on its egg at the accurate
-                # preset, which it then held at 1.81x its need (tests/test_grip_on_fingertips.py::
-                # test_a_blind_hold_whose_joints_see_the_contact_creep_up_holds_the_drive_under_the_grip).
+                # tolerance's rule of _felt_drive_n, within it and carried on past its top): the
+                # contact creeps toward the drive's force, in newtons, and the grip wanted is in
+                # the element's units, which over-read a curved patch (the egg's 1.6x); held at the
+                # grip while a pad settled for 0.8 s, robosuite's Panda's fingers crept 0.33 mm
+                # closed on its egg at the accurate preset, which it then held at 1.81x its need
+                # (tests/test_grip_on_fingertips.py::
+                # test_a_blind_hold_whose_joints_see_the_contact_creep_up_holds_the_drive_under_the_grip),
+                # and past the tolerance the Rethink's egg crept on up through a blind half of its
+                # hold (::test_past_its_tolerance_the_hold_lets_the_contact_creep_down_not_up_to_the_grip).
                 # The pressure let down is no slip (read as one on the Rethink's egg: 1.76x).
-                drive_n = self._held_within_tolerance_n(grip_n, contact_n)
-                self._slip_watch_waits(t)
-            elif excess_n > 0.0 and math.isfinite(self._felt_ref[0]):
-                # Past the tolerance by the joints, the same rule carried on (never under zero,
-                # continuous at the tolerance's top): held at the grip, in newtons, the contact of
-                # a patch the element over-reads crept on up through the blind spell (the
-                # Rethink's egg at the accurate preset, blind for half its hold)
-                # (tests/test_grip_on_fingertips.py::test_past_its_tolerance_the_hold_lets_the_contact_creep_down_not_up_to_the_grip).
                 drive_n = self._held_within_tolerance_n(grip_n, contact_n)
                 self._slip_watch_waits(t)
             else:  # under the grip by the joints (or no reading yet in the carry): brought up to it
