@@ -456,6 +456,17 @@ class GentleGrasp(MultimodeGrasp):
         self._felt_at_s = -math.inf  # when every fingertip last had a trusted reading in the probe, s (_probe_sees)
         self._felt_seen_n = math.inf  # the grip they read then, N (inf: none yet)
         self._blind_eased = False  # whether the probe's drive came back to its contact since (_transfer)
+        self._seen_ref = (math.inf, 0.0)  # (opening m, grip N) as every fingertip last read in the probe
+        #: The probe's let-down of a contact found carried before the pads were seen to slide
+        #: (:meth:`_let_down_step`): its pull, the weight it carries (N), and when the pull ended (s).
+        self._let_down: Pull | None = None
+        self._let_down_weight_n = self._let_down_from_n = 0.0  # the weight carried and the grip it was carried from, N
+        self._let_down_end_s = math.inf
+        self._let_down_tried = False
+        self._let_down_ref = (math.inf, 0.0)  # the pull's (opening m, contact N) once it ended
+        self._let_down_loads: list[float] = []  # the lift's raw load each period of the let-down, N
+        self._let_down_felt_n = math.nan  # the fingertips' last reading since its pull ended, N
+        self._opening_m = math.nan  # the fingers' opening this period, m
         self._ease: Pull | None = None  # the squeeze's pull easing the touch down (_squeeze_eases)
         self._ease_from_s = -math.inf  # when the squeeze's last pull ended, s
         self._eases = 0  # how many pulls the squeeze made
@@ -797,6 +808,8 @@ class GentleGrasp(MultimodeGrasp):
         if self.grips_on_fingertips:  # what the fingers press, for a blind spell to come (_transfer)
             felt = self._fingertips_grip_n()
             self._felt_seen_n, self._blind_eased = (felt[0] if felt is not None else math.inf), False
+            if felt is not None:
+                self._seen_ref = (self._opening_m, felt[0])
         return True
 
     def _probe_base_n(self) -> float:
@@ -925,8 +938,12 @@ class GentleGrasp(MultimodeGrasp):
         if t - self._t_phase > self.transfer_timeout_s:
             self._give_up(t, "never_lifted", f"the load transfer did not finish in {self.transfer_timeout_s:.2g} s", Phase.PLACE)
             return
+        self._opening_m = obs.opening_m
         applied = max(self._grip_felt_n(obs), 0.0)
         window_full = lift.record(applied, self.robot.pads_height_m(obs.lift_pos_m, obs.opening_m))
+        if self._let_down is not None or math.isfinite(self._let_down_end_s):
+            self._let_down_step(obs, t)
+            return
         if window_full and self.grips_on_fingertips:
             self._pace_climb(obs.opening_m)
         pace_m_s = self.climb_pace * c.probe_speed_m_s
@@ -1060,7 +1077,94 @@ class GentleGrasp(MultimodeGrasp):
         # hold the stick-slip before it, and read the weight low (tests/test_third_party_grippers.py::
         # test_the_gentle_probe_reads_the_pandas_contact_creeping_down_from_the_touch[glass-jar-300g-0.27]).
         self._lifted_off_m = lifted_off_m
+        if self._lets_down(at_cap):
+            self._start_let_down(obs, t, weight_n, carried_from_n)
+            return
         self._carry(obs, t, weight_n, carried_from_n, grip_n)
+
+    def _lets_down(self, at_cap: bool) -> bool:
+        """Whether the probe lets a contact it found carrying the weight down before it carries it
+        (:meth:`_start_let_down`): on a drive with dry friction, the pads never seen to slide, below
+        the grip's cap, once."""
+        return self.grips_on_fingertips and not self._slid and not at_cap and not self._let_down_tried
+
+    def _start_let_down(self, obs: Observation, t: float, weight_n: float, carried_from_n: float) -> None:
+        """The object was found carried, its weight ``weight_n`` (N), from ``carried_from_n`` (N),
+        the least grip that carried it, before the pads were ever seen to slide: that grip bounds
+        the friction only from below, so the need is anywhere under it.  A drive with dry friction keeps the contact the touch
+        left (the squeeze's ease lands over its goal where the contact is softer than a full face:
+        robosuite's Panda carried its 1 g tissue box from 11 mN, 1.34x its need, and held it at
+        1.51x, the grip's safety factor on top).  So the fingers are eased open, as the squeeze's
+        pull eases the touch (:meth:`_start_pull`), from the contact the joints say they press
+        (:meth:`_joint_contact_n`, from the fingertips' last reading) to that grip over
+        ``grip_safety``, the lift held where it is (the object millimetres over the table): carried
+        still a plateau window after, the need is under the contact left, and the object is
+        carried from the fingertips' reading of it; let go, the object slides back onto the table,
+        and the probe grows the grip from the contact left, reading the friction as the pads slide
+        (:meth:`_let_down_step`)."""
+        self._let_down_tried = True
+        contact_n = self._joint_contact_n(obs.opening_m, self._seen_ref) if math.isfinite(self._seen_ref[0]) else carried_from_n
+        goal_n = max(self.grip_floor_n, carried_from_n / self.cfg.grip_safety)
+        if contact_n <= goal_n:
+            self._carry(obs, t, weight_n, carried_from_n, carried_from_n)
+            return
+        self._let_down_weight_n, self._let_down_from_n, self._let_down_loads = weight_n, carried_from_n, []
+        self._let_down = self._start_pull(obs, t, contact_n, contact_n - goal_n, goal_n - goal_n / self.cfg.grip_safety)
+        self._set_drive(contact_n - self._let_down.pull_n)
+        self._event(
+            t,
+            "let_down",
+            f"carried before the pads were seen to slide, from {carried_from_n:.3g} N (friction at least "
+            f"{weight_n / (2.0 * carried_from_n):.3g}): easing the contact from {contact_n:.3g} N to {goal_n:.3g} N to bound the need",
+        )
+
+    def _let_down_step(self, obs: Observation, t: float) -> None:
+        """A period of the probe's let-down (:meth:`_start_let_down`): the paced pull
+        (:meth:`_pull_drive_n`), then the drive held at the contact the joints say it left for a
+        plateau window (and, unread, up to the readout's longest window more); an object whose
+        load (a plateau window's mean since the let-down began) falls under half its weight has
+        slid back onto the table, and the probe grows the grip from the contact left; one carried
+        all through is carried (:meth:`_carry`) from the fingertips' reading after the pull, or
+        from the bound the probe found where they read over it or not at all."""
+        lift, pull = self.lift, self._let_down
+        weight_n = self._let_down_weight_n
+        ref = (pull.from_m, pull.contact_n) if pull is not None else self._let_down_ref
+        contact_n = max(self._joint_contact_n(obs.opening_m, ref), 0.0)
+        loads = self._let_down_loads
+        loads.append(lift.raw_load_n)
+        window = loads[-lift.plateau_steps :]
+        if len(window) == lift.plateau_steps and sum(window) / len(window) < 0.5 * weight_n:
+            self._let_down, self._let_down_end_s = None, math.inf
+            self._span, self._unslid = [], []
+            self._set_drive(max(self.grip_floor_n, contact_n))
+            self._event(t, "let_down", f"the load fell from {weight_n:.3g} N at {contact_n:.3g} N of grip: probing up from there")
+            return
+        if pull is not None:
+            drive_n = self._pull_drive_n(pull, obs, t)
+            if drive_n is not None:
+                self._set_drive(drive_n)
+                return
+            self._let_down, self._let_down_ref, self._let_down_end_s = None, (pull.from_m, pull.contact_n), t
+            self._let_down_felt_n = math.nan
+            self._set_drive(max(self.grip_floor_n, contact_n))
+            return
+        felt = self._fingertips_grip_n(every_pad=False)
+        if felt is not None:
+            self._let_down_felt_n = felt[0]
+        waited_s, window_s = t - self._let_down_end_s, self.lift.plateau_steps * self.dt_s
+        read = math.isfinite(self._let_down_felt_n)
+        if waited_s < window_s or (not read and waited_s < window_s + self.ease_wait_s):
+            return
+        self._let_down_end_s = math.inf
+        # Carried from the fingertips' reading: the joints reckon the contact by a full face's
+        # stiffness, and a softer contact is left over what they say (robosuite's Rethink held its
+        # 1.2 g tissue box at 1.00x its need from their 6.6 mN for the 8.0 mN its pads pressed,
+        # and it crept down through the hold).  Unread, or read over it, the bound the probe found
+        # stands (a curved patch's contact, softer still, is left over it, and read over it).
+        carried_n = self._let_down_from_n
+        if read:
+            carried_n = max(self.grip_floor_n, min(self._let_down_felt_n, carried_n))
+        self._carry(obs, t, weight_n, carried_n, carried_n)
 
     def _carry(self, obs: Observation, t: float, weight_n: float, carried_from_n: float, carried_mean_n: float) -> None:
         """The load stayed while the grip changed: the object is off the table, its weight the
