@@ -118,6 +118,12 @@ class GripperDrive:
         self.actuators = [model.actuator(PREFIX + a.name).id for a in parts.actuators]
         self.force_max = np.array([a.force_max for a in parts.actuators])
         self.ctrl_range = np.array([a.ctrl_range for a in parts.actuators])
+        self._kp = np.asarray(kp, dtype=float)
+        # The length each actuator's command holds at the closing end of its range: of the two
+        # ends, the one past the path's home length toward its closed end.
+        held = np.array([[a.length_offset + a.length_per_ctrl * c for c in a.ctrl_range] for a in parts.actuators])
+        closing = np.sign(path.lengths[:, 0] - path.lengths[:, -1])[:, None]
+        self._closed_length = held[np.arange(len(held)), np.argmax(closing * (held - path.lengths[:, -1:]), axis=1)]
         self._ctrl_per_length = [1.0 / a.length_per_ctrl for a in parts.actuators]
         self._length_offset = [a.length_offset for a in parts.actuators]
         self.path = path
@@ -178,6 +184,24 @@ class GripperDrive:
         """The grip the drive is rated for, N per finger: sum_a F_a |dl_a/do|, the least along
         the path (a grip it holds at any width)."""
         return float((self.force_max[:, None] * np.abs(self._slopes)).sum(axis=0).min())
+
+    def reach_n(self) -> np.ndarray:
+        """The most grip the drive gives at each opening of its path, N per finger, its commands
+        at their closing end: a position servo's force there is kp_a |l_a - l*_a| (l*_a the length
+        that command holds; MuJoCo's affine bias, force = g ctrl + b0 - kp l at rest), within its
+        rating F_a, so the grip is sum_a min(F_a, kp_a |l_a - l*_a|) |dl_a/do| plus what the
+        free fingers' springs give there (:attr:`DrivePath.static_force`, as :meth:`grip_force_n`
+        reads them).  A servo whose closed command holds a length the fingers never reach
+        (robosuite's grippers, the 2F-85s: a stroke past the fingers touching) gives its rating
+        at any width but the narrowest; one whose closed command holds the fingers just
+        touching gives a grip that vanishes as they close: Menagerie's Franka hand, kp 100 N/m
+        on a tendon of the fingers' mean, 1.5 N a finger on a 60 mm jar for the 50 N its force
+        range rates it at (tests/test_gripper_natural_pose.py::
+        test_a_servos_reach_caps_the_grip_at_each_width_and_the_controller_says_so)."""
+        kp = np.maximum(self._kp, 0.0)[:, None]
+        reach = np.abs(self.path.lengths - self._closed_length[:, None]) * kp
+        force = np.where(kp > 0.0, np.minimum(self.force_max[:, None], reach), self.force_max[:, None])
+        return (force * np.abs(self._slopes)).sum(axis=0) + (self.path.static_force * self._slopes).sum(axis=0)
 
     def damping_n_s_m(self) -> float:
         """The damping the drive must overcome to move the fingers, on the opening, N s/m: the

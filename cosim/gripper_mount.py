@@ -275,7 +275,13 @@ class MountedGripper:
             rise = (tuple(path.opening_m.tolist()), tuple(path.centre_rise_m.tolist()))
         if np.any(drive.lift_coupling_kg):  # (exactly 0 for slides across the lift)
             coupling = (tuple(path.opening_m[list(MASS_POINTS)].tolist()), tuple(drive.lift_coupling_kg.tolist()))
-        return robot_limits(self.model, home, self.geometry, gel, fingers=fingers, pad_rise_m=rise, lift_coupling_kg=coupling)
+        reach_n = drive.reach_n()
+        reach = ((), ())
+        if np.any(reach_n < fingers["finger_force_limit_n"]):  # a servo whose reach is less than its rating somewhere
+            reach = (tuple(path.opening_m.tolist()), tuple(reach_n.tolist()))
+        return robot_limits(
+            self.model, home, self.geometry, gel, fingers=fingers, pad_rise_m=rise, lift_coupling_kg=coupling, finger_reach_n=reach
+        )
 
 
 def mount_gripper(config: ScenarioConfig, gel: GelParams | None = None) -> MountedGripper:

@@ -121,14 +121,16 @@ def robot_limits(
     fingers: dict[str, float] | None = None,
     pad_rise_m: tuple[tuple[float, ...], tuple[float, ...]] = ((), ()),
     lift_coupling_kg: tuple[tuple[float, ...], tuple[float, ...]] = ((), ()),
+    finger_reach_n: tuple[tuple[float, ...], tuple[float, ...]] = ((), ()),
 ) -> RobotLimits:
     """The gripper's limits and servo gains as the compiled model has them (never typed again).
 
     ``fingers``: a mounted gripper's finger fields of :class:`RobotLimits` by name (force limit,
     damping, dry friction, mass and joints' damping, on the opening), from its drive
     (cosim.gripper_drive.GripperDrive); None reads the house gripper's (no friction: its finger
-    joints have none).  ``pad_rise_m``, ``lift_coupling_kg``: :class:`RobotLimits`' (none on the
-    house gripper: its fingers slide across the lift)."""
+    joints have none).  ``pad_rise_m``, ``lift_coupling_kg``, ``finger_reach_n``: :class:`RobotLimits`'
+    (none on the house gripper: its fingers slide across the lift, and its servo's force range
+    binds at every opening)."""
     lift = model.actuator("lift_actuator")
     kp, kv = float(lift.gainprm[0]), float(-lift.biasprm[2])
     if fingers is None:
@@ -159,6 +161,7 @@ def robot_limits(
         home_opening_m=home["opening_m"],
         pad_rise_m=pad_rise_m,
         lift_coupling_kg=lift_coupling_kg,
+        finger_reach_n=finger_reach_n,
         **{name: float(value) for name, value in fingers.items()},
     )
 

@@ -180,10 +180,9 @@ def test_a_menagerie_style_tendon_servo_on_a_hand_closed_at_qpos0_mounts_open(tm
     equality mirroring them, the fingers closed at qpos0 (their inner faces touching): open at 255
     (the tendon's 40 mm), the pads 2 (40 - 5) = 70 mm apart; the grip rating is the servo's 100 N
     on the tendon, whose length moves half the opening's: 50 N per finger (each finger's joint
-    takes half the tendon's force).  The 100 g box is carried by the multimode controller; the
-    gentle one gives up as ``unfelt_contact`` on these fingers (0.1 kg of armature a slide, as
-    Menagerie's hand: the joints feel the box before the pads read it at the grip floor; without
-    the armature it carries it): the controller's, recorded in docs/grippers.md."""
+    takes half the tendon's force), though its servo's reach is far less
+    (test_a_servos_reach_caps_the_grip_at_each_width_and_the_controller_says_so).  The 100 g box
+    is carried by both controllers (0.1 kg of armature a slide, as Menagerie's hand)."""
     path = write(tmp_path, TENDON_HAND.format(dynamics=""), "tendon_hand.xml")
     overrides = keys(path, ["actuator8"])
     mounted = mount_gripper(config(overrides))
@@ -191,6 +190,76 @@ def test_a_menagerie_style_tendon_servo_on_a_hand_closed_at_qpos0_mounts_open(tm
     assert mounted.drive.home_opening_m == pytest.approx(0.070, abs=1e-4)
     assert mounted.drive.rating_n() == pytest.approx(50.0, rel=1e-3)
     assert_success({**overrides, "controller.kind": "multimode"})
+    assert_success({**overrides, "controller.kind": "gentle"})
+
+
+def test_a_servos_reach_caps_the_grip_at_each_width_and_the_controller_says_so(tmp_path):
+    """Menagerie's Franka hand drives its tendon (the fingers' mean length l) with a servo of
+    kp 100 N/m whose closed command (0) holds l* = 0, the fingers touching: at rest it presses
+    with 100 l, 4 N at most, whatever its 100 N force range (its 50 N a finger of rating).  The
+    grip a finger gets is kp |l - l*| |dl/do| (the tendon moves half the opening): about 1.7 N
+    on a 60 mm jar, where the jar needs 4.9 N (friction 0.3).  The mount reads that reach along
+    the path (:meth:`GripperDrive.reach_n`), checked here against MuJoCo: the hand closed on a
+    wide box at its closed command settles with the drive's own grip reading at the reach of
+    its opening.  The controller caps the grip there at the touch and says so (a ``drive_reach``
+    event), and gives up on the jar at that cap, not at a 50 N it never gave (before: "the grip
+    at the gripper's limit, 50 N", its pads at 1.47 N)."""
+    path = write(tmp_path, TENDON_HAND.format(dynamics=""), "tendon_hand.xml")
+    overrides = {**keys(path, ["actuator8"]), "object.size_m": 0.06, "object.mass_kg": 0.3, "object.friction": 0.3}
+    drive, limits, opening, grip_n = _closed_on_the_jar(overrides)
+    lengths, slopes = drive.path.lengths[0], np.gradient(drive.path.lengths[0], drive.path.opening_m)
+    assert drive.reach_n() == pytest.approx(100.0 * np.abs(lengths) * np.abs(slopes), rel=1e-6, abs=1e-9)
+    assert limits.finger_force_limit_n == pytest.approx(50.0, rel=1e-3)
+    assert 0.05 < opening < 0.062
+    assert grip_n == pytest.approx(limits.finger_force_limit_at_n(opening), rel=0.03)
+    assert limits.finger_force_limit_at_n(opening) < 2.0
+    result = piezotip.run("grasp", overrides={**overrides, "controller.kind": "gentle"}, preset="fast")
+    assert result.outcome == "never_lifted"
+    reach = next(e["message"] for e in result.events if e["kind"] == "drive_reach")
+    cap_n = float(reach.split("at most ")[1].split(" N")[0])
+    assert cap_n == pytest.approx(limits.finger_force_limit_at_n(0.06), rel=0.05)
+    assert f"{cap_n:.3g} N" in result.reason and "50 N" not in result.reason
+
+
+def _closed_on_the_jar(overrides: dict):
+    """The gripper of ``overrides`` mounted on its object and closed on it at its closed command
+    for 1.5 s: (drive, robot limits, opening m, the drive's own grip reading N)."""
+    cfg = config(overrides)
+    mounted = mount_gripper(cfg)
+    data = mujoco.MjData(mounted.model)
+    limits = mounted.robot_limits(mounted.reset_home(data, cfg))
+    data.ctrl[mounted.drive.actuators] = 0.0  # closed: the fingers press the object at the servo's reach
+    for _ in range(round(1.5 / mounted.model.opt.timestep)):
+        mujoco.mj_step(mounted.model, data)
+    return mounted.drive, limits, mounted.drive.opening_m(data), mounted.drive.grip_force_n(data)
+
+
+def test_a_servos_reach_counts_the_springs_the_free_fingers_hold(tmp_path):
+    """Springs on the fingers (stiffness 20 N/m a slide, at rest open) take part of the servo's
+    force to hold the free fingers where they are (:attr:`DrivePath.static_force`), and the grip
+    the drive reads leaves it out: the reach adds what they give there, and the hand closed on
+    the jar settles at it (7 % under the springless reach)."""
+    hand = TENDON_HAND.format(dynamics="").replace('armature="0.1"', 'armature="0.1" stiffness="20" springref="0.04"')
+    path = write(tmp_path, hand, "sprung_hand.xml")
+    drive, limits, opening, grip_n = _closed_on_the_jar({**keys(path, ["actuator8"]), "object.size_m": 0.06})
+    assert np.any(drive.path.static_force != 0.0)
+    assert grip_n == pytest.approx(limits.finger_force_limit_at_n(opening), rel=0.01)
+
+
+def test_a_servo_that_reaches_its_rating_at_every_width_has_no_reach_table(tmp_path):
+    """The house gripper's servo, and the hand's with a command range twice its stroke (its
+    closed command holds the tendon 40 mm past the fingers touching) and a 3 N force range: the
+    force range binds at every width, and the limits keep no reach table (the grip's cap is the
+    rating)."""
+    from piezotip.cosim.loop import CoSimulation
+
+    house = CoSimulation(scenarios.get("grasp", [], "fast")).robot
+    assert house.finger_reach_n == ((), ()) and house.finger_force_limit_at_n(0.03) == house.finger_force_limit_n
+    hand = TENDON_HAND.format(dynamics="").replace('forcerange="-100 100" ctrlrange="0 255"', 'forcerange="-3 3" ctrlrange="-255 255"')
+    cfg = config({**keys(write(tmp_path, hand, "long_stroke_hand.xml"), ["actuator8"]), "object.size_m": 0.04})
+    mounted = mount_gripper(cfg)
+    limits = mounted.robot_limits(mounted.reset_home(mujoco.MjData(mounted.model), cfg))
+    assert limits.finger_reach_n == ((), ()) and limits.finger_force_limit_n == pytest.approx(1.5, rel=1e-6)
 
 
 def test_a_filtered_servo_starts_held_at_its_open_command(tmp_path):

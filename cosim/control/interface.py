@@ -134,6 +134,11 @@ class RobotLimits:
     lift_coupling_kg : (openings, couplings), kg: the fingers' inertia coupling the lift to the
         opening, c = e_lift^T M v (cosim.gripper_drive.opening_inertia_kg): a lift accelerating
         at a pushes the fingers open with -c a, N on the opening.  Empty where it is 0 (slides).
+    finger_reach_n : (openings, grips), N per finger: the most grip the fingers' drive gives at
+        each opening, its servo's force kp |l - l*| at its closed command within its rating
+        (cosim.gripper_drive.GripperDrive.reach_n; Menagerie's Franka hand: 1.5 N at 60 mm, for a
+        rating of 50 N).  Empty where it is ``finger_force_limit_n`` at every opening (the
+        house gripper; a servo whose stroke runs past the fingers touching).
     """
 
     lift_kp_n_m: float
@@ -156,12 +161,20 @@ class RobotLimits:
     finger_servo_stiffness_n_m: float = 0.0
     pad_rise_m: tuple[tuple[float, ...], tuple[float, ...]] = ((), ())
     lift_coupling_kg: tuple[tuple[float, ...], tuple[float, ...]] = ((), ())
+    finger_reach_n: tuple[tuple[float, ...], tuple[float, ...]] = ((), ())
 
     def pads_height_m(self, lift_pos_m: float, opening_m: float) -> float:
         """The pads' centre height on the lift's scale, m: the lift's position plus the pads' rise
         along their arc at ``opening_m`` (:attr:`pad_rise_m`).  Proprioception: the lift's and
         the fingers' joints."""
         return lift_pos_m + _along_opening(self.pad_rise_m, opening_m)
+
+    def finger_force_limit_at_n(self, opening_m: float) -> float:
+        """The most grip the fingers' drive gives at ``opening_m`` (m), N per finger: its rating,
+        or less where its servo's reach is less there (:attr:`finger_reach_n`)."""
+        if not self.finger_reach_n[0]:
+            return self.finger_force_limit_n
+        return min(self.finger_force_limit_n, _along_opening(self.finger_reach_n, opening_m))
 
     def lift_opens_n(self, opening_m: float, lift_accel_m_s2: float) -> float:
         """The force with which the lift's acceleration pushes the fingers open, N on the opening:

@@ -410,6 +410,7 @@ class MultimodeGrasp:
         if all(touched) or felt_by_joints:
             self.touch_time_s = t
             self._width_m = obs.opening_m  # the object's width: the pads barely pressed yet
+            self._cap_at_width(t, obs.opening_m)
             self.opening_target = 0.0  # squeeze at the force limit
             self.grip_n = self.grip_floor_n
             brake_n = self._brake_n(obs.opening_m, dt_s)
@@ -880,6 +881,26 @@ class MultimodeGrasp:
         wanted = grip_for_load_n(load_n, self.friction, self.cfg.grip_safety, self.grip_floor_n)
         if not self._over_cap(t, wanted, load_n, carried=True):
             self.grip_n = ratchet_grip_n(self.grip_n, wanted, self.grip_cap_n, self.grip_rate_n_s, dt_s)
+
+    def _cap_at_width(self, t: float, width_m: float) -> None:
+        """The grip's cap brought down to what the drive gives at the object's width ``width_m``
+        (m, the opening at the touch), where its servo reaches less there than its rating
+        (:meth:`RobotLimits.finger_force_limit_at_n`): a position servo whose closed command holds
+        the fingers just touching presses an object with kp times how far short of that they
+        stand, not its force range (Menagerie's Franka hand: 1.5 N a finger on a 60 mm jar, rated
+        50 N), and a grip commanded past it is a grip the pads never feel.  Said in the record."""
+        reach_n = self.robot.finger_force_limit_at_n(width_m)
+        if reach_n >= self.max_grip_n:
+            return
+        self.max_grip_n = reach_n
+        self.grip_cap_n = min(self.grip_cap_n, reach_n)
+        self.grip_floor_n = min(self.grip_floor_n, self.grip_cap_n)
+        self._event(
+            t,
+            "drive_reach",
+            f"the drive gives at most {reach_n:.3g} N per finger at this {width_m * 1e3:.1f} mm width (its servo's "
+            f"stiffness times the stroke left to its closed command; rated {self.robot.finger_force_limit_n:.3g} N): the grip's cap",
+        )
 
     def _pads_slide_at_cap(self, t: float, load_n: float) -> None:
         """Give up: the pads slide at ``load_n`` N of load with the grip at its cap (``blind``
