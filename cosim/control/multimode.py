@@ -298,6 +298,7 @@ class MultimodeGrasp:
         self._shut_s = 0.0  # how long the fingers have been shut past the object, no fingertip reading it
         self._last_slip_s = -math.inf
         self._width_m = math.nan
+        self._released_from_n = math.nan  # the grip as the release began, N (_release)
         self._saturated_logged: set[str] = set()
         self._unfelt_opening_m: float | None = None  # the opening at the last false touch felt by no fingertip
         self._felt_in_squeeze: set[str] = set()  # the pads with a trusted "ok" reading since the touch
@@ -845,6 +846,8 @@ class MultimodeGrasp:
             self._enter(Phase.RELEASE, t, why)
 
     def _release(self, obs: Observation, t: float, dt_s: float) -> None:
+        if math.isnan(self._released_from_n):
+            self._released_from_n = self.grip_n
         if self.opening_target < obs.opening_m:
             # The fingers are ahead of their target: squeezing (the target inside the object) on
             # the first period, then the pads' gel unloading pushes them out.  The target jumps
@@ -857,6 +860,14 @@ class MultimodeGrasp:
             self.grip_n = self.grip_floor_n
         else:
             self.grip_n = self.opening_force_n
+            if self.robot.pad_rise_m[0] and obs.opening_m < self._width_m:
+                # A linkage's pads still on the object: its drive's target is the free closing's
+                # actuator lengths at the opening, which the loaded linkage does not hold, and at
+                # the full opening force Menagerie's 2F-85, its target 16 um ahead of its pads,
+                # closed them 45 um and pressed its 2 g wafer from 0.031 N to 0.048 N (crushes at
+                # 0.05 N).  Until the pads are past the width they touched at, the drive pushes and
+                # pulls with no more than the grip it released from.
+                self.grip_n = min(self.opening_force_n, max(self._released_from_n, self.grip_floor_n))
         self._open_toward_home(dt_s)
         if obs.opening_m >= self.robot.home_opening_m - 0.002:
             self._enter(Phase.DONE, t, self.gave_up or "")
