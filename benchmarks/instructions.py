@@ -67,12 +67,19 @@ def parse_annotation(text: str) -> tuple[int, int]:
     return int(total.group(1).replace(",", "")), int(step.group(1).replace(",", "")) if step else 0
 
 
-def _counted(steps: int, scenario: str, overrides: list[str], work: Path, env: dict[str, str]) -> tuple[int, int]:
+def _start_count(steps: int, scenario: str, overrides: list[str], work: Path, env: dict[str, str]) -> tuple[subprocess.Popen, Path, int]:
+    """A counted run of ``steps`` control steps, started: (its process, its callgrind file, steps)."""
     out = work / f"callgrind.{steps}"
     cmd = ["valgrind", "--tool=callgrind", f"--callgrind-out-file={out}", sys.executable, "-c", _SCRIPT, str(steps), scenario, *overrides]
-    proc = subprocess.run(cmd, env=env, cwd=work, capture_output=True, text=True)
+    return subprocess.Popen(cmd, env=env, cwd=work, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True), out, steps
+
+
+def _counted(run: tuple[subprocess.Popen, Path, int]) -> tuple[int, int]:
+    """A started counted run (:func:`_start_count`) waited for: (all instructions, those inside mj_step)."""
+    proc, out, steps = run
+    _, stderr = proc.communicate()
     if proc.returncode != 0:
-        raise RuntimeError(f"the counted run of {steps} steps failed ({proc.returncode}): {proc.stderr.strip()[-500:]}")
+        raise RuntimeError(f"the counted run of {steps} steps failed ({proc.returncode}): {stderr.strip()[-500:]}")
     # Every function listed (the default lists only those that make 99 % of the total).
     annotated = subprocess.run(
         ["callgrind_annotate", "--inclusive=yes", "--threshold=100", str(out)], capture_output=True, text=True, check=True
@@ -80,10 +87,16 @@ def _counted(steps: int, scenario: str, overrides: list[str], work: Path, env: d
     return parse_annotation(annotated.stdout)
 
 
-def instruction_counts(scenario: str = "grasp", overrides: list[str] | None = None, steps: int = 1000, warmup_steps: int = 200) -> dict:
+def instruction_counts(
+    scenario: str = "grasp", overrides: list[str] | None = None, steps: int = 1000, warmup_steps: int = 200, side_by_side: bool = False
+) -> dict:
     """Instructions per control step of ``scenario``'s loop, inside and outside ``mj_step``
-    (the module docstring).  Raises RuntimeError naming what is missing when valgrind or
-    callgrind_annotate is not on the PATH, or when a run fails."""
+    (the module docstring).  ``side_by_side`` runs the two counted runs at once, in the time of
+    one on two cores; ``mj_step``'s count is the same, but the loop's comes out about 3 % higher
+    (113,000 against 110,000 instructions a step over 20 steps of the grasp, each way repeated
+    within 0.2 %), so the command line counts them one after the other.  Raises RuntimeError
+    naming what is missing when valgrind or callgrind_annotate is not on the PATH, or when a
+    run fails."""
     if steps < 1 or warmup_steps < 1:
         raise ValueError(f"steps and warmup_steps must be at least 1, got {steps} and {warmup_steps}")
     missing = [tool for tool in ("valgrind", "callgrind_annotate") if shutil.which(tool) is None]
@@ -105,8 +118,19 @@ def instruction_counts(scenario: str = "grasp", overrides: list[str] | None = No
         warm = subprocess.run([sys.executable, "-c", _SCRIPT, "1", scenario, *overrides], env=env, cwd=work, capture_output=True, text=True)
         if warm.returncode != 0:
             raise RuntimeError(f"{scenario} with {overrides} does not run: {warm.stderr.strip()[-500:]}")
-        short_total, short_step = _counted(warmup_steps, scenario, overrides, work, env)
-        long_total, long_step = _counted(warmup_steps + steps, scenario, overrides, work, env)
+        runs, counts = [], []
+        try:
+            for n in (warmup_steps, warmup_steps + steps):
+                runs.append(_start_count(n, scenario, overrides, work, env))
+                if not side_by_side:
+                    counts.append(_counted(runs[-1]))
+            counts = counts or [_counted(run) for run in runs]
+            (short_total, short_step), (long_total, long_step) = counts
+        finally:
+            for proc, *_ in runs:
+                if proc.poll() is None:
+                    proc.kill()
+                    proc.wait()
     mj_step = (long_step - short_step) / steps
     loop = ((long_total - long_step) - (short_total - short_step)) / steps
     return {

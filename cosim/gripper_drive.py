@@ -195,7 +195,7 @@ class GripperDrive:
         (robosuite's grippers, the 2F-85s: a stroke past the fingers touching) gives its rating
         at any width but the narrowest; one whose closed command holds the fingers just
         touching gives a grip that vanishes as they close: Menagerie's Franka hand, kp 100 N/m
-        on a tendon of the fingers' mean, 1.5 N a finger on a 60 mm jar for the 50 N its force
+        on a tendon of the fingers' mean, 1.75 N a finger on a 60 mm jar for the 50 N its force
         range rates it at (tests/test_gripper_natural_pose.py::
         test_a_servos_reach_caps_the_grip_at_each_width_and_the_controller_says_so)."""
         kp = np.maximum(self._kp, 0.0)[:, None]

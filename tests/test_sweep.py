@@ -171,7 +171,10 @@ def test_bad_sweeps_stop_before_any_run_with_one_line(argv, named, capsys, tmp_p
     assert not (tmp_path / "never" / "points.jsonl").exists()
 
 
-def test_a_scheduler_that_is_not_there_is_named(capsys, tmp_path):
+def test_a_scheduler_that_is_not_there_is_named(capsys, tmp_path, monkeypatch):
+    """Named once the connection's wait ends (a second here: the wait's own length is
+    tests/test_batch_grade_inputs.py's)."""
+    monkeypatch.setattr(sweep_cluster, "CONNECT_TIMEOUT_S", 1.0)
     argv = ["sweep", "grasp", "--grid", "object.mass_kg=0.1", "--scheduler", "tcp://127.0.0.1:1", "--out", str(tmp_path)]
     assert cli.main(argv) == 2
     assert "tcp://127.0.0.1:1" in capsys.readouterr().err

@@ -136,7 +136,7 @@ class RobotLimits:
         at a pushes the fingers open with -c a, N on the opening.  Empty where it is 0 (slides).
     finger_reach_n : (openings, grips), N per finger: the most grip the fingers' drive gives at
         each opening, its servo's force kp |l - l*| at its closed command within its rating
-        (cosim.gripper_drive.GripperDrive.reach_n; Menagerie's Franka hand: 1.5 N at 60 mm, for a
+        (cosim.gripper_drive.GripperDrive.reach_n; Menagerie's Franka hand: 1.75 N at 60 mm, for a
         rating of 50 N).  Empty where it is ``finger_force_limit_n`` at every opening (the
         house gripper; a servo whose stroke runs past the fingers touching).
     """

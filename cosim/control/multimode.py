@@ -864,7 +864,7 @@ class MultimodeGrasp:
                 # A linkage's pads still on the object: its drive's target is the free closing's
                 # actuator lengths at the opening, which the loaded linkage does not hold, and at
                 # the full opening force Menagerie's 2F-85, its target 16 um ahead of its pads,
-                # closed them 45 um and pressed its 2 g wafer from 0.031 N to 0.048 N (crushes at
+                # closed them 45 um and pressed its 2 g wafer from 0.033 N to 0.048 N (crushes at
                 # 0.05 N).  Until the pads are past the width they touched at, the drive pushes and
                 # pulls with no more than the grip it released from.
                 self.grip_n = min(self.opening_force_n, max(self._released_from_n, self.grip_floor_n))
@@ -898,7 +898,7 @@ class MultimodeGrasp:
         (m, the opening at the touch), where its servo reaches less there than its rating
         (:meth:`RobotLimits.finger_force_limit_at_n`): a position servo whose closed command holds
         the fingers just touching presses an object with kp times how far short of that they
-        stand, not its force range (Menagerie's Franka hand: 1.5 N a finger on a 60 mm jar, rated
+        stand, not its force range (Menagerie's Franka hand: 1.75 N a finger on a 60 mm jar, rated
         50 N), and a grip commanded past it is a grip the pads never feel.  Said in the record."""
         reach_n = self.robot.finger_force_limit_at_n(width_m)
         if reach_n >= self.max_grip_n:
