@@ -191,10 +191,11 @@ class GripperDrive:
         that command holds; MuJoCo's affine bias, force = g ctrl + b0 - kp l at rest), within its
         rating F_a, so the grip is sum_a min(F_a, kp_a |l_a - l*_a|) |dl_a/do| plus what the
         free fingers' springs give there (:attr:`DrivePath.static_force`, as :meth:`grip_force_n`
-        reads them).  A servo whose closed command holds a length the fingers never reach
-        (robosuite's grippers, the 2F-85s: a stroke past the fingers touching) gives its rating
-        at any width but the narrowest; one whose closed command holds the fingers just
-        touching gives a grip that vanishes as they close: Menagerie's Franka hand, kp 100 N/m
+        reads them).  A servo whose closed command holds a length far past the fingers touching
+        (the 2F-85s') gives its rating at any width; robosuite's grippers' (kp 1000 N/m, closed
+        at their joints' zero) give less under about 30 mm (10 N of their 20 N at 10 mm); one
+        whose closed command holds the fingers just touching gives a grip that vanishes as they
+        close, and little anywhere: Menagerie's Franka hand, kp 100 N/m
         on a tendon of the fingers' mean, 1.75 N a finger on a 60 mm jar for the 50 N its force
         range rates it at (tests/test_gripper_natural_pose.py::
         test_a_servos_reach_caps_the_grip_at_each_width_and_the_controller_says_so)."""
