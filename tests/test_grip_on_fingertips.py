@@ -265,12 +265,12 @@ def _let_down(prober, loads, read_n: float | None = None, seen_n: float = 0.02, 
     obs = SimpleNamespace(time_s=prober.t, lift_pos_m=prober.lift_m, opening_m=0.03, grip_force_n=0.05, lift_vel_m_s=0.0)
     goal_m = lift.goal_m
     c._start_let_down(obs, prober.t, weight_n, carried_from_n)
-    pull = c._let_down
-    assert pull is not None
+    assert c._let_down is not None
+    pull = c._let_down.pull
     for k in range(400):
-        if c._let_down is None and not math.isfinite(c._let_down_end_s):
+        if c._let_down is None:
             return k, goal_m, pull
-        if c._let_down is not None:  # pulled open: the fingers follow at the pull's pace
+        if math.isinf(c._let_down.pulled_s):  # pulled open: the fingers follow at the pull's pace
             assert c.opening_target == c.robot.home_opening_m and c.grip_n > 0.0
             obs.opening_m += pull.pace_m
         elif read_n is not None:

@@ -64,7 +64,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 from piezotip.cosim.control.config import GentleConfig
@@ -388,6 +388,19 @@ class Pull:
     last_m: float  #: the opening in its last period, m
 
 
+@dataclass(slots=True)
+class LetDown:
+    """The probe's let-down of a contact found carried before the pads were seen to slide
+    (:meth:`GentleGrasp._let_down_step`): its state, changed each period."""
+
+    pull: Pull  #: its paced pull (whose start is the joints' reference for the contact)
+    weight_n: float  #: the weight carried, N
+    from_n: float  #: the least grip that carried it, N: the bound it started from
+    loads: list[float] = field(default_factory=list)  #: the lift's raw load each period since it began, N
+    pulled_s: float = math.inf  #: when its pull ended, s (inf: still pulling)
+    felt_n: float = math.nan  #: the fingertips' last reading since, N
+
+
 @register("gentle", config=GentleConfig, experiment=True, senses=True)
 class GentleGrasp(MultimodeGrasp):
     """The multimode controller with the friction probe (the module docstring): the same
@@ -457,16 +470,8 @@ class GentleGrasp(MultimodeGrasp):
         self._felt_seen_n = math.inf  # the grip they read then, N (inf: none yet)
         self._blind_eased = False  # whether the probe's drive came back to its contact since (_transfer)
         self._seen_ref = (math.inf, 0.0)  # (opening m, grip N) as every fingertip last read in the probe
-        #: The probe's let-down of a contact found carried before the pads were seen to slide
-        #: (:meth:`_let_down_step`): its pull, the weight it carries (N), and when the pull ended (s).
-        self._let_down: Pull | None = None
-        self._let_down_weight_n = self._let_down_from_n = 0.0  # the weight carried and the grip it was carried from, N
-        self._let_down_end_s = math.inf
-        self._let_down_tried = False
-        self._let_down_ref = (math.inf, 0.0)  # the pull's (opening m, contact N) once it ended
-        self._let_down_loads: list[float] = []  # the lift's raw load each period of the let-down, N
-        self._let_down_felt_n = math.nan  # the fingertips' last reading since its pull ended, N
-        self._opening_m = math.nan  # the fingers' opening this period, m
+        self._let_down: LetDown | None = None  # the probe's let-down under way (_let_down_step)
+        self._let_down_tried = False  # whether the probe let a contact down (once at most)
         self._ease: Pull | None = None  # the squeeze's pull easing the touch down (_squeeze_eases)
         self._ease_from_s = -math.inf  # when the squeeze's last pull ended, s
         self._eases = 0  # how many pulls the squeeze made
@@ -784,8 +789,9 @@ class GentleGrasp(MultimodeGrasp):
         friction_n = self._friction_n
         return friction_n > 0.0 and drive_n - 0.5 * friction_n >= 0.5 * friction_n / FEEL_TOLERANCE
 
-    def _probe_sees(self, t: float, drive_n: float) -> bool:
-        """Whether the probe reads the grip on the fingertips this period (time ``t``, s): always
+    def _probe_sees(self, t: float, drive_n: float, opening_m: float) -> bool:
+        """Whether the probe reads the grip on the fingertips this period (time ``t``, s; the
+        fingers' opening ``opening_m``, m, noted with the reading): always
         on a drive without dry friction, whose force is the grip; on one with it, when every
         pad's readout is trusted (not settling; below detection is a reading, of no grip), or its
         force (``drive_n``, N) reads the grip well enough (:meth:`_drive_reads_grip`), noted in
@@ -809,7 +815,7 @@ class GentleGrasp(MultimodeGrasp):
             felt = self._fingertips_grip_n()
             self._felt_seen_n, self._blind_eased = (felt[0] if felt is not None else math.inf), False
             if felt is not None:
-                self._seen_ref = (self._opening_m, felt[0])
+                self._seen_ref = (opening_m, felt[0])
         return True
 
     def _probe_base_n(self) -> float:
@@ -938,10 +944,9 @@ class GentleGrasp(MultimodeGrasp):
         if t - self._t_phase > self.transfer_timeout_s:
             self._give_up(t, "never_lifted", f"the load transfer did not finish in {self.transfer_timeout_s:.2g} s", Phase.PLACE)
             return
-        self._opening_m = obs.opening_m
         applied = max(self._grip_felt_n(obs), 0.0)
         window_full = lift.record(applied, self.robot.pads_height_m(obs.lift_pos_m, obs.opening_m))
-        if self._let_down is not None or math.isfinite(self._let_down_end_s):
+        if self._let_down is not None:
             self._let_down_step(obs, t)
             return
         if window_full and self.grips_on_fingertips:
@@ -950,7 +955,7 @@ class GentleGrasp(MultimodeGrasp):
         rising = window_full and lift.risen_m() >= 0.5 * pace_m_s * (lift.plateau_steps - 1) * dt_s
         growth_n_s = 0.0
         at_cap = False
-        sees = self._probe_sees(t, obs.grip_force_n)
+        sees = self._probe_sees(t, obs.grip_force_n, obs.opening_m)
         if rising and t - self._felt_at_s <= lift.plateau_steps * dt_s:
             if self.grip_n < self.grip_cap_n:
                 growth_n_s = min(self.grip_growth_per_s * self._probe_base_n(), self.grip_rate_n_s)
@@ -1091,8 +1096,9 @@ class GentleGrasp(MultimodeGrasp):
     def _start_let_down(self, obs: Observation, t: float, weight_n: float, carried_from_n: float) -> None:
         """The object was found carried, its weight ``weight_n`` (N), from ``carried_from_n`` (N),
         the least grip that carried it, before the pads were ever seen to slide: that grip bounds
-        the friction only from below, so the need is anywhere under it.  A drive with dry friction keeps the contact the touch
-        left (the squeeze's ease lands over its goal where the contact is softer than a full face:
+        the friction only from below, so the need is anywhere under it.  A drive with dry friction
+        keeps the contact the touch left (the squeeze's ease lands over its goal where the contact
+        is softer than a full face:
         robosuite's Panda carried its 1 g tissue box from 11 mN, 1.34x its need, and held it at
         1.51x, the grip's safety factor on top).  So the fingers are eased open, as the squeeze's
         pull eases the touch (:meth:`_start_pull`), from the contact the joints say they press
@@ -1108,9 +1114,9 @@ class GentleGrasp(MultimodeGrasp):
         if contact_n <= goal_n:
             self._carry(obs, t, weight_n, carried_from_n, carried_from_n)
             return
-        self._let_down_weight_n, self._let_down_from_n, self._let_down_loads = weight_n, carried_from_n, []
-        self._let_down = self._start_pull(obs, t, contact_n, contact_n - goal_n, goal_n - goal_n / self.cfg.grip_safety)
-        self._set_drive(contact_n - self._let_down.pull_n)
+        pull = self._start_pull(obs, t, contact_n, contact_n - goal_n, goal_n - goal_n / self.cfg.grip_safety)
+        self._let_down = LetDown(pull, weight_n, carried_from_n)
+        self._set_drive(contact_n - pull.pull_n)
         self._event(
             t,
             "let_down",
@@ -1126,44 +1132,41 @@ class GentleGrasp(MultimodeGrasp):
         slid back onto the table, and the probe grows the grip from the contact left; one carried
         all through is carried (:meth:`_carry`) from the fingertips' reading after the pull, or
         from the bound the probe found where they read over it or not at all."""
-        lift, pull = self.lift, self._let_down
-        weight_n = self._let_down_weight_n
-        ref = (pull.from_m, pull.contact_n) if pull is not None else self._let_down_ref
-        contact_n = max(self._joint_contact_n(obs.opening_m, ref), 0.0)
-        loads = self._let_down_loads
-        loads.append(lift.raw_load_n)
-        window = loads[-lift.plateau_steps :]
+        lift, down = self.lift, self._let_down
+        pull, weight_n = down.pull, down.weight_n
+        contact_n = max(self._joint_contact_n(obs.opening_m, (pull.from_m, pull.contact_n)), 0.0)
+        down.loads.append(lift.raw_load_n)
+        window = down.loads[-lift.plateau_steps :]
         if len(window) == lift.plateau_steps and sum(window) / len(window) < 0.5 * weight_n:
-            self._let_down, self._let_down_end_s = None, math.inf
+            self._let_down = None
             self._span, self._unslid = [], []
             self._set_drive(max(self.grip_floor_n, contact_n))
             self._event(t, "let_down", f"the load fell from {weight_n:.3g} N at {contact_n:.3g} N of grip: probing up from there")
             return
-        if pull is not None:
+        if math.isinf(down.pulled_s):
             drive_n = self._pull_drive_n(pull, obs, t)
             if drive_n is not None:
                 self._set_drive(drive_n)
                 return
-            self._let_down, self._let_down_ref, self._let_down_end_s = None, (pull.from_m, pull.contact_n), t
-            self._let_down_felt_n = math.nan
+            down.pulled_s = t
             self._set_drive(max(self.grip_floor_n, contact_n))
             return
         felt = self._fingertips_grip_n(every_pad=False)
         if felt is not None:
-            self._let_down_felt_n = felt[0]
-        waited_s, window_s = t - self._let_down_end_s, self.lift.plateau_steps * self.dt_s
-        read = math.isfinite(self._let_down_felt_n)
+            down.felt_n = felt[0]
+        waited_s, window_s = t - down.pulled_s, lift.plateau_steps * self.dt_s
+        read = math.isfinite(down.felt_n)
         if waited_s < window_s or (not read and waited_s < window_s + self.ease_wait_s):
             return
-        self._let_down_end_s = math.inf
+        self._let_down = None
         # Carried from the fingertips' reading: the joints reckon the contact by a full face's
         # stiffness, and a softer contact is left over what they say (robosuite's Rethink held its
         # 1.2 g tissue box at 1.00x its need from their 6.6 mN for the 8.0 mN its pads pressed,
         # and it crept down through the hold).  Unread, or read over it, the bound the probe found
         # stands (a curved patch's contact, softer still, is left over it, and read over it).
-        carried_n = self._let_down_from_n
+        carried_n = down.from_n
         if read:
-            carried_n = max(self.grip_floor_n, min(self._let_down_felt_n, carried_n))
+            carried_n = max(self.grip_floor_n, min(down.felt_n, carried_n))
         self._carry(obs, t, weight_n, carried_n, carried_n)
 
     def _carry(self, obs: Observation, t: float, weight_n: float, carried_from_n: float, carried_mean_n: float) -> None:
