@@ -1059,7 +1059,7 @@ def test_a_friction_drives_probe_reads_its_drive_once_its_friction_is_within_the
         grip_force_n = 2.0 * threshold_n
 
     assert c._grip_felt_n(Obs()) == pytest.approx(2.0 * threshold_n - 0.5 * friction_n)
-    assert c._probe_sees(1.0, 2.0 * threshold_n) and not c._probe_sees(1.0, 0.5 * threshold_n)
+    assert c._probe_sees(1.0, 2.0 * threshold_n, 0.03) and not c._probe_sees(1.0, 0.5 * threshold_n, 0.03)
     house = CoSimulation(scenarios.get("grasp")).controller
     assert not house._drive_reads_grip(50.0)
 
