@@ -279,3 +279,26 @@ def test_signals_while_a_sweeps_cluster_closes_end_it_as_interrupted(tmp_path, s
             proc.communicate()
     assert proc.returncode == 128 + signum, (proc.returncode, err[-3000:])
     assert "interrupted" in err and "Traceback" not in err, err[-3000:]
+
+
+@pytest.mark.parametrize("named", [None, "egl"])
+def test_the_program_imports_no_opengl_backend_it_does_not_render_with(named):
+    """Without MUJOCO_GL, MuJoCo's import loads GLFW, whose library search starts a Python process
+    per candidate library and writes the file's name to its stdin: a signal in that window left
+    the probe reading a closed stdin, its traceback ("File "<string>", line 28 ... EOFError")
+    after "interrupted" (the test above, 1 run in 8 of this file).  The program's commands that
+    do not render take MUJOCO_GL=disable unless it is set; main() called from a script leaves
+    the environment alone (the script may render later in the same process)."""
+    import os
+
+    env = {k: v for k, v in os.environ.items() if k != "MUJOCO_GL"}
+    if named:
+        env["MUJOCO_GL"] = named
+    show = "import os, sys; print(os.environ.get('MUJOCO_GL'), 'glfw' in sys.modules, 'mujoco' in sys.modules)"
+    program = f"import sys; sys.argv = ['run_sim.py', 'list']; from piezotip.cli import main; main(); {show}"
+    called = f"from piezotip.cli import main; main(['list']); {show}"
+    as_program = subprocess.run([sys.executable, "-c", program], cwd=ROOT, env=env, capture_output=True, text=True)
+    assert as_program.returncode == 0, as_program.stderr
+    assert as_program.stdout.splitlines()[-1] == (f"{named} False True" if named else "disable False True")
+    from_script = subprocess.run([sys.executable, "-c", called], cwd=ROOT, env=env, capture_output=True, text=True)
+    assert from_script.stdout.splitlines()[-1].split()[0] == str(named)  # None, or as the script's caller set it

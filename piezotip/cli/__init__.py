@@ -73,11 +73,27 @@ def _rendering_backend() -> None:
     """For a command that renders (--render, --video), before anything imports MuJoCo (commands
     import it lazily; it reads MUJOCO_GL on its first import): headless EGL unless MUJOCO_GL says
     otherwise, and a backend that cannot load is one line naming MUJOCO_GL.  Commands that do not
-    render leave MUJOCO_GL alone, so they run where there is no EGL at all."""
+    render need no backend at all (:func:`_no_rendering_backend`), so they run where there is no
+    EGL."""
     os.environ.setdefault("MUJOCO_GL", "egl")
     from piezotip.analysis.video import import_mujoco
 
     import_mujoco()
+
+
+def _no_rendering_backend() -> None:
+    """For the program's commands that do not render, before anything imports MuJoCo: no OpenGL
+    backend (MUJOCO_GL=disable) unless MUJOCO_GL says otherwise.  With none named, MuJoCo's import
+    loads GLFW, whose library search (pyGLFW) starts a Python process per candidate library to
+    read its version, the file's name written to its stdin: 50 ms of every command's start, and a
+    Ctrl-C or SIGTERM in that window left the probe reading a closed stdin, its traceback
+    ("File "<string>", line 28 ... EOFError: EOF when reading a line") printed after the command's
+    "interrupted" (tests/test_interrupts.py::
+    test_a_signal_in_the_commands_first_tenths_of_a_second_is_one_line_and_its_status, 1 run in 8
+    of the file).  Set in the process's environment, so a sweep's Dask workers skip it too; only
+    for the program (run_sim.py, the ``piezotip`` script), not for :func:`main` called from a
+    script, whose own later rendering would find MuJoCo imported without a backend."""
+    os.environ.setdefault("MUJOCO_GL", "disable")
 
 
 PRESET_NAMES = ("fast", "balanced", "accurate", "reference")
@@ -586,7 +602,7 @@ def main(argv: list[str] | None = None) -> int:
     kill the process instead of letting it exit with the status it reported."""
     with interrupts.raised(keep_held=argv is None):  # piezotip.interrupts is light: before the command's imports
         try:
-            status = _dispatch(build_parser().parse_args(argv))
+            status = _dispatch(build_parser().parse_args(argv), program=argv is None)
             signum = interrupts.noted()
             if signum is not None and status != 128 + signum:  # a signal a library swallowed, or one as the command ended
                 return _interrupted(interrupts.interruption(signum))
@@ -597,11 +613,14 @@ def main(argv: list[str] | None = None) -> int:
         return status
 
 
-def _dispatch(args) -> int:
-    """Run the parsed command; map what it raises to the exit codes (module docstring)."""
+def _dispatch(args, program: bool = False) -> int:
+    """Run the parsed command; map what it raises to the exit codes (module docstring).
+    ``program``: run as the program, not from a script's call of :func:`main`."""
     try:
         if getattr(args, "render", False) or getattr(args, "video", False):
             _rendering_backend()
+        elif program:
+            _no_rendering_backend()
         return args.func(args)
     except KeyboardInterrupt as exc:  # Ctrl-C or SIGTERM outside a run's loop (imports, set-up, plots, sweeps)
         return _interrupted(exc)
