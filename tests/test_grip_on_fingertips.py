@@ -1223,3 +1223,52 @@ def test_the_pandas_egg_is_not_crept_up_through_a_blind_hold_at_the_accurate_pre
     held = np.flatnonzero(np.asarray(data["phase"]) == phase_index("hold"))
     start, end = (_finger_force_at(result, float(data["time_s"][i])) for i in (held[0], held[-1]))
     assert end < 1.1 * start, (start, end)
+
+
+def test_a_linkages_fingers_closing_as_the_grip_falls_are_braked_by_their_momentum_for_a_period():
+    """_fall_brake_n: where the grip wanted falls while a linkage's fingers still close at v, the
+    drive takes off their momentum on the opening within a period, m v / dt (m the fingers'
+    inertia there), within the drive's rating; nothing where the grip did not fall or the
+    fingers open or stand still.  Robotiq's 2F-85 (0.8 kg on the opening, 600 N/m of pads)
+    otherwise carried the probe's closing into the 2 g wafer for 30 ms after its verdict, 1.50x
+    -> 1.61x its need."""
+    from types import SimpleNamespace
+
+    robotiq = CoSimulation(scenarios.get("grasp", keys(_robotiq_2f85(), *ROBOTIQ_2F85), "fast")).controller
+    dt, m = robotiq.dt_s, robotiq.robot.finger_mass_kg
+    assert 0.5 < m < 1.5  # the linkage's inertia on the opening, kg
+
+    def brake(fell: bool, from_m: float, to_m: float, periods: int = 1) -> float:
+        robotiq._link_opening = (10.0, from_m)
+        return robotiq._fall_brake_n(SimpleNamespace(opening_m=to_m, time_s=10.0 + periods * dt), fell)
+
+    v = 3.5e-4  # m/s, the probe's closing on the wafer
+    assert brake(True, 0.030, 0.030 - v * dt) == pytest.approx(m * v / dt, rel=1e-6)
+    assert robotiq._link_opening == pytest.approx((10.0 + dt, 0.030 - v * dt))  # the next period's reference
+    assert brake(True, 0.030, 0.030 - v * dt, periods=3) == 0.0  # an opening read periods ago is no speed
+    assert brake(False, 0.030, 0.030 - v * dt) == 0.0  # the grip held or rose: no brake
+    assert brake(True, 0.030, 0.030 + v * dt) == 0.0  # opening already
+    assert brake(True, 0.030, 0.030) == 0.0  # standing still
+    assert brake(True, math.nan, 0.030) == 0.0  # no last opening yet
+    assert brake(True, 0.030, 0.020) == robotiq.robot.finger_force_limit_n  # within the rating
+
+
+@pytest.mark.slow
+def test_the_probes_verdict_stops_a_linkages_fingers_within_two_periods_of_its_rise():
+    """Robotiq's 2F-85 on the 2 g wafer: after the probe's verdict lowers the drive, the contact
+    rises no more than the probe's own rise over two control periods (the brake's period and the
+    one it was read in): unbraked, the fingers' momentum pressed on for 30 ms, four periods'
+    rise (0.0378 -> 0.0406 N, 1.50x -> 1.61x the wafer's need)."""
+    from piezotip.reports.gripper_tables import WAFER
+
+    overrides = {**keys(_robotiq_2f85(), *ROBOTIQ_2F85), **WAFER, "controller.kind": "gentle"}
+    result = piezotip.run("grasp", overrides=overrides, preset="balanced")
+    assert result.outcome == "success", result.reason
+    data, t = result.data, result.data["time_s"]
+    grip = 0.5 * (data["left_finger_force_n"] + data["right_finger_force_n"])
+    verdict_s = next(e["time_s"] for e in result.events if e["kind"] == "carried")
+    i = int(np.searchsorted(t, verdict_s))
+    period_rise = grip[i] - grip[i - 1]
+    assert period_rise > 0.0  # the probe was still pressing on
+    after = grip[i : int(np.searchsorted(t, verdict_s + 0.1))]
+    assert after.max() - grip[i] <= 2.0 * period_rise, (after.max(), grip[i], period_rise)

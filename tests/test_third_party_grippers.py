@@ -1037,3 +1037,41 @@ def test_round_objects_pinched_above_their_centre_are_held_within_one_and_a_half
     assert result.outcome == "success", result.reason
     assert result.summary["contact_tilt_deg"] > 5.0  # pinched above its centre: the need on the level would be wrong
     assert 1.0 < result.grip_margin <= 1.5
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(
+    "gripper",
+    [
+        "Panda",
+        "Rethink",
+        pytest.param(
+            "Robotiq",
+            marks=pytest.mark.xfail(
+                strict=True,
+                reason="the probe's verdict comes at 1.50x the need (its span grown by grip_safety between "
+                "its thirds): 1.54x (docs/grippers.md, fourteenth session)",
+            ),
+        ),
+        "Menagerie 2F-85",
+    ],
+)
+def test_an_object_crushing_at_one_and_a_half_times_its_need_survives_the_probe(gripper):
+    """docs/grippers.md's four mounted grippers on the 2 g wafer (needs 25 mN, crushes at 0.05 N),
+    at the default preset: nothing whose crush force is 1.5x its least grip may be crushed, so
+    the grasp's peak stays under 1.5x the need.  A linkage's fingers were pushed closed by the
+    lift's acceleration as it sped up with the object just carried (RobotLimits.lift_opens_n,
+    which was added to the grip where it opened them and left on where it closed them), and
+    their momentum carried the probe's closing on for 30 ms after its verdict lowered the drive:
+    Menagerie's 2F-85 peaked at 1.73x, dm_robotics' at 1.70x.  The push taken off the drive and
+    the momentum braked (GentleGrasp._fall_brake_n), 1.29x and 1.54x: dm_robotics' probe tells
+    "carried" at 1.50x the need (its span's grip grown by grip_safety from its first third to
+    its last, 1.4x from lift-off)."""
+    from piezotip.reports.gripper_tables import WAFER, grippers
+
+    found = grippers()
+    if gripper not in found:
+        pytest.skip(f"{gripper}'s files are not installed")
+    result = piezotip.run("grasp", overrides={**WAFER, **found[gripper], "controller.kind": "gentle"}, preset="balanced")
+    assert result.outcome == "success", result.reason
+    assert result.summary["peak_contact_n"] < 1.5 * result.summary["needed_grip_n"], result.summary["peak_contact_n"]

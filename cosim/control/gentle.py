@@ -445,6 +445,7 @@ class GentleGrasp(MultimodeGrasp):
         self._moved_dir = 0  # the way the drive is moving the fingers: +1 closing, -1 opening, 0 holding
         self._over_periods = 0  # readings in a row of a grip felt over its tolerance (_drive_for_grip)
         self._held_opening_m = math.nan  # the opening in the last period the grip was closed on the fingertips, m
+        self._link_opening = (-math.inf, math.nan)  # (s, m): a linkage's opening when its grip was last set (_fall_brake_n)
         self._felt_ref = (math.inf, 0.0)  # (opening m, grip felt N) at the fingertips' last reading (_joint_contact_n)
         self._last_grip_n = math.inf  # the grip wanted in the last period closed on the fingertips, N
         self._grip_rose_s = -math.inf  # when it last rose, s
@@ -1242,7 +1243,7 @@ class GentleGrasp(MultimodeGrasp):
         fingertips are blind, by the same rule carried on (:meth:`_held_within_tolerance_n`).  The
         fingertips' slip watch waits while the drive pulls the pressure down."""
         if self._friction_n <= 0.0:
-            return self._linkage_drive_n(obs, grip_n), self.opening_target
+            return self._limit_and_target(self._linkage_drive_n(obs, grip_n), self.opening_target)
         if self.phase is Phase.PLACE:
             # Placing, the table takes the weight and the pads' pressure falls (read as a slip,
             # whose raise must not reach the pads: it would press the object as it lands;
@@ -1504,9 +1505,26 @@ class GentleGrasp(MultimodeGrasp):
             grip_n -= held_n - self._landing_grip_n
             held_n = self._landing_grip_n
         push_n = self._rise_push_n(held_n - self._last_grip_n)
+        brake_n = self._fall_brake_n(obs, held_n < self._last_grip_n)
         self._last_grip_n = held_n
         load_n = min(self.lift.load_n, 2.0 * self.friction * grip_n / self.cfg.grip_safety)
-        return min(self.grip_cap_n, max(self.grip_floor_n, grip_n - self._load_closes_n(obs, load_n)) + push_n)
+        return min(self.grip_cap_n, max(self.grip_floor_n, grip_n - self._load_closes_n(obs, load_n)) + push_n) - brake_n
+
+    def _fall_brake_n(self, obs: Observation, fell: bool) -> float:
+        """What the drive takes off, for one period, where the grip wanted has just fallen and the
+        fingers still close, N: their momentum on the opening, m v (m the fingers' inertia there,
+        :attr:`RobotLimits.finger_mass_kg`, v their closing speed over the last period), paid
+        within the period, m v / dt.  A linkage's fingers carry the probe's closing into the
+        contact after its verdict lowers the drive: the contact's stiffness k stops them in about
+        sqrt(m / k) (37 ms on Robotiq's 2F-85s, 0.8 kg on 600 N/m), the grip rising by v sqrt(m k)
+        meanwhile (the 2 g wafer from 1.50x its need to 1.61x).  The friction drives' fingers
+        stop in their friction band.  The speed is read over the last period only: an opening
+        read longer ago (the grip set again after a gap) is no speed."""
+        (last_s, last_m), self._link_opening = self._link_opening, (obs.time_s, obs.opening_m)
+        closing_m_s = (last_m - obs.opening_m) / self.dt_s
+        if not fell or not closing_m_s > 0.0 or obs.time_s - last_s > 1.5 * self.dt_s:
+            return 0.0
+        return min(self.robot.finger_mass_kg * closing_m_s / self.dt_s, self.robot.finger_force_limit_n)
 
     def _closing_drive_n(self, grip_n: float, off_n: float) -> float:
         """The drive's force that closes fingers whose felt grip is ``off_n`` under ``grip_n``, N:
