@@ -286,7 +286,8 @@ def test_the_program_imports_no_opengl_backend_it_does_not_render_with(named):
     """Without MUJOCO_GL, MuJoCo's import loads GLFW, whose library search starts a Python process
     per candidate library and writes the file's name to its stdin: a signal in that window left
     the probe reading a closed stdin, its traceback ("File "<string>", line 28 ... EOFError")
-    after "interrupted" (the test above, 1 run in 8 of this file).  The program's commands that
+    after "interrupted" (test_a_signal_in_the_commands_first_tenths_of_a_second_is_one_line_and_its_status,
+    1 run in 8 of this file).  The program's commands that
     do not render take MUJOCO_GL=disable unless it is set; main() called from a script leaves
     the environment alone (the script may render later in the same process)."""
     import os
