@@ -7,6 +7,7 @@ cdef Py_ssize_t _OBSERVATION_AT[5]
 cdef Py_ssize_t _SIGNAL_AT[2]
 cdef Py_ssize_t _READING_AT[4]
 cdef Py_ssize_t _ESTIMATE_AT[3]
+cdef Py_ssize_t _NORMAL_SLOT
 
 
 @cython.final
@@ -14,7 +15,7 @@ cdef class RowBuilder:
     cdef object _args  # the constructor's arguments, for copies
     cdef list _pads
     cdef long long[::1] _contact_adr, _normals
-    cdef Py_ssize_t _left, _right, _table_normal
+    cdef Py_ssize_t _left, _right, _table_normal, _normal_slots
     cdef bint _track_peaks
     cdef double[::1] _fractions
     cdef double _stop_pa, _gel_valid_pa, _backstop_pa, _outside
@@ -22,7 +23,7 @@ cdef class RowBuilder:
     cdef double[::1] _xpos, _qvel, _sensordata
     cdef bint _bound
 
-    @cython.locals(nx=double, ny=double, nz=double)
+    @cython.locals(found=Py_ssize_t, k=Py_ssize_t, at=Py_ssize_t, force=double, sx=double, sy=double, sz=double, horizontal=double)
     cdef double _tilt(self, long long adr) except? -2.0
 
     @cython.locals(

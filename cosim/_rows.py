@@ -22,6 +22,8 @@ from piezotip.sensor.resonator import Reading
 # where it is one of its class, a load each; by name otherwise): the names, where each is
 # (kh.slot_offsets) and the getter by name.
 _OBSERVATION = ("pads", "lift_pos_m", "opening_m", "grip_force_n", "lift_force_n")
+#: Values per contact of a finger's object-contact sensor: found (1), force (3), normal (3).
+_NORMAL_SLOT = 7
 _SIGNAL = ("reading", "estimate")
 _READING = ("mode", "v1", "v1_true", "settled")
 _ESTIMATE = ("pressure_pa", "uncertainty_pa", "status")
@@ -44,10 +46,15 @@ class RowBuilder:
     cell_fractions : each coverage cell's share of the coverage's length.
     stop_pressure_pa : the pressure at which the gel sits on its housing stop, Pa.
     status_index : each estimate status's number in the record.
-    normal_adr : (left, right): the addresses of each finger's strongest-contact sensor on the
-        object (``found``, then its unit normal, world frame, from the finger into the object),
-        whose normal's tilt below the horizontal, rad, the row records (NaN where none touches,
-        or None: no such sensors); the referee's need on a tilted contact (analysis.referee).
+    normal_adr : (left, right): the addresses of each finger's contact sensor on the object
+        with its ``normal_slots`` strongest contacts, each ``found`` (how many were), its force
+        (contact frame: the normal force first) and its unit normal (world frame, from the finger
+        into the object).  The row records the tilt below the horizontal, rad, of their normal
+        forces' resultant, sum_i N_i n_i (NaN where none touches, or None: no such sensors): the
+        referee's need on a tilted contact (analysis.referee), to first order in the contacts'
+        tilts the need of the one contact the resultant stands for.  Not the strongest contact
+        alone: on a pad cut into strips a sphere touches several at tilts of both signs.
+    normal_slots : how many contacts each of those sensors reports (its ``num``), >= 1.
     model_limits_pa : (gel_valid_pa, backstop_pa), where the model ends (Pa;
         :meth:`sensor.fingertip.Fingertip.model_limit`): a strip over the element past the gel's
         valid strain, or the coverage's pressure past the element's backstop, and the row's
@@ -63,6 +70,7 @@ class RowBuilder:
         "_fractions",
         "_gel_valid_pa",
         "_left",
+        "_normal_slots",
         "_normals",
         "_outside",
         "_pads",
@@ -88,6 +96,7 @@ class RowBuilder:
         status_index,
         model_limits_pa=None,
         normal_adr=None,
+        normal_slots=1,
     ) -> None:
         self._args = (
             pads,
@@ -100,6 +109,7 @@ class RowBuilder:
             status_index,
             model_limits_pa,
             normal_adr,
+            normal_slots,
         )
         self._pads = list(pads)
         contact_adr, finger_adr = [int(a) for a in contact_adr], [int(a) for a in finger_adr]
@@ -112,6 +122,9 @@ class RowBuilder:
         if len(normals) != 2:
             raise ValueError("a row needs the two fingers' normal sensors' addresses, or None")
         self._normals = array("q", normals)
+        self._normal_slots = int(normal_slots)
+        if self._normal_slots < 1:
+            raise ValueError(f"normal_slots must be >= 1, got {normal_slots!r}")
         self._track_peaks = bool(track_peaks)
         self._fractions = array("d", [float(f) for f in cell_fractions])
         self._stop_pa = float(stop_pressure_pa)
@@ -133,20 +146,31 @@ class RowBuilder:
         if len(views[0]) != 3 or len(views[1]) != 6:
             raise ValueError(f"the object's position needs 3 values and its velocity 6, got {len(views[0])} and {len(views[1])}")
         used = [*list(self._contact_adr), self._left, self._right, self._table_normal]
-        used += [a + i for a in self._normals if a >= 0 for i in range(4)]
+        used += [a + i for a in self._normals if a >= 0 for i in range(_NORMAL_SLOT * self._normal_slots)]
         if not all(0 <= a < len(views[2]) for a in used):
             raise ValueError(f"sensordata addresses {used} are outside its {len(views[2])} values")
         self._xpos, self._qvel, self._sensordata = views
         self._bound = True
 
     def _tilt(self, adr: int) -> float:
-        """The tilt below the horizontal of the normal at ``adr`` + 1 (rad, atan2 of its downward
-        part over its horizontal one: the contact presses the object down where positive), NaN
-        where the sensor found no contact or is none (``adr`` < 0)."""
+        """The tilt below the horizontal of the normal forces' resultant of the contacts the
+        sensor at ``adr`` reports (rad, atan2 of its downward part over its horizontal one: the
+        contacts press the object down where positive), sum_i N_i n_i over its found slots; NaN
+        where it found no contact, or none pressed, or there is no sensor (``adr`` < 0)."""
         if adr < 0 or not self._sensordata[adr] > 0.0:
             return math.nan
-        nx, ny, nz = self._sensordata[adr + 1], self._sensordata[adr + 2], self._sensordata[adr + 3]
-        return kh.atan2(-nz, kh.sqrt(nx * nx + ny * ny))
+        found = min(int(self._sensordata[adr]), self._normal_slots)
+        sx, sy, sz = 0.0, 0.0, 0.0
+        for k in range(found):
+            at = adr + _NORMAL_SLOT * k
+            force = self._sensordata[at + 1]
+            sx += force * self._sensordata[at + 4]
+            sy += force * self._sensordata[at + 5]
+            sz += force * self._sensordata[at + 6]
+        horizontal = kh.sqrt(sx * sx + sy * sy)
+        if not (horizontal > 0.0 or sz != 0.0):
+            return math.nan
+        return kh.atan2(-sz, horizontal)
 
     def row(self, time_s, obs, command, profiles, cells, finger_peaks) -> list[float]:
         """The row's values in column order (Python floats).  ``obs`` and ``command`` are the

@@ -48,8 +48,8 @@ __all__ = [
 #: The recorded ground truth (the referee's; never in an Observation): the object's centre
 #: (m), its vertical velocity, speed and spin (m/s, rad/s), the table's vertical push on it and
 #: each finger's net contact force (N), and the tilt below the horizontal of each finger's
-#: strongest contact's normal (rad; NaN where it touches nothing: the referee's need on a
-#: contact above a round object's centre).
+#: normal forces' resultant over its contacts with the object (rad; NaN where it touches
+#: nothing: the referee's need on contacts above or below a round object's centre).
 TRUTH_COLUMNS = (
     "object_height_m",
     "object_x_m",

@@ -833,3 +833,37 @@ def test_the_records_made_by_slots_are_the_dataclasses(run):
     kernel = _kernel("piezotip.sensor._sampler", run)
     reading, _ = kernel.ModeSampler(*_sampler_args(1, 1, True)).sample([300.0], 1 + 0j, 0.005, 1.0, 0.1 + 0.2j)
     assert type(reading) is Reading and pickle.loads(pickle.dumps(reading)) == reading
+
+
+@pytest.mark.parametrize("run", ["built", "source"])
+def test_a_fingers_contact_tilt_is_its_normal_forces_resultants(run):
+    """The row's ``{side}_contact_tilt_rad``: the tilt below the horizontal of sum_i N_i n_i over
+    the contacts the finger's sensor found (found, force in the contact frame, normal: 7 values a
+    contact), not its strongest contact's.  Closed form: normal forces 3 and 1 along normals
+    tilted -a and +b (a, b below the horizontal) give atan((3 sin a - sin b) / (3 cos a + cos b))
+    upward; slots past those found, and a finger with none, do not count."""
+    kernel = _kernel("piezotip.cosim._rows", run)
+    a, b = math.radians(7.0), math.radians(3.0)
+    columns = rows.row_columns(["left_pad"], 1, False)
+    status_index = {status: float(i) for i, status in enumerate(rows.STATUS_CODES)}
+    slots = 3
+    # found, force (normal first), normal (world, from the finger into the object): left finger at +x
+    left = [2.0, 3.0, 0.1, 0.2, math.cos(a), 0.0, math.sin(a)]  # pressing up: the normal points up (+z)
+    left += [2.0, 1.0, 0.0, 0.0, math.cos(b), 0.0, -math.sin(b)]  # pressing down
+    left += [2.0, 50.0, 0.0, 0.0, 0.0, 0.0, 1.0]  # past the two found: not counted
+    right = [0.0] * (7 * slots)  # none found
+    head = [0.0] * 10
+    sensordata = np.array(head + left + right, dtype=float)
+    builder = kernel.RowBuilder(["left_pad"], [5], [1, 3], 7, False, [1.0], 1e5, status_index, None, [10, 10 + 7 * slots], slots)
+    builder.bind(np.zeros(3), np.zeros(6), sensordata)
+    reading = Reading(1, 1.0, 1.0, 0.0, 1.0, 0.1, True, 1.0, 1.0, 1.0 + 0j)
+    sig = interface.PadSignal(reading, Estimate(math.nan, math.nan, "below_detection"))
+    obs = interface.Observation(0.0, {"left_pad": sig}, 0.0, 0.0, 0.0, 0.0, 0.0)
+    row = dict(zip(columns, builder.row(0.0, obs, NS(phase=0), [[0.0]], [[0.0]], ()), strict=True))
+    expected = -math.atan2(3 * math.sin(a) - math.sin(b), 3 * math.cos(a) + math.cos(b))  # up: a negative tilt
+    assert row["left_contact_tilt_rad"] == pytest.approx(expected, abs=1e-15)
+    assert math.isnan(row["right_contact_tilt_rad"])
+    strongest = -a  # what the strongest contact alone said
+    assert abs(row["left_contact_tilt_rad"] - strongest) > math.radians(2.0)
+    with pytest.raises(ValueError, match="normal_slots"):
+        kernel.RowBuilder(["left_pad"], [5], [1, 3], 7, False, [1.0], 1e5, status_index, None, [10, 31], 0)

@@ -1075,3 +1075,52 @@ def test_an_object_crushing_at_one_and_a_half_times_its_need_survives_the_probe(
     result = piezotip.run("grasp", overrides={**WAFER, **found[gripper], "controller.kind": "gentle"}, preset="balanced")
     assert result.outcome == "success", result.reason
     assert result.summary["peak_contact_n"] < 1.5 * result.summary["needed_grip_n"], result.summary["peak_contact_n"]
+
+
+def _normal_resultant_tilt_rad(sim: CoSimulation, side: str) -> float:
+    """The tilt below the horizontal of sum_i N_i n_i over the finger's contacts with the object,
+    read off MuJoCo's contact list with mj_contactForce (an independent count of the record's
+    ``{side}_contact_tilt_rad``); n_i from the finger into the object."""
+    m, d = sim.model, sim.data
+    obj = m.body("object").id
+    total = np.zeros(3)
+    for i in range(d.ncon):
+        c = d.contact[i]
+        b1, b2 = m.geom_bodyid[c.geom1], m.geom_bodyid[c.geom2]
+        if obj not in (b1, b2):
+            continue
+        other = c.geom2 if b1 == obj else c.geom1
+        if not (mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_GEOM, other) or "").startswith(side):
+            continue
+        force = np.zeros(6)
+        mujoco.mj_contactForce(m, d, i, force)
+        total += force[0] * (-c.frame[:3] if b1 == obj else c.frame[:3])
+    return math.atan2(-total[2], math.hypot(total[0], total[1]))
+
+
+def test_the_record_reads_a_fingers_tilt_off_its_normal_forces_resultant_not_its_strongest_contact():
+    """Menagerie's 2F-85 on the 50 g rubber ball at the accurate preset: the pad cut into strips
+    touches the ball at six contacts a finger, the strongest a guard strip's corner tilted -7.1
+    degrees, the rest at -3.6 to +6.7.  The referee read the strongest, and its need (0.157 N, the
+    wedge under the ball) put the grip at 1.56x; the normal forces' resultant tilts -2.3 degrees,
+    as at every preset (-2.0 on the one-strip pad), and the need by it is 0.188 N: 1.31x.  The
+    record's tilt is that resultant, as mj_contactForce counts it."""
+    from piezotip.cosim.control import Phase
+
+    ball = scenarios.OBJECTS["rubber-ball-50g"]
+    overrides = {**menagerie_keys("robotiq-2f85", **{"controller.kind": "gentle"})}
+    overrides |= {f"object.{k}": getattr(ball, k) for k in ("shape", "mass_kg", "size_m", "friction", "crush_force_n")}
+    sim = CoSimulation(scenarios.get("grasp", overrides, "accurate"))
+    while sim.controller.phase is not Phase.HOLD:
+        sim.step()
+    for _ in range(40):
+        sim.step()
+    resultant = [_normal_resultant_tilt_rad(sim, side) for side in ("left", "right")]
+    assert all(math.radians(-3.0) < a < math.radians(-1.5) for a in resultant), np.degrees(resultant)
+    result = piezotip.run("grasp", overrides=overrides, preset="accurate")
+    assert result.outcome == "success", result.reason
+    t = result.data["time_s"]
+    at = int(np.argmin(np.abs(t - sim.time_s)))
+    recorded = [result.data[f"{side}_contact_tilt_rad"][at] for side in ("left", "right")]
+    assert recorded == pytest.approx(resultant, abs=math.radians(0.05))
+    assert result.summary["grip_margin"] <= 1.5
