@@ -275,8 +275,8 @@ class CoSimulation:
         self._contact_adr = {pad: m.sensor(f"{pad.removesuffix('_pad')}_object_contact").adr[0] + 1 for pad in self.pads}
         self._finger_adr = [m.sensor(f"{side}_object_contact").adr[0] + 1 for side in PAD_SIDES]
         self._normal_adr = [int(m.sensor(f"{side}_object_normal").adr[0]) for side in PAD_SIDES]
-        # Its contacts' count: found, force and normal (7 values) each (models/scene_grasp.xml).
-        self._normal_slots = int(m.sensor("left_object_normal").dim[0]) // 7
+        # How many contacts each reports: its ``num`` (the contact sensor's third integer parameter).
+        self._normal_slots = int(m.sensor_intprm[m.sensor("left_object_normal").id, 2])
         self._table_adr = m.sensor("object_table_contact").adr[0] + 1
         self._object_dof = m.joint("object_joint").dofadr[0]
         self._lift_dof = m.joint("lift_joint").dofadr[0]

@@ -865,12 +865,14 @@ class MultimodeGrasp:
         else:
             self.grip_n = self.opening_force_n
             if self.robot.pad_rise_m[0] and obs.opening_m < self._width_m:
-                # A linkage's pads still on the object: its drive's target is the free closing's
-                # actuator lengths at the opening, which the loaded linkage does not hold, and at
-                # the full opening force Menagerie's 2F-85, its target 16 um ahead of its pads,
-                # closed them 45 um and pressed its 2 g wafer from 0.033 N to 0.048 N (crushes at
-                # 0.05 N).  Until the pads are past the width they touched at, the drive pushes and
-                # pulls with no more than the grip it released from.
+                # A linkage's pads still on the object: once its force range widened from the
+                # grip to the full opening force, Menagerie's 2F-85 closed its pads 45 um and
+                # pressed its 2 g wafer from 0.033 N to 0.048 N (crushes at 0.05 N), although its
+                # commands lay on the opening side of the actuator's present length: the closing
+                # is inside the linkage (a tendon servo on the drivers' mean, soft equality
+                # constraints), not the target's mapping (docs/grippers.md).  Until the pads are
+                # past the width they touched at, the drive pushes and pulls with no more than the
+                # grip it released from.
                 self.grip_n = min(self.opening_force_n, max(self._released_from_n, self.grip_floor_n))
         self._open_toward_home(dt_s)
         if obs.opening_m >= self.robot.home_opening_m - 0.002:
