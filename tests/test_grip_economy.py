@@ -14,6 +14,7 @@ from piezotip.analysis.referee import judge
 from piezotip.cosim.control.gentle import (
     carried_at_cap,
     carried_nothing_at_first,
+    carried_under_friction,
     contact_fades,
     fingers_closed_for,
     grip_read_n,
@@ -95,6 +96,48 @@ def test_a_span_whose_first_third_carried_nothing_is_told_apart_from_one_too_sho
     assert not carried_nothing_at_first([(gi, -0.13) for gi in short], SAFETY)  # too short to tell anyway
     mixed = [(gi, (-0.13 if k % 2 else 0.2) if k < n else 0.46) for k, gi in enumerate(grips)]
     assert not carried_nothing_at_first(mixed, SAFETY)  # a first third that carried some load on average
+
+
+def test_a_load_the_safety_factor_under_the_friction_limit_is_carried():
+    """Once the pads slid at mu = 0.4, a steady load L is carried where the last third's mean grip
+    G3 holds it with the safety factor, 1.25 L <= 2 mu G3: the 2 g wafer's 19.6 mN is carried
+    from G3 = 1.25 x 19.6 / 0.8 = 30.6 mN on, before the grip has grown by the safety factor
+    between the thirds (probe_verdict: no verdict yet).  Sliding pads' load 2 mu' G is never
+    called carried unless mu is read high by the safety factor; a load that scatters, or is
+    under the least load read, is not a weight; on a linkage the grip the load adds on its arc
+    (slope s) counts, 2 mu (G3 + s L)."""
+    mu, weight_n, fraction = 0.4, 0.0196, 0.02
+    need_n = weight_n / (2 * mu)
+    ramp = _ramp(n=12, g0=need_n, rate=1.02)  # from lift-off on: the thirds 1.08x apart
+    carried = [(g, weight_n) for g in ramp]
+    assert math.isinf(probe_verdict(carried, SAFETY)[1])
+    g3 = sum(ramp[-4:]) / 4
+    assert g3 < SAFETY * need_n  # not yet the safety factor over the need
+    assert not carried_under_friction(carried, mu, SAFETY, fraction, 1e-3)
+    longer = [(g, weight_n) for g in _ramp(n=15, g0=need_n, rate=1.02)]  # the thirds 1.22x apart
+    g3 = sum(g for g, _ in longer[-5:]) / 5
+    assert g3 >= SAFETY * need_n and math.isinf(probe_verdict(longer, SAFETY)[1])
+    assert carried_under_friction(longer, mu, SAFETY, fraction, 1e-3)
+    # The limit itself: exactly the safety factor under it is carried, a hair over is not.
+    at = [(g3, weight_n)] * 6
+    assert carried_under_friction(at, weight_n * SAFETY / (2 * g3), SAFETY, fraction, 1e-3)
+    assert not carried_under_friction(at, weight_n * SAFETY / (2 * g3) * (1 - 1e-9), SAFETY, fraction, 1e-3)
+    # Sliding pads at the true friction, read right or read low: never carried.
+    sliding = [(g, 2 * mu * g) for g in _ramp(n=24, g0=need_n / 2, rate=1.0)]
+    for read in (mu, 0.85 * mu, mu * SAFETY * 0.99):
+        assert not carried_under_friction(sliding, read, SAFETY, fraction, 1e-3)
+    assert carried_under_friction(sliding, mu * SAFETY * 1.01, SAFETY, fraction, 1e-3)  # read high by the factor
+    # A load that scatters (stick-slip) is not a weight; nor one under the least load read.
+    chatter = [(g, weight_n * (1.3 if k % 2 else 0.7)) for k, (g, _) in enumerate(longer)]
+    assert not carried_under_friction(chatter, mu, SAFETY, fraction, 1e-3)
+    assert not carried_under_friction(longer, mu, SAFETY, fraction, weight_n)
+    assert not carried_under_friction(longer[:5], mu, SAFETY, fraction, 1e-3)  # under two samples a third
+    # A linkage whose load closes its fingers by s L: the grip to hold is less by it.
+    slope = 0.1
+    g_link = SAFETY * weight_n / (2 * mu) - slope * weight_n
+    linked = [(g_link, weight_n)] * 6
+    assert carried_under_friction(linked, mu, SAFETY, fraction, 1e-3, arc_slope=slope)
+    assert not carried_under_friction(linked, mu, SAFETY, fraction, 1e-3)
 
 
 def test_the_grip_read_is_the_inverse_variance_blend_of_the_drive_and_the_fingertips():

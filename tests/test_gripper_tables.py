@@ -74,7 +74,7 @@ def test_two_runs_of_the_tables_are_compared_run_for_run():
         _row("panda", c, "gentle", "does_not_fit", friction_x=1.1, margin=None),
     ]
     text = gt.compare(before, after)
-    assert "| panda | gentle | 4 of 5 -> 3 of 4 | 5 -> 3 |" in text
+    assert "| panda | gentle | 4 of 5 -> 3 of 4 | 0 -> 0 | 5 -> 3 |" in text  # made-up rows record no peak
     crossed = "success 7.36x, touch 0.01 N -> success 1.16x, touch 0.01 N (now within 1.5x)"
     assert f"- panda gentle {a} (friction x1, mass x1): {crossed}" in text
     assert f"- panda gentle {b} (friction x1, mass x1): success 1.30x, touch 0.01 N -> crushed 1.25x, touch 0.01 N **failed**" in text
@@ -90,10 +90,31 @@ def test_compare_reads_two_folders_and_names_one_without_runs(tmp_path, capsys):
         (folder / "runs.jsonl").write_text(json.dumps(_row("rethink", next(iter(OBJECTS)), "gentle", "success", margin=margin)) + "\n")
     empty.mkdir()
     assert gt.main(["--compare", str(before), str(after)]) == 0
-    assert "| rethink | gentle | 0 of 1 -> 1 of 1 | 1 -> 1 |" in capsys.readouterr().out
+    assert "| rethink | gentle | 0 of 1 -> 1 of 1 | 0 -> 0 | 1 -> 1 |" in capsys.readouterr().out
     with pytest.raises(SystemExit):
         gt.main(["--compare", str(before), str(empty)])
     assert f"{empty / 'runs.jsonl'} not found" in capsys.readouterr().err
     with pytest.raises(SystemExit):
         gt.main([])
     assert "--out is required" in capsys.readouterr().err
+
+
+def test_a_peak_is_judged_against_one_and_a_half_times_the_need_or_the_lightest_crush_force_protected():
+    """Issue 43: "crushes nothing whose crush force is at least 1.5x that grip", its objects
+    crushing at 0.03 N or more: a peak of 1.5x the need passes and a hair over does not; under
+    0.03 N any peak passes (the 1 g tissue box needs 8 mN); a failed run, or a row without the
+    peak, passes nothing.  ``--compare`` counts them and marks a run whose peak crossed."""
+    name = next(iter(OBJECTS))
+
+    def peaked(peak_n, need_n, outcome="success"):
+        return _row("panda", name, "gentle", outcome) | {"peak_contact_n": peak_n, "needed_grip_n": need_n}
+
+    assert gt._gentle(peaked(0.30, 0.20)) and not gt._gentle(peaked(0.30 * (1 + 1e-9), 0.20))
+    assert gt._gentle(peaked(0.03, 0.008)) and not gt._gentle(peaked(0.031, 0.008))
+    assert not gt._gentle(peaked(0.1, 0.2, "dropped")) and not gt._gentle(_row("panda", name, "gentle", "success"))
+    text = gt.compare([peaked(0.40, 0.20)], [peaked(0.28, 0.20)])
+    assert "| panda | gentle | 1 of 1 -> 1 of 1 | 0 -> 1 | 1 -> 1 |" in text
+    assert "peak 2.00x -> success 1.30x, touch 0.01 N, peak 1.40x (peak now within)" in text
+    assert "**peak now over**" in gt.compare([peaked(0.28, 0.20)], [peaked(0.40, 0.20)])
+    lines = gt.tables([peaked(0.40, 0.20) | {"friction_x": 0.9}, peaked(0.28, 0.20) | {"friction_x": 1.1}])
+    assert f"panda gentle: peaks over max(1.5x the need, 0.03 N) in 1 of 2: {name}" in lines

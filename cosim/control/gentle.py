@@ -282,6 +282,39 @@ def carried_at_cap(span: Sequence[tuple[float, ...]], fraction: float, min_load_
     return math.isfinite(error) and elasticity + 2.0 * error < 0.5 and load_n > min_load_n and load_is_steady(last, fraction)
 
 
+def carried_under_friction(
+    span: Sequence[tuple[float, ...]], friction: float, safety: float, fraction: float, min_load_n: float, arc_slope: float = 0.0
+) -> bool:
+    """Whether a probe's span of (grip applied, load, ...) samples, N, shows the object carried
+    once the pads were seen to slide at ``friction`` (-), before the grip has grown enough for
+    :func:`probe_verdict`: its last third's mean load L3, over ``min_load_n`` and steady within
+    ``fraction`` (:func:`load_is_steady`), lies ``safety`` under the pads' friction limit at its
+    mean grip G3, safety L3 <= 2 mu (G3 + s L3) (``arc_slope`` s, dh/do, the grip the load adds
+    on a linkage's arc: :meth:`GentleGrasp._load_closes_n`; 0 on slides).
+
+    Sliding pads carry exactly their limit 2 mu G (Coulomb), so a steady load a safety factor
+    under it is not a sliding one: the pads hold the object, with ``safety`` times the grip it
+    needs at that friction, the margin the hold keeps (:meth:`GentleGrasp._carry`).  The
+    elasticity's verdict asks the grip to grow by ``safety`` between the span's thirds, about
+    safety^1.5 from its start: from a span begun before the object left the table that is 1.4x
+    the grip it lifted off at and more (the 2 g wafer, needing 25 mN, was pressed to 1.54-1.60x
+    it), against about ``safety`` x here.  A friction read low (pads sticking and slipping read
+    it 10-15 % low on hard contacts, a read over a span that lifted the object off is a lower
+    bound: :func:`lifted_off_friction`) only delays this verdict to the elasticity's; a read high
+    by ``safety`` would be needed to call sliding pads carried.  Not used before the pads slid:
+    the friction is then the highest expected (``friction_max``), and every load lies under it
+    (tests/test_grip_economy.py::test_a_load_the_safety_factor_under_the_friction_limit_is_carried)."""
+    thirds = _thirds(span)
+    if thirds is None or friction <= 0.0:
+        return False
+    n, _, g3, _, l3 = thirds
+    if l3 <= min_load_n or g3 <= 0.0:
+        return False
+    if not load_is_steady([load for _, load, *_ in span[-n:]], fraction):
+        return False
+    return safety * l3 <= 2.0 * friction * (g3 + arc_slope * l3)
+
+
 def fingers_closed_for(span: Sequence[tuple[float, float, float]]) -> bool:
     """Whether a probe's span of (grip applied N, load N, opening m) samples saw the fingers close
     if its grip was read to rise, on a drive with dry friction: fingers that do not close do not
@@ -919,18 +952,23 @@ class GentleGrasp(MultimodeGrasp):
         """The grip the load the pads carry adds to the drive's on a linkage whose pads rise as
         they open, N on the opening: the lift's load L (``load_n``: the pads' share of the object's
         weight, pulling them down their arc) times the arc's slope dh/do at the fingers' opening
-        (``RobotLimits.pad_rise_m``: its virtual work, L dh/do, as the drive's G do).  None on
+        (:meth:`_arc_slope`: its virtual work, L dh/do, as the drive's G do).  None on
         slides.  Without it a linkage's friction reads high by the share the load closes, and the
         hold falls under the need (tests/test_grip_on_fingertips.py::
         test_the_2f85s_friction_read_counts_the_load_on_its_arc_and_holds_menageries_box)."""
+        return load_n * self._arc_slope(obs)
+
+    def _arc_slope(self, obs: Observation) -> float:
+        """The slope dh/do of the pads' height over the fingers' opening at the observed opening,
+        -: 0 on slides (``RobotLimits.pad_rise_m`` empty), a central difference over the
+        table's own step on a linkage's arc."""
         openings = self.robot.pad_rise_m[0]
         if not openings:
             return 0.0
         opening_m = obs.opening_m
         step_m = 0.5 * (openings[-1] - openings[0]) / max(len(openings) - 1, 1)
         rise = self.robot.pads_height_m
-        slope = (rise(0.0, opening_m + step_m) - rise(0.0, opening_m - step_m)) / (2.0 * step_m)
-        return load_n * slope
+        return (rise(0.0, opening_m + step_m) - rise(0.0, opening_m - step_m)) / (2.0 * step_m)
 
     def _transfer(self, obs: Observation, t: float, dt_s: float) -> None:
         """Find the grip that holds, then hand the weight to it (the module docstring's probe).
@@ -1018,6 +1056,13 @@ class GentleGrasp(MultimodeGrasp):
             return
         falls = self.contact_falls
         elasticity, error, grip_n, load_n = probe_verdict(self._span, 1.0 if at_cap else c.grip_safety, falls)
+        if math.isinf(error) and not at_cap and self._slid:
+            # The pads were seen to slide: a load the safety factor under their friction limit
+            # is carried, before the grip has grown enough for the elasticity to tell it.
+            if carried_under_friction(
+                self._span, self.friction, c.grip_safety, self.steady_load_fraction, self.robot.min_load_n, self._arc_slope(obs)
+            ):
+                elasticity, error = 0.0, 0.0
         if math.isinf(error):
             if carried_nothing_at_first(self._span, c.grip_safety, falls):
                 self._span = self._span[-1:]  # the span starts again where the pads carry a load
@@ -1626,6 +1671,7 @@ class GentleGrasp(MultimodeGrasp):
 __all__ = [
     "GentleGrasp",
     "carried_nothing_at_first",
+    "carried_under_friction",
     "carries_weight",
     "contact_fades",
     "fingers_closed_for",
