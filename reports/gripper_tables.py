@@ -283,8 +283,8 @@ def _within(row: dict) -> bool:
 
 def _peak_ratio(row: dict) -> float | None:
     """The run's peak true finger force over its least grip that holds, -: the whole grasp's
-    (``peak_contact_n``: the touch, the probe, the hold and the release), None where the row has
-    neither (made before they were recorded)."""
+    (``peak_contact_n``: the touch, the probe, the hold and the release), None where the row lacks
+    either (made before they were recorded) or its need is 0."""
     peak, need = row.get("peak_contact_n"), row.get("needed_grip_n")
     return None if peak is None or not need else peak / need
 

@@ -327,9 +327,9 @@ def test_every_damaged_project_entry_gives_the_uncached_result(tmp_path):
                 assert path.read_bytes() == originals[path], case
                 read_entry(path, path.name.removesuffix(".npz"))
 
-        # Every way on every entry at once, and each kind alone (one way each, in turn): each
-        # kind under each way alone cost three times as many runs for nothing a run of either
-        # set misses (every damaged file is named in its own line, and recomputed alone).
+        # Every way on every entry at once, and each kind alone (one way each, in turn): each kind
+        # under each way alone took three times as many runs, and every damaged file is still
+        # named in its own line and recomputed on its own here.
         for way in ISSUE_WAYS:
             check(way, entries)
         for kind, way in zip(kinds, itertools.cycle(ISSUE_WAYS)):

@@ -298,7 +298,9 @@ def carried_under_friction(
     elasticity's verdict asks the grip to grow by ``safety`` between the span's thirds, about
     safety^1.5 from its start: from a span begun before the object left the table that is 1.4x
     the grip it lifted off at and more (the 2 g wafer, needing 25 mN, was pressed to 1.54-1.60x
-    it), against about ``safety`` x here.  A friction read low (pads sticking and slipping read
+    it), and where the load swings (a linkage's levers under a 300 g jar) the elasticity's error
+    holds the verdict off for as long again (dm_robotics' 2F-85 lifted the jar off at 5.6 N and
+    told "carried" at 24.9 N), against about ``safety`` x here.  A friction read low (pads sticking and slipping read
     it 10-15 % low on hard contacts, a read over a span that lifted the object off is a lower
     bound: :func:`lifted_off_friction`) only delays this verdict to the elasticity's; a read high
     by ``safety`` would be needed to call sliding pads carried.  Not used before the pads slid:
