@@ -177,6 +177,8 @@ def one(run: dict, preset: str = "fast") -> dict:
         peak_contact_n=_number(s.get("peak_contact_n")),
         max_rise_m=_number(s.get("max_rise_m")),
         disturb_slip_mm=_number(s.get("disturb_slip_mm")),
+        disturb_reaction_ms=_number(s.get("disturb_reaction_ms")),
+        disturb_needed_grip_n=_number(s.get("disturb_needed_grip_n")),
         disturb_grip_margin=_number(s.get("disturb_grip_margin")),
         time_to_touch_s=_number(s.get("time_to_touch_s")),
         sim_time_s=_number(s.get("sim_time_s")),
@@ -272,7 +274,13 @@ def tables(rows: list[dict]) -> str:
         lines.append("extras:")
         for r in extras:
             slip = "" if r.get("disturb_slip_mm") is None else f", slip {r['disturb_slip_mm']:.4g} mm"
-            lines.append(f"- {r['gripper']} {r['controller']} {r['object']}: {_cell(r)}{slip}")
+            if r.get("disturb_reaction_ms") is not None:
+                slip += f", answered in {r['disturb_reaction_ms']:.0f} ms"
+            if r.get("disturb_grip_margin") is not None:
+                slip += f", held at {r['disturb_grip_margin']:.2f}x the new need"
+            ratio = _peak_ratio(r)
+            peak = "" if ratio is None else f", peak {ratio:.2f}x the need"
+            lines.append(f"- {r['gripper']} {r['controller']} {r['object']}: {_cell(r)}{slip}{peak}")
     return "\n".join(lines)
 
 
@@ -284,9 +292,17 @@ def _within(row: dict) -> bool:
 def _peak_ratio(row: dict) -> float | None:
     """The run's peak true finger force over its least grip that holds, -: the whole grasp's
     (``peak_contact_n``: the touch, the probe, the hold and the release), None where the row lacks
-    either (made before they were recorded) or its need is 0."""
-    peak, need = row.get("peak_contact_n"), row.get("needed_grip_n")
+    either (made before they were recorded) or its need is 0.  Where a load change raised the
+    need (``grasp-disturb``'s ``disturb_needed_grip_n``), over the higher need: the answer's peak
+    comes after it."""
+    peak, need = row.get("peak_contact_n"), _need_n(row)
     return None if peak is None or not need else peak / need
+
+
+def _need_n(row: dict) -> float | None:
+    """The largest least grip that holds the object in the run, N (None where unrecorded)."""
+    needs = [n for n in (row.get("needed_grip_n"), row.get("disturb_needed_grip_n")) if n is not None]
+    return max(needs) if needs else None
 
 
 def _gentle(row: dict) -> bool:
@@ -296,7 +312,7 @@ def _gentle(row: dict) -> bool:
     ratio = _peak_ratio(row)
     if row["outcome"] != "success" or ratio is None:
         return False
-    return row["peak_contact_n"] <= max(GOAL_MARGIN * row["needed_grip_n"], PROTECTED_CRUSH_N)
+    return row["peak_contact_n"] <= max(GOAL_MARGIN * _need_n(row), PROTECTED_CRUSH_N)
 
 
 def _feasible(rows: list[dict]) -> list[dict]:

@@ -118,3 +118,24 @@ def test_a_peak_is_judged_against_one_and_a_half_times_the_need_or_the_lightest_
     assert "**peak now over**" in gt.compare([peaked(0.28, 0.20)], [peaked(0.40, 0.20)])
     lines = gt.tables([peaked(0.40, 0.20) | {"friction_x": 0.9}, peaked(0.28, 0.20) | {"friction_x": 1.1}])
     assert f"panda gentle: peaks over max(1.5x the need, 0.03 N) in 1 of 2: {name}" in lines
+
+
+def test_a_load_changes_peak_is_judged_against_the_need_it_raised_and_its_answer_is_listed():
+    """grasp-disturb's extra load doubles the 100 g box's need (0.49 -> 0.98 N): its answer's peak
+    is judged against the new need, and the extras' line gives the slip, the answer's time and the
+    new hold's margin."""
+    row = _row("menagerie", "grasp-disturb", "gentle", "success") | {
+        "scenario": "grasp-disturb",
+        "peak_contact_n": 1.47,
+        "needed_grip_n": 0.49,
+        "disturb_needed_grip_n": 0.98,
+        "disturb_slip_mm": 0.67,
+        "disturb_reaction_ms": 25.0,
+        "disturb_grip_margin": 1.39,
+    }
+    assert gt._peak_ratio(row) == pytest.approx(1.5) and gt._gentle(row)
+    assert not gt._gentle(row | {"peak_contact_n": 1.48})
+    assert gt._peak_ratio(row | {"disturb_needed_grip_n": None}) == pytest.approx(3.0)
+    text = gt.tables([row])
+    line = "- menagerie gentle grasp-disturb: success 1.30, 0.01 N, slip 0.67 mm, answered in 25 ms, held at 1.39x the new need"
+    assert f"{line}, peak 1.50x the need" in text
