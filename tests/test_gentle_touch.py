@@ -302,6 +302,31 @@ def test_a_light_box_is_not_pressed_past_its_crush_force_as_it_lands(obj):
     assert peak < obj["object.crush_force_n"]
 
 
+def test_a_landing_presses_no_harder_than_the_touch_or_the_grips_safety_factor():
+    """The landing's plan (_plan_touchdown): the slip's press may bring the grip held up to the
+    touch's bound in all (18.5 mN on the house pads), or by the grip's safety factor where that
+    leaves more; never the touch's whole allowance on top of the grip (a 2.1 g box held at 37 mN
+    was pressed to 46 mN, 1.6x its need, where the touch's bound would have held it to 1.25x
+    the grip).  The speed is the allowance over k mu t (landing_speed_m_s)."""
+    c = CoSimulation(scenarios.get("grasp")).controller
+    c._slid, c.friction = True, 0.5
+
+    def planned(grip_n: float) -> float:
+        c.grip_n = grip_n
+        c._plan_touchdown(5.0)
+        return float(c.events[-1].message.split("may add ")[1].split(" N")[0])
+
+    bound_n, safety = c.touch_force_n, c.cfg.grip_safety
+    assert planned(0.010) == pytest.approx(bound_n - 0.010, rel=1e-2)  # a light grip: up to the touch's bound
+    assert planned(0.037) == pytest.approx((safety - 1.0) * 0.037, rel=1e-2)  # past it: the safety factor
+    assert planned(0.627) == pytest.approx((safety - 1.0) * 0.627, rel=1e-2)  # the default box's, as before
+    give_way_s = c.touch_reaction_s - c.dt_s
+    cap = landing_speed_m_s((safety - 1.0) * 0.037, c.contact_stiffness_n_m, 0.5, give_way_s)
+    c.grip_n = 0.037
+    c._plan_touchdown(5.0)
+    assert c.lift.touchdown_cap_m_s == pytest.approx(cap, rel=1e-12)
+
+
 @pytest.mark.slow
 def test_the_default_box_lands_at_the_configured_speed():
     """The 100 g box's grip (0.63 N) leaves the landing its safety factor's margin, 0.16 N: the

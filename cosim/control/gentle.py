@@ -15,7 +15,7 @@ but that camera's width, with its stated sigma.
 *The touchdown* (:meth:`GentleGrasp._plan_touchdown`): as the object lands, the pads slide down
 it at the lift's speed until the lift stops, and the slip presses them by up to k mu v t (the
 friction measured, the fingers' stop: :func:`landing_speed_m_s`); the place's last stretch runs
-at the v that keeps that within the touch's allowance (``touch_force_n`` less the grip floor),
+at the v that keeps the grip and that press together within the touch's bound (``touch_force_n``),
 or a grip past it within the grip's safety factor over it, at most ``touchdown_speed_m_s``.
 
 The multimode controller grips at
@@ -546,18 +546,22 @@ class GentleGrasp(MultimodeGrasp):
             self._plan_touchdown(t)
 
     def _plan_touchdown(self, t: float) -> None:
-        """The landing's speed, as the place begins (:func:`landing_speed_m_s`): its slip may add
-        to the grip held what the touch may add to the floor it is detected at (``touch_force_n``
-        less the grip floor), or, on a grip past that, the grip's safety factor over it (what the
-        controller already presses an object by: each step of the probe, each slip's answer); at
-        the friction the probe measured (the highest expected where the pads never slid: the one
-        read is only a bound from below), k the pads' contact stiffness, t the fingers' stop (the
-        touch's reaction less its period).  At most ``touchdown_speed_m_s`` (the lift's cap,
+        """The landing's speed, as the place begins (:func:`landing_speed_m_s`): its slip may press
+        the pads to the touch's own bound (``touch_force_n``, in all: the grip held and the slip's
+        press together), or, where the grip leaves more, to the grip's safety factor over it (what
+        the controller already presses an object by: each step of the probe, each slip's answer);
+        at the friction the probe measured (the highest expected where the pads never slid: the
+        one read is only a bound from below), k the pads' contact stiffness, t the fingers' stop
+        (the touch's reaction less its period).  At most ``touchdown_speed_m_s`` (the lift's cap,
         :attr:`~.lift.LiftPlan.touchdown_cap_m_s`).  Nothing of the object is read but the grip
-        held and the friction measured: a light object's grip leaves the touch's allowance, a
-        heavy one's its own margin (tests/test_gentle_touch.py::test_the_default_box_lands_at_the_configured_speed)."""
+        held and the friction measured: a light object's grip leaves the touch's bound, a heavy
+        one's its own margin (tests/test_gentle_touch.py::test_the_default_box_lands_at_the_configured_speed).
+        The slip once added the touch's whole allowance (its bound less the grip floor) to the
+        grip: light objects' landings pressed them to grip + 12 mN, 1.6-1.75x their need, past
+        the touch's bound and past the safety factor the hold keeps
+        (tests/test_gentle_touch.py::test_a_landing_presses_no_harder_than_the_touch_or_the_grips_safety_factor)."""
         c = self.cfg
-        allowed_n = max(self.touch_force_n - self.grip_floor_n, (c.grip_safety - 1.0) * self.grip_n)
+        allowed_n = max(self.touch_force_n - self.grip_n, (c.grip_safety - 1.0) * self.grip_n)
         friction = self.friction if self._slid else c.friction_max
         give_way_s = self.touch_reaction_s - self.dt_s
         cap = landing_speed_m_s(allowed_n, self.contact_stiffness_n_m, friction, give_way_s)
