@@ -300,11 +300,12 @@ def carried_under_friction(
     the grip it lifted off at and more (the 2 g wafer, needing 25 mN, was pressed to 1.54-1.60x
     it), and where the load swings (a linkage's levers under a 300 g jar) the elasticity's error
     holds the verdict off for as long again (dm_robotics' 2F-85 lifted the jar off at 5.6 N and
-    told "carried" at 24.9 N), against about ``safety`` x here.  A friction read low (pads sticking and slipping read
-    it 10-15 % low on hard contacts, a read over a span that lifted the object off is a lower
-    bound: :func:`lifted_off_friction`) only delays this verdict to the elasticity's; a read high
-    by ``safety`` would be needed to call sliding pads carried.  Not used before the pads slid:
-    the friction is then the highest expected (``friction_max``), and every load lies under it
+    told "carried" at 24.9 N), against about ``safety`` x here.  A friction read low (pads
+    sticking and slipping read it 10-15 % low on hard contacts, a read over a span that lifted
+    the object off is a lower bound: :func:`lifted_off_friction`) only delays this verdict to the
+    elasticity's; a read high by ``safety`` would be needed to call sliding pads carried.  Not
+    used before the pads slid: the friction is then the highest expected (``friction_max``), and
+    every load lies under it
     (tests/test_grip_economy.py::test_a_load_the_safety_factor_under_the_friction_limit_is_carried)."""
     thirds = _thirds(span)
     if thirds is None or friction <= 0.0:
@@ -1064,7 +1065,9 @@ class GentleGrasp(MultimodeGrasp):
         elasticity, error, grip_n, load_n = probe_verdict(self._span, 1.0 if at_cap else c.grip_safety, falls)
         if math.isinf(error) and not at_cap and self._slid:
             # The pads were seen to slide: a load the safety factor under their friction limit
-            # is carried, before the grip has grown enough for the elasticity to tell it.
+            # is carried, before the grip has grown enough for the elasticity to tell it.  Read
+            # on as a weight (elasticity 0) beyond doubt (error 0): the checks below still ask
+            # its fingers to have closed and its last third's load to be steady.
             if carried_under_friction(
                 self._span, self.friction, c.grip_safety, self.steady_load_fraction, self.robot.min_load_n, self._arc_slope(obs)
             ):
