@@ -22,6 +22,7 @@ from piezotip.cosim.control.gentle import (
     lifted_off_friction,
     load_is_steady,
     probe_verdict,
+    sliding_read,
 )
 from piezotip.cosim.loop import CoSimulation
 
@@ -254,9 +255,11 @@ def test_the_friction_bound_from_the_carried_grip_applies_only_past_the_cap():
 def test_the_friction_read_over_the_lift_off_is_a_lower_bound():
     """A span whose load reached the weight carried the object over part of it: its load stopped
     at the weight while the grip grew on, so its load / 2 G is under the friction (a bound, by
-    Coulomb's law).  The last span before the carried verdict is one whatever its load read;
-    the object is carried at the largest read back to the last span before it whose load stayed
-    under the weight, never one from before that, where a lighter grip is read less surely."""
+    Coulomb's law); read over its samples under the weight, it is the friction.  Walking back
+    from the last span, the object is carried at the largest read met up to the first span that
+    slid all through (its load under the weight) or could be read over its sliding samples,
+    never one from before that, where a lighter grip is read less surely and, on a sphere, at a
+    contact tilted less."""
     from types import SimpleNamespace
 
     weight_n, fraction = 0.981, 0.006
@@ -267,8 +270,16 @@ def test_the_friction_read_over_the_lift_off_is_a_lower_bound():
     assert lifted_off_friction([(1.2, 0.2), (0.97, 0.5), (0.86, 0.99), (0.84, 0.99), (0.60, 0.98)], weight_n, fraction) == 0.97
     assert lifted_off_friction([(0.9, 0.5), (1.01, 0.985)], weight_n, fraction) == 1.01  # the last read stands where it is the larger
     assert lifted_off_friction([(0.6, 0.98)], weight_n, fraction) == 0.6  # one slide only
-    # the last is a bound whatever its highest load read (the verdict found the object off the table after it)
-    assert lifted_off_friction([(1.1, 0.3), (0.9, 0.5), (0.8, 0.9), (0.7, 0.9)], weight_n, fraction) == 0.8
+    # the last slid all through: its read is the friction, at the grip nearest the hold's (the
+    # Panda's raspberry read 0.58, then 0.49 as its contact tilted, and held at 0.58 it fell)
+    assert lifted_off_friction([(1.1, 0.3), (0.9, 0.5), (0.8, 0.9), (0.7, 0.9)], weight_n, fraction) == 0.7
+    # the last reached the weight: read over its samples under it, and no further back
+    samples = ((0.4, 0.72), (0.45, 0.81), (0.5, 0.9), (0.6, 0.981), (0.7, 0.981), (0.8, 0.981))
+    assert sliding_read(samples, weight_n, fraction) == pytest.approx((0.72 + 0.81 + 0.9) / (2 * (0.4 + 0.45 + 0.5)))
+    assert lifted_off_friction([(0.99, 0.5), (0.8, 0.981, samples)], weight_n, fraction) == pytest.approx(0.9)
+    # under a third of its samples under the weight: too short to read, a bound as before
+    assert sliding_read(samples[2:], weight_n, fraction) is None
+    assert lifted_off_friction([(0.99, 0.5), (0.8, 0.981, samples[2:])], weight_n, fraction) == 0.99
     obs = SimpleNamespace(time_s=5.0, lift_pos_m=0.05)
     c = CoSimulation(scenarios.get("grasp")).controller
     c._slid, c.friction, c._slides = True, 0.80, [(0.99, 0.5), (0.80, 0.981)]
