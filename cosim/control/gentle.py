@@ -1301,7 +1301,8 @@ class GentleGrasp(MultimodeGrasp):
         if not self._slid:
             self.friction = min(weight_n / (2.0 * (carried_from_n + self._load_closes_n(obs, weight_n))), c.friction_max)
         else:  # the last slides' reads are lower bounds: the object left the table in them
-            self.friction = max(self.friction, lifted_off_friction(self._slides, weight_n, self.steady_load_fraction))
+            # (a read over a span's sliding samples is bounded as every read is: friction_max)
+            self.friction = max(self.friction, min(lifted_off_friction(self._slides, weight_n, self.steady_load_fraction), c.friction_max))
         held_n = max(self.grip_floor_n, c.grip_safety * weight_n / (2.0 * self.friction))
         if self._slid and held_n > self.grip_cap_n:
             # Before giving up for a grip past the cap: carried over the span, the friction is at
