@@ -302,12 +302,14 @@ def test_a_light_box_is_not_pressed_past_its_crush_force_as_it_lands(obj):
     assert peak < obj["object.crush_force_n"]
 
 
-def test_a_landing_presses_no_harder_than_the_touch_or_the_grips_safety_factor():
+def test_a_landing_presses_no_harder_than_the_touch_or_the_grips_margin():
     """The landing's plan (_plan_touchdown): the slip's press may bring the grip held up to the
-    touch's bound in all (18.5 mN on the house pads), or by the grip's safety factor where that
-    leaves more; never the touch's whole allowance on top of the grip (a 2.1 g box held at 37 mN
-    was pressed to 46 mN, 1.6x its need, where the touch's bound would have held it to 1.25x
-    the grip).  The speed is the allowance over k mu t (landing_speed_m_s)."""
+    touch's bound in all (18.5 mN on the house pads), or by the grip's margin over the need it was
+    set for (G - G / grip_safety) where that leaves more, so that the object bears at most
+    2 grip_safety - 1 times its need; never the touch's whole allowance on top of the grip (a
+    2.1 g box held at 37 mN was pressed to 46 mN, 1.6x its need), nor the grip's safety factor
+    over the grip (1.52-1.53x the need of two random light objects whose hold read a few per cent
+    high).  The speed is the allowance over k mu t (landing_speed_m_s)."""
     c = CoSimulation(scenarios.get("grasp")).controller
     c._slid, c.friction = True, 0.5
 
@@ -318,10 +320,11 @@ def test_a_landing_presses_no_harder_than_the_touch_or_the_grips_safety_factor()
 
     bound_n, safety = c.touch_force_n, c.cfg.grip_safety
     assert planned(0.010) == pytest.approx(bound_n - 0.010, rel=1e-2)  # a light grip: up to the touch's bound
-    assert planned(0.037) == pytest.approx((safety - 1.0) * 0.037, rel=1e-2)  # past it: the safety factor
-    assert planned(0.627) == pytest.approx((safety - 1.0) * 0.627, rel=1e-2)  # the default box's, as before
+    margin = 1.0 - 1.0 / safety
+    assert planned(0.037) == pytest.approx(margin * 0.037, rel=1e-2)  # past it: the grip's margin over its need
+    assert planned(0.627) == pytest.approx(margin * 0.627, rel=1e-2)  # the default box's (still faster than 20 mm/s)
     give_way_s = c.touch_reaction_s - c.dt_s
-    cap = landing_speed_m_s((safety - 1.0) * 0.037, c.contact_stiffness_n_m, 0.5, give_way_s)
+    cap = landing_speed_m_s(margin * 0.037, c.contact_stiffness_n_m, 0.5, give_way_s)
     c.grip_n = 0.037
     c._plan_touchdown(5.0)
     assert c.lift.touchdown_cap_m_s == pytest.approx(cap, rel=1e-12)
@@ -329,7 +332,7 @@ def test_a_landing_presses_no_harder_than_the_touch_or_the_grips_safety_factor()
 
 @pytest.mark.slow
 def test_the_default_box_lands_at_the_configured_speed():
-    """The 100 g box's grip (0.63 N) leaves the landing its safety factor's margin, 0.16 N: the
+    """The 100 g box's grip (0.63 N) leaves the landing its margin over the need, 0.125 N: the
     bound asks nothing slower than the configured 20 mm/s, and the grasp takes no longer."""
     result = piezotip.run("grasp")
     (plan,) = [e["message"] for e in result.events if e["kind"] == "touchdown_plan"]
@@ -342,12 +345,18 @@ def test_the_descent_slows_by_its_margin_over_where_the_object_left_the_table():
     """The probe's pads slide up the box (about 2.5 mm) before it leaves the table, and it lands
     that much above the lift's home.  With a 1 mm margin over the home the lift was still at
     34 mm/s when the box met the table (its landing's press 1.27 N); the margin is over where the
-    pads were first seen to carry the weight, and the box lands at the touchdown speed."""
+    pads were first seen to carry the weight, and the box lands at the touchdown speed, its
+    landing's press (the place's peak) within the plan's allowance.  (After the place, as the
+    release lets go with the pads barely off the table's landing, the pads' force dips to 0.25 N
+    and rebounds to 0.78 N for a step: the release's, not the landing's; docs/cosimulation.md.)"""
     result = piezotip.run("grasp", overrides={"controller.touchdown_margin_m": 0.001}, preset="fast")
     assert result.outcome == "success", result.reason
     assert result.summary["landing_speed_m_s"] <= 1.02 * GentleConfig().touchdown_speed_m_s
-    held, peak, allowed = _landing(result)
-    assert peak <= held + allowed
+    held, _, allowed = _landing(result)
+    data = result.data
+    placing = np.asarray(data["phase"]) == phase_index("place")
+    force = np.maximum(data["left_finger_force_n"], data["right_finger_force_n"])[placing]
+    assert force.max() <= held + allowed
 
 
 @pytest.mark.slow
