@@ -54,6 +54,14 @@ else:
 """
 
 
+def _ctrl_c_as_in_a_terminal() -> None:
+    """In the child, before it runs: SIGINT's default action, as a terminal's shell leaves it to the
+    commands it starts.  A test run from a non-interactive shell's background (``cmd &``, nohup)
+    inherits SIGINT ignored, and Python then installs no KeyboardInterrupt handler: the commands
+    under test would never see the Ctrl-C these tests send."""
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
 def _wait_for(path: Path, proc: subprocess.Popen, timeout_s: float = 60.0) -> None:
     deadline = time.monotonic() + timeout_s
     while not path.exists():
@@ -134,7 +142,7 @@ def test_a_signal_in_the_commands_first_tenths_of_a_second_is_one_line_and_its_s
     short raises ImportError: initialization failed)."""
     sets = [arg for setting in LONG for arg in ("--set", setting)]
     argv = [sys.executable, "-c", _COMMAND, "run", "grasp", "--preset", "fast", "--no-plot", "--out", str(tmp_path / "run"), *sets]
-    proc = subprocess.Popen(argv, cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    proc = subprocess.Popen(argv, cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, preexec_fn=_ctrl_c_as_in_a_terminal)
     try:
         assert proc.stdout.readline() == "go\n"
         time.sleep(delay_s)
@@ -266,7 +274,8 @@ def test_signals_while_a_sweeps_cluster_closes_end_it_as_interrupted(tmp_path, s
     out = tmp_path / "sweep"
     argv = [sys.executable, "run_sim.py", "sweep", "grasp", "--grid", "object.mass_kg=0.05,0.1,0.2,0.3,0.4,0.5", "--preset", "fast"]
     argv += ["--set", "controller.hold_s=10", "--set", "duration_s=20", "--workers", "2", "--out", str(out), "--no-plot"]
-    proc = subprocess.Popen(argv, cwd=ROOT, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    terminal = {"preexec_fn": _ctrl_c_as_in_a_terminal}
+    proc = subprocess.Popen(argv, cwd=ROOT, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, **terminal)
     try:
         _wait_for(out / "points.jsonl", proc, 120)  # the cluster is up, its first point done
         while proc.poll() is None:
