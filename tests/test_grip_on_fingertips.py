@@ -102,6 +102,23 @@ def test_within_its_tolerance_the_contact_creeps_to_the_grip_whatever_the_elemen
     assert abs(felt_n / grip_n - 1.0) <= (0.04 if over_read != 1.0 else 1e-9)
 
 
+def test_a_heavy_grip_read_a_little_light_is_crept_up_to_not_closed_on(controller):
+    """Within the tolerance under the grip the drive rises by the shortfall over FEEL_TOLERANCE
+    (the contact creeps up toward it), but never past the friction band's far edge about the
+    contact: past it the fingers move, and a heavy grip's shortfall is past it (the Panda's 2 kg
+    block read 0.90 N under its 12.9 N grip, the drive went to 18.9 N and the contact from 1.23x
+    to 1.77x its need)."""
+    friction_n = controller.robot.finger_friction_n
+    grip_n = 20.0 * friction_n
+    felt_n = grip_n * (1.0 - 0.45 * FEEL_TOLERANCE)  # within the tolerance's lower half
+    limit_n, _ = _drive(controller, felt_n, grip_n)
+    assert limit_n == pytest.approx(felt_n + friction_n)
+    assert grip_n - (felt_n - grip_n) / FEEL_TOLERANCE > felt_n + friction_n  # the rule alone is past the band
+    # a light grip's shortfall stays within the band: the rule as it was
+    limit_n, _ = _drive(controller, 0.097, 0.1)
+    assert limit_n == pytest.approx(0.1 + 0.003 / FEEL_TOLERANCE)
+
+
 def test_a_grip_felt_too_light_closes_the_fingers_past_their_friction_at_once(controller):
     """The drive's force goes past the friction's band at once (the contact follows it to the
     grip), at most to what presses the contact to grip_safety x the grip."""

@@ -1579,8 +1579,16 @@ class GentleGrasp(MultimodeGrasp):
         blind, the joints' stand-in for it) within FEEL_TOLERANCE of the grip ``grip_n`` (N) or
         past it: the grip less the contact's excess over FEEL_TOLERANCE (zero at the
         tolerance's top), never under zero (a pull is the paced pull's alone) nor under the
-        friction band's near edge about the contact, F_f under it (:meth:`_felt_drive_n`)."""
-        return max(grip_n - (contact_n - grip_n) / FEEL_TOLERANCE, contact_n - self._friction_n, 0.0)
+        friction band's near edge about the contact, F_f under it (:meth:`_felt_drive_n`), nor over
+        its far edge, F_f over it.  Under the grip, the same rule raises the drive by the shortfall
+        over FEEL_TOLERANCE, 6.7 times it: within the band the contact creeps up toward it, but
+        past the band the fingers move, and a heavy grip's shortfall is past it (robosuite's Panda
+        read its 2 kg block 0.90 N under its 12.9 N grip after a blind stretch, within the
+        tolerance, and the drive went to 18.9 N, 6 N over the contact: the fingers closed and the
+        contact went from 1.23x to 1.77x the need; tests/test_grip_on_fingertips.py::
+        test_a_heavy_grip_read_a_little_light_is_crept_up_to_not_closed_on)."""
+        raised_n = min(grip_n - (contact_n - grip_n) / FEEL_TOLERANCE, contact_n + self._friction_n)
+        return max(raised_n, contact_n - self._friction_n, 0.0)
 
     def _joint_contact_n(self, opening_m: float, felt_ref: tuple[float, float] | None = None) -> float:
         """The grip on the fingertips by the fingers' own joints, N: the grip last felt less the
