@@ -872,8 +872,8 @@ def test_robosuites_grip_answers_a_load_change_in_time(gripper, preset):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("gripper", ["dm_robotics", "menagerie"])
-def test_the_2f85s_grip_holds_through_a_load_change(gripper):
+@pytest.mark.parametrize(("gripper", "preset"), [("dm_robotics", "fast"), ("menagerie", "fast"), ("menagerie", "balanced")])
+def test_the_2f85s_grip_holds_through_a_load_change(gripper, preset):
     """``grasp-disturb`` on Robotiq's 2F-85 (no dry friction; a four-bar whose pads the load
     closes): the box slid 10 mm (dm_robotics') or fell (Menagerie's) under the weight again while
     the grip was held from a friction read 1.1-1.5 for its 1.0; read with the load on the arc
@@ -881,11 +881,13 @@ def test_the_2f85s_grip_holds_through_a_load_change(gripper):
     drive, never for more load than the grip answers: taken for the load at once, the box slid
     14-16 mm while the grip rose), the answer paid to the fingers' damping (without: 75-95 ms),
     and the raised grip's ring not read as a slip (read as one, it raised the new hold to
-    1.8x), the issue's goals: slip <= 2 mm, reaction <= 40 ms, the new hold within 1.5x."""
+    1.8x), the issue's goals: slip <= 2 mm, reaction <= 40 ms, the new hold within 1.5x.
+    (Menagerie's at `balanced` slipped 2.6 mm, answered in 70 ms and held at 1.59x until its
+    friction was read at the grip nearest the hold's: gentle.lifted_off_friction.)"""
     from test_third_party_grippers import menagerie_keys
 
     overrides = keys(_robotiq_2f85(), *ROBOTIQ_2F85) if gripper == "dm_robotics" else menagerie_keys("robotiq-2f85")
-    result = piezotip.run("grasp-disturb", overrides=overrides, preset="fast")
+    result = piezotip.run("grasp-disturb", overrides=overrides, preset=preset)
     s = result.summary
     assert result.outcome == "success", result.reason
     assert s["disturb_slip_mm"] <= 2.0
