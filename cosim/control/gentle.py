@@ -420,6 +420,13 @@ def lifted_off_friction(slides: Sequence[tuple], weight_n: float, fraction: floa
     return best
 
 
+def felt_tolerance_n(grip_n: float, sigma_n: float) -> tuple[float, float]:
+    """How far under and over the grip ``grip_n`` (N) the grip felt (its sigma ``sigma_n``, N) may
+    lie and be held as it is, N: FEEL_TOLERANCE / 2 of the grip under it, FEEL_TOLERANCE over it
+    (a margin for the fingers' momentum as a pull stops), and never within 2 sigma."""
+    return max(2.0 * sigma_n, 0.5 * FEEL_TOLERANCE * grip_n), max(2.0 * sigma_n, FEEL_TOLERANCE * grip_n)
+
+
 def grip_read_n(drive_n: float, drive_error_n: float, felt_n: float | None, felt_sigma_n: float) -> float:
     """The grip on each finger, N: the drive's reading ``drive_n`` and the fingertips'
     ``felt_n`` weighted by the inverse of their variances, ``drive_error_n`` and
@@ -624,8 +631,7 @@ class GentleGrasp(MultimodeGrasp):
         drive_n = grip_n if math.isnan(self._drive_n) else self._drive_n
         felt = self._fingertips_grip_n()
         if felt is not None and not self._landing(obs):
-            below_n = max(2.0 * felt[1], 0.5 * FEEL_TOLERANCE * grip_n)
-            if felt[0] < grip_n - below_n:
+            if felt[0] < grip_n - felt_tolerance_n(grip_n, felt[1])[0]:
                 drive_n = max(drive_n, grip_n)
         self._drive_n = drive_n
         return drive_n
@@ -1164,9 +1170,7 @@ class GentleGrasp(MultimodeGrasp):
         carrying = [lift_m for _, load, lift_m in self._unslid if carries_weight(load, weight_n, self.steady_load_fraction)]
         lifted_off_m = min(carrying) if carrying else obs.lift_pos_m
         peak_n = max(load for _, load, *_ in self._span)
-        slope = self._arc_slope(obs)
-        samples = tuple((g + slope * load, load) for g, load, *_ in self._span)
-        self._span = [self._span[-1]]
+        span, self._span = self._span, [self._span[-1]]
         if elasticity >= 0.5:
             # The load grew with the grip: the pads slide at their friction limit, 2 mu G.  The
             # load is the lift servo's force less the gripper's inertia (RobotLimits.lift_load_n),
@@ -1187,7 +1191,8 @@ class GentleGrasp(MultimodeGrasp):
                     f"read, {grip_n:.3g} N): a misread grip, not the object's friction; reading again",
                 )
                 return
-            self._slides.append((read, peak_n, samples))
+            slope = self._arc_slope(obs)
+            self._slides.append((read, peak_n, tuple((g + slope * load, load) for g, load, *_ in span)))
             self._unslid = self._unslid[-1:]
             self.friction, self._slid = read, True
             return
@@ -1490,7 +1495,7 @@ class GentleGrasp(MultimodeGrasp):
         off_n = grip_n - felt_n
         # within [1 - FEEL_TOLERANCE / 2, 1 + FEEL_TOLERANCE] of the grip (and 2 sigma): never
         # much under it, a margin over it for the fingers' momentum as a pull stops
-        below, above = max(2.0 * sigma_n, 0.5 * FEEL_TOLERANCE * grip_n), max(2.0 * sigma_n, FEEL_TOLERANCE * grip_n)
+        below, above = felt_tolerance_n(grip_n, sigma_n)
         way = 1 if off_n > below else -1 if -off_n > above else 0
         if way == 0 and push_n > 0.0 and off_n > 0.0:
             way = 1  # the grip wanted rose past the felt (a load change's or a slip's answer): closed on at its rate
