@@ -148,6 +148,25 @@ class Fingertip:
         s_c = self.element.sensitivity_c(k_e, c_e, mode, self.coverage)
         return -(s_k * dk + s_c * dc)
 
+    def load_factor_slope_per_pa(self, pressure_pa: float = 0.0, mode: int = 1) -> complex:
+        """d mu / dP, 1/Pa (complex): the slope of the load's complex factor
+        mu = 1 / (the steady envelope over the unloaded) = 1 + gamma / c - j kappa / (omega c)
+        (eq. 10 inverted: :func:`sensor.equations.normalized_response`) at uniform ``pressure_pa``
+        (Pa), the quantity the readout's inference fits (:class:`sensor.inference.SteadyInference`).
+        Its imaginary part, the gel's stiffness detuning the mode, is what moves first near no
+        load: V_1 = 1 / |mu| moves only to second order in it."""
+        mode = self._mode(mode)
+        dk, dc = self.gel.foundation_slope(pressure_pa, self.freq_hz(mode))
+        b_ratio = self.element.params.width_m * self.element.coverage_ratio(mode, self.coverage)
+        omega, c = self.element.natural_angular_frequency(mode), self.element.params.damping_n_s_per_m2
+        return complex(b_ratio * float(dc) / c, -b_ratio * float(dk) / (omega * c))
+
+    def envelope_time_constant_s(self) -> float:
+        """The unloaded envelope's time constant tau0 = 2 rho A / c, s (physics.md section 6;
+        0.66 s with Table I's damping): how slowly a reading follows the load."""
+        p = self.element.params
+        return 2.0 * p.mass_per_length_kg_m / p.damping_n_s_per_m2
+
     def sigma(self, mode: int = 1) -> float:
         """Standard deviation of one reading of V_1 in ``mode`` (dimensionless)."""
         return output_sigma(self.noise, self.element.unloaded_voltage(self._mode(mode)))

@@ -90,6 +90,39 @@ _TWELFTH = 1.0 / 12.0
 _NAN_ENVELOPE = complex(math.nan, math.nan)
 
 
+def change_detection_s(mu_rate_per_s: float, tau0_s: float, sigma: float, reading_period_s: float) -> float:
+    """How long after a load starts to ramp from none the readout's change test flags it
+    ("settling"), s, with its readings ``reading_period_s`` apart (s), their noise ``sigma`` (V_1
+    units, on each of I and Q), the unloaded envelope time constant ``tau0_s`` (s) and the ramp's
+    rate of the load's complex factor, ``mu_rate_per_s`` = |d mu / dt| (1/s; mu = 1 / steady
+    envelope, :class:`SteadyInference`).
+
+    The envelope obeys tau0 a' = 1 - mu a; from rest unloaded (a = 1), a ramp mu = 1 + mu' t
+    moves tau0 a off the steady fit's prediction by int_0^t (mu - 1) a dt = mu' t^2 / 2 (while
+    mu' t << 1).  The change test sums the prediction errors of the last m readings against
+    their noise, tau0 sigma each (physics.md section 6; the integrals' noise is small at
+    tau0 >> dt): with m = t / dt readings over the ramp, |sum| = mu' t^3 / (6 dt), and its
+    statistic |sum|^2 / (2 m tau0^2 sigma^2) = mu'^2 t^5 / (72 dt tau0^2 sigma^2) passes
+    SUSPECT_STAT at
+
+        t_d = (72 SUSPECT_STAT dt tau0^2 sigma^2 / mu'^2)^(1/5).
+
+    The readout's own flag comes within a reading before it noise-free, and with noise at most a
+    reading after it (sooner at the median, by a reading or two): when a touch is seen, at the latest
+    (tests/test_readout_ramps.py::test_the_change_tests_latency_on_a_ramp_from_no_load).  So a
+    ramp from no load is seen after a time that falls only as its rate to the -2/5: a touch at
+    Table I's damping is flagged 15-40 ms after it starts, where the steady readout sees it within
+    a reading.  Infinite for no ramp."""
+    for name, value in (("tau0_s", tau0_s), ("sigma", sigma), ("reading_period_s", reading_period_s)):
+        if not (math.isfinite(value) and value > 0.0):
+            raise ValueError(f"{name} must be positive and finite, got {value!r}")
+    if not (mu_rate_per_s >= 0.0):
+        raise ValueError(f"mu_rate_per_s must be non-negative, got {mu_rate_per_s!r}")
+    if mu_rate_per_s == 0.0:
+        return math.inf
+    return (72.0 * SUSPECT_STAT * reading_period_s * (tau0_s * sigma / mu_rate_per_s) ** 2) ** 0.2
+
+
 def __getattr__(name: str):
     if name == "PySteadyInference":  # the kernel's source run as Python, loaded when asked for
         return source_module(_inference.__name__).SteadyInference

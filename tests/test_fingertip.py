@@ -90,6 +90,36 @@ def test_output_slope_matches_central_finite_difference(any_tip, mode):
     assert np.all(any_tip.output_slope(p, mode) < 0)
 
 
+@pytest.mark.parametrize("mode", MODES)
+@pytest.mark.parametrize("p", [0.0, 10.0, 1e4])
+def test_the_load_factors_slope_matches_a_finite_difference_of_eq10_inverted(any_tip, mode, p):
+    """d mu / dP against a central (one-sided at 0) difference of mu = 1 / (eq. 10 over its
+    unloaded value), from the modal loads; its imaginary part (the gel's stiffness detuning the
+    mode) outweighs its real part near no load, and |mu| = 1 / V_1."""
+    from piezotip.sensor.equations import normalized_response
+
+    omega, c = any_tip.element.natural_angular_frequency(mode), any_tip.element.params.damping_n_s_per_m2
+
+    def mu(pressure):
+        kappa, gamma = any_tip.modal_load(pressure, mode)
+        return 1.0 / normalized_response(float(kappa), float(gamma), omega, c)
+
+    h = 1e-4 * max(p, 1.0)
+    fd = (mu(h) - mu(0.0)) / h if p == 0.0 else (mu(p + h) - mu(p - h)) / (2 * h)
+    slope = any_tip.load_factor_slope_per_pa(p, mode)
+    assert abs(slope - fd) <= 1e-4 * abs(fd)
+    assert abs(mu(p)) == pytest.approx(1.0 / float(any_tip.output(p, mode)), rel=1e-12)
+    if p == 0.0:
+        assert abs(slope.imag) > abs(slope.real)
+
+
+def test_the_envelope_time_constant_is_table_is_two_rho_a_over_c(whole):
+    """tau0 = 2 rho A / c, 0.66 s with Table I's damping (physics.md section 6)."""
+    p = whole.element.params
+    assert whole.envelope_time_constant_s() == pytest.approx(2 * p.mass_per_length_kg_m / p.damping_n_s_per_m2, rel=1e-15)
+    assert whole.envelope_time_constant_s() == pytest.approx(0.66, abs=0.01)
+
+
 # ---------------------------------------------------------------------------------------
 # Noise, detection limit, upper limit.
 # ---------------------------------------------------------------------------------------

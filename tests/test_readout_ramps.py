@@ -143,3 +143,45 @@ def test_hold_out_grasps_hold_the_truth_within_3_sigma_99_percent_of_ok_readings
     assert report["ok"] > 20000
     assert report["share"] >= coverage.TARGET, coverage.format_report(report)
     assert "fault" not in report["outcomes"].values(), report["outcomes"]
+
+
+def _first_flag_s(rate_n_s: float, area_m2: float, dt_s: float, noise: bool, seed: int = 0) -> float:
+    """When the channel's own readout (envelope dynamics, mode 1, settled unloaded) first reports
+    "settling" under a uniform force rising at ``rate_n_s`` (N/s) over ``area_m2`` from no load, s."""
+    from piezotip.sensor import Fingertip
+    from piezotip.sensor.channel import SensorChannel
+
+    channel = SensorChannel(Fingertip(), dynamics="envelope", mode=1, noise=noise, rng=np.random.default_rng(seed))
+    for _ in range(round(1.0 / dt_s)):
+        channel.estimate(channel.update([0.0], dt_s))
+    for k in range(1, round(0.5 / dt_s)):
+        if channel.estimate(channel.update([rate_n_s * k * dt_s / area_m2], dt_s)).status == "settling":
+            return k * dt_s
+    return math.inf
+
+
+@pytest.mark.parametrize("dt_s", [0.005, 0.002])
+@pytest.mark.parametrize("rate_n_s", [0.1, 0.4, 1.6, 6.4])
+def test_the_change_tests_latency_on_a_ramp_from_no_load(rate_n_s, dt_s):
+    """A uniform force ramping from no load over the house's 20 x 20 mm pad: the channel's readout
+    flags it "settling" noise-free within a reading before :func:`sensor.inference.change_detection_s`
+    says, and with noise within a reading after it at the latest (sooner at the median, by 1-8 ms); over a 64-fold
+    range of rates (so the -2/5 power of the rate) and two reading periods."""
+    from piezotip.sensor import Fingertip
+
+    tip, area = Fingertip(), 4e-4
+    mu_rate = abs(tip.load_factor_slope_per_pa(0.0, 1)) * rate_n_s / area
+    predicted = inference.change_detection_s(mu_rate, tip.envelope_time_constant_s(), tip.sigma(1), dt_s)
+    quiet = _first_flag_s(rate_n_s, area, dt_s, noise=False)
+    assert predicted - dt_s <= quiet <= predicted + 1e-9
+    noisy = [_first_flag_s(rate_n_s, area, dt_s, noise=True, seed=s) for s in range(9)]
+    assert max(noisy) <= predicted + dt_s  # noise flags it no later than a reading past it
+    assert np.median(noisy) >= predicted - 4 * dt_s
+
+
+def test_the_change_tests_latency_is_infinite_without_a_ramp_and_refuses_bad_input():
+    assert inference.change_detection_s(0.0, TAU0_S, SIGMA, DT_S) == math.inf
+    for bad in ({"tau0_s": 0.0}, {"sigma": math.nan}, {"reading_period_s": -1.0}, {"mu_rate_per_s": math.nan}):
+        args = {"mu_rate_per_s": 1.0, "tau0_s": TAU0_S, "sigma": SIGMA, "reading_period_s": DT_S, **bad}
+        with pytest.raises(ValueError, match=next(iter(bad))):
+            inference.change_detection_s(**args)
