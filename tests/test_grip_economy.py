@@ -12,6 +12,7 @@ import pytest
 from piezotip import api, scenarios
 from piezotip.analysis.referee import judge
 from piezotip.cosim.control.gentle import (
+    GRIP_OVER_READ,
     carried_at_cap,
     carried_nothing_at_first,
     carried_under_friction,
@@ -21,6 +22,8 @@ from piezotip.cosim.control.gentle import (
     least_carrying_grip_n,
     lifted_off_friction,
     load_is_steady,
+    loaded_pad_stiffness_n_m,
+    pad_contact_stiffness_n_m,
     probe_verdict,
     sliding_read,
 )
@@ -398,18 +401,46 @@ def test_objects_no_test_tunes_on_are_held_within_one_and_a_half_of_their_need_a
 
 def test_a_grip_read_to_rise_counts_only_where_the_fingers_closed():
     """fingers_closed_for: a rise of the grip read between a span's first and last thirds asks the
-    fingers' mean opening to have fallen between them; a fall is never asked (the fingers open, or
-    close on an object narrowing under the pads); a span too short for a verdict passes."""
+    fingers' mean opening to have fallen between them, by at least the rise over GRIP_OVER_READ
+    times the pads' stiffness; a fall is never asked (the fingers open, or close on an object
+    narrowing under the pads); a span too short for a verdict passes."""
+    k = 768.0  # robosuite's Panda's pads on the opening, N/m
+
+    def stiffness(grip_n: float) -> float:
+        return k
+
     grips = [0.0096, 0.0097, 0.0102, 0.012, 0.0121, 0.0122]  # robosuite's Panda reading its can's creep
+    rise = (0.0121 + 0.0122 - 0.0096 - 0.0097) / 2  # between the thirds' means (two samples each)
     opened = [(g, 0.0249, 0.059976 + (1e-6 if i >= 4 else 0.0)) for i, g in enumerate(grips)]
-    assert not fingers_closed_for(opened)
+    assert not fingers_closed_for(opened, stiffness)
     still = [(g, 0.0249, 0.059976) for g in grips]
-    assert not fingers_closed_for(still)
-    closing = [(g, 0.0249, 0.059976 - (1e-7 if i >= 4 else 0.0)) for i, g in enumerate(grips)]
-    assert fingers_closed_for(closing)
+    assert not fingers_closed_for(still, stiffness)
+    enough = rise / (GRIP_OVER_READ * k)  # the last third's mean opening that far under the first's
+    closing = [(g, 0.0249, 0.059976 - (1.01 * enough if i >= 4 else 0.0)) for i, g in enumerate(grips)]
+    assert fingers_closed_for(closing, stiffness)
+    creeping = [(g, 0.0249, 0.059976 - (0.99 * enough if i >= 4 else 0.0)) for i, g in enumerate(grips)]
+    assert not fingers_closed_for(creeping, stiffness)  # the Rethink's cube: 0.12 um for a 1.7 mN rise
+    assert fingers_closed_for(creeping, lambda grip_n: 1.02 * k)  # pads stiffer under their load: enough
     falling = [(g, 0.0249, 0.059976 - 1e-5 * i) for i, g in enumerate(reversed(grips))]
-    assert fingers_closed_for(falling)
-    assert fingers_closed_for(still[:5])  # a third of one sample: no verdict is read from it
+    assert fingers_closed_for(falling, stiffness)
+    assert fingers_closed_for(still[:5], stiffness)  # a third of one sample: no verdict is read from it
+
+
+def test_the_pads_loaded_stiffness_is_gents_tangent_on_the_full_face():
+    """loaded_pad_stiffness_n_m: E A / (2 h0) at no load, and a central difference of Gent's law
+    (the pressure over the indentation, on the opening: two pads in series) under a grip."""
+    from piezotip.sensor.gel import GelParams, gent_pressure_pa, stretch_from_pressure
+
+    gel, area = GelParams(), 4e-4
+    no_load = pad_contact_stiffness_n_m(gel.youngs_modulus_pa, gel.thickness_m, area)
+    assert loaded_pad_stiffness_n_m(gel, area, 0.0) == pytest.approx(no_load, rel=1e-9)
+    for grip_n in (0.5, 5.0, 20.0):
+        lam = float(stretch_from_pressure(grip_n / area, gel))
+        h = 1e-6
+        dp_dlam = (float(gent_pressure_pa(lam - h, gel)) - float(gent_pressure_pa(lam + h, gel))) / (2 * h)
+        # the opening closes by 2 h0 dlambda for a pad pressure dP: k = A dP / (2 h0 dlambda)
+        assert loaded_pad_stiffness_n_m(gel, area, grip_n) == pytest.approx(area * dp_dlam / (2 * gel.thickness_m), rel=1e-6)
+    assert loaded_pad_stiffness_n_m(gel, area, 20.0) > 5 * loaded_pad_stiffness_n_m(gel, area, 0.0)
 
 
 def test_a_probe_at_its_cap_decides_on_the_span_it_has():

@@ -63,12 +63,13 @@ smoothly (models/README.md, "Sliding pads").
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 from piezotip.cosim.control.config import GentleConfig
 from piezotip.sensor import Fingertip
+from piezotip.sensor.gel import GelParams, gent_tangent_pa, stretch_from_pressure
 from piezotip.sensor.inference import WINDOW_S
 
 from .interface import Observation, RobotLimits, pad_names
@@ -99,6 +100,12 @@ TOUCH_FLOORS = 3.0
 #: The most pulls the squeeze eases a friction drive's touch down by (GentleGrasp._squeeze_eases):
 #: a second one for a contact the first left over the tolerance (the soft friction's creep).
 EASE_PULLS = 2
+#: The most a grip read on the fingertips can rise per newton the fingers' closing presses into the
+#: pads' loaded full-face stiffness (fingers_closed_for): a small patch over-reads (the readout
+#: takes every contact for a full face, and a patch's pressure stiffens the gel more), a glass
+#: jar's line contact by 2.3x; twice that, rounded down.  The envelope readout's lag, catching up
+#: with a contact it under-read as it rose, read 30x (robosuite's Rethink gripper's 3 g cube).
+GRIP_OVER_READ = 4.0
 #: The periods fingers eased open go on opening after the pull ends (GentleGrasp._pull_drive_n): the
 #: drive's force follows its command a period late and MuJoCo's soft friction follows the force
 #: about as late again (robosuite's fingers: 2-3 periods at 5 ms).
@@ -112,6 +119,15 @@ def pad_contact_stiffness_n_m(youngs_modulus_pa: float, thickness_m: float, pad_
     opening sees half of it.  A smaller contact (a sphere, an edge) is softer; a loaded gel
     stiffens (Gent's law), but a touch of tens of millinewtons leaves it within 0.1 % of E."""
     return 0.5 * youngs_modulus_pa * pad_area_m2 / thickness_m
+
+
+def loaded_pad_stiffness_n_m(gel: GelParams, pad_area_m2: float, grip_n: float) -> float:
+    """The two pads' contact stiffness on the opening under a full-face grip ``grip_n`` (N), N/m:
+    :func:`pad_contact_stiffness_n_m` with Gent's tangent modulus at the grip's pressure for E
+    (part 2: -dP/dlambda, E at no load, 5x it at 30 kPa on the house's gel, where a heavy
+    object's grip presses the pads)."""
+    stretch = float(stretch_from_pressure(max(grip_n, 0.0) / pad_area_m2, gel))
+    return pad_contact_stiffness_n_m(float(gent_tangent_pa(stretch, gel)), gel.thickness_m, pad_area_m2)
 
 
 def touch_reaction_s(control_period_s: float, finger_mass_kg: float, joint_damping_n_s_m: float, brakes: bool) -> float:
@@ -318,7 +334,7 @@ def carried_under_friction(
     return safety * l3 <= 2.0 * friction * (g3 + arc_slope * l3)
 
 
-def fingers_closed_for(span: Sequence[tuple[float, float, float]]) -> bool:
+def fingers_closed_for(span: Sequence[tuple[float, float, float]], stiffness_n_m: Callable[[float], float]) -> bool:
     """Whether a probe's span of (grip applied N, load N, opening m) samples saw the fingers close
     if its grip was read to rise, on a drive with dry friction: fingers that do not close do not
     press their contact harder, so a grip read to rise while they stood still or opened is the
@@ -329,7 +345,13 @@ def fingers_closed_for(span: Sequence[tuple[float, float, float]]) -> bool:
     full-face stiffness gives for the fingers' motion).  A fall is not asked: the contact falls
     as the fingers open, and as well while they close on an object that narrows under the pads (a
     sphere they slide up).  True where a third holds fewer than two samples (no verdict is read
-    from such a span).
+    from such a span).  The fingers must have closed by at least the rise over GRIP_OVER_READ
+    times the pads' stiffness under the grip (``stiffness_n_m``, N/m on the opening, of the
+    grip in N: :func:`loaded_pad_stiffness_n_m`): robosuite's Rethink gripper, its fingers
+    closing 0.12 um (0.06 mN through its pads), read its 3 g cube's contact rise 5.9 -> 7.6 mN
+    as the readout caught up with it, while the contact fell 4.9 -> 3.6 mN, called the cube carried
+    at a quarter of its weight, and lost it (tests/test_grip_economy.py::
+    test_a_grip_read_to_rise_counts_only_where_the_fingers_closed).
 
     Without it the envelope readout's lag, catching up with a contact that crept up before the
     span, read a 26 % rise at a constant 11 mN while the fingers opened 1 um: robosuite's Panda
@@ -339,8 +361,8 @@ def fingers_closed_for(span: Sequence[tuple[float, float, float]]) -> bool:
     if thirds is None:
         return True
     n, g1, g3, _, _ = thirds
-    closed_m = sum(s[2] for s in span[:n]) - sum(s[2] for s in span[-n:])
-    return g3 <= g1 or closed_m > 0.0
+    closed_m = (sum(s[2] for s in span[:n]) - sum(s[2] for s in span[-n:])) / n
+    return g3 <= g1 or closed_m * stiffness_n_m(g3) * GRIP_OVER_READ >= g3 - g1
 
 
 def carries_weight(load_n: float, weight_n: float, fraction: float) -> bool:
@@ -513,6 +535,7 @@ class GentleGrasp(MultimodeGrasp):
         self._held_opening_m = math.nan  # the opening in the last period the grip was closed on the fingertips, m
         self._link_opening = (-math.inf, math.nan)  # (s, m): a linkage's opening when its grip was last set (_fall_brake_n)
         self._felt_ref = (math.inf, 0.0)  # (opening m, grip felt N) at the fingertips' last reading (_joint_contact_n)
+        self._felt_sigma_n = 0.0  # that reading's sigma, N (_place_drive_n)
         self._last_grip_n = math.inf  # the grip wanted in the last period closed on the fingertips, N
         self._grip_rose_s = -math.inf  # when it last rose, s
         #: The pad-object friction: measured while the pads slide in the probe (_transfer); until
@@ -630,6 +653,14 @@ class GentleGrasp(MultimodeGrasp):
         tests/test_grip_on_fingertips.py::test_placing_the_falling_pressure_is_not_closed_on)."""
         drive_n = grip_n if math.isnan(self._drive_n) else self._drive_n
         felt = self._fingertips_grip_n()
+        if felt is not None:
+            self._felt_ref, self._felt_sigma_n = (obs.opening_m, felt[0]), felt[1]
+        elif math.isfinite(self._felt_ref[0]):
+            # Blind (a pad settling: the descent's own load change), the joints stand in: the grip
+            # last felt less the pads' loaded stiffness times the opening since, the stiffest
+            # contact's fall, so that a contact creeping open is seen soon enough
+            opened_from_m, felt_n = self._felt_ref
+            felt = (felt_n - self._loaded_stiffness_n_m(felt_n) * (obs.opening_m - opened_from_m), self._felt_sigma_n)
         if felt is not None and not self._landing(obs):
             if felt[0] < grip_n - felt_tolerance_n(grip_n, felt[1])[0]:
                 drive_n = max(drive_n, grip_n)
@@ -771,7 +802,7 @@ class GentleGrasp(MultimodeGrasp):
                 f"controller.touch_force_n {bound!r} N is not above the grip floor, {floor:.3g} N: the least grip the fingertip "
                 "resolves (its lowest mode to 10 % over the pad), at which a touch is detected; a touch cannot be bounded below it"
             )
-        gel = fingertip.gel.params
+        gel = self._gel = fingertip.gel.params
         #: The touch's bound, N per finger (``controller.touch_force_n``; TOUCH_FLOORS grip floors).
         self.touch_force_n = bound
         #: The pads' contact stiffness on the opening, N/m (:func:`pad_contact_stiffness_n_m`).
@@ -940,12 +971,17 @@ class GentleGrasp(MultimodeGrasp):
         felt = self._fingertips_grip_n()
         return max(self.grip_n - friction_n, felt[0] if felt is not None else 0.0, self.grip_floor_n)
 
+    def _loaded_stiffness_n_m(self, grip_n: float) -> float:
+        """The pads' contact stiffness on the opening under the grip ``grip_n`` (N), N/m
+        (:func:`loaded_pad_stiffness_n_m`)."""
+        return loaded_pad_stiffness_n_m(self._gel, self.robot.pad_area_m2, grip_n)
+
     def _carried_at_cap(self) -> bool:
         """Whether the probe's span, its grip at the cap, shows the object carried
         (:func:`carried_at_cap`), its fingers seen to close over it where the grip is read on the
         fingertips (:func:`fingers_closed_for`, as the verdict below the cap asks)."""
         span = self._span
-        if self.grips_on_fingertips and not fingers_closed_for(span):
+        if self.grips_on_fingertips and not fingers_closed_for(span, self._loaded_stiffness_n_m):
             return False
         return carried_at_cap(span, self.steady_load_fraction, self.robot.min_load_n, self.contact_falls)
 
@@ -1153,7 +1189,7 @@ class GentleGrasp(MultimodeGrasp):
         low_n, high_n = sorted((first_n, applied)) if falls else (first_n, applied)
         if abs(elasticity - 0.5) < 2.0 * error and high_n < c.grip_safety**3 * low_n:
             return
-        if elasticity < 0.5 and self.grips_on_fingertips and not fingers_closed_for(self._span):
+        if elasticity < 0.5 and self.grips_on_fingertips and not fingers_closed_for(self._span, self._loaded_stiffness_n_m):
             return  # the grip read rose while the fingers did not close: the reading's drift, no verdict yet
         last = [load for _, load, *_ in self._span[-(len(self._span) // 3) :]]
         # The least grip that carried the weight bounds the friction best: the least of every
@@ -1491,7 +1527,7 @@ class GentleGrasp(MultimodeGrasp):
         as :meth:`_blind_drive_n` takes them."""
         paid_n = 0.0
         felt_n, sigma_n = felt
-        self._felt_ref = (obs.opening_m, felt_n)
+        self._felt_ref, self._felt_sigma_n = (obs.opening_m, felt_n), sigma_n
         off_n = grip_n - felt_n
         # within [1 - FEEL_TOLERANCE / 2, 1 + FEEL_TOLERANCE] of the grip (and 2 sigma): never
         # much under it, a margin over it for the fingers' momentum as a pull stops
