@@ -510,6 +510,7 @@ class GentleGrasp(MultimodeGrasp):
         super().__init__(*args, **kwargs)
         c, robot, dt_s = self.cfg, self.robot, self.dt_s
         fingertip = self.selectors[self.pads[0]].fingertip
+        self._gel = fingertip.gel.params  # the pads' gel (_loaded_stiffness_n_m)
         self._init_touch(fingertip, width_prior_m)
         #: The fingers' force limit as they start to close (from rest, and closing on after a false
         #: touch): what their drive needs at no speed, its dry friction (x ``drive_margin``); it
@@ -650,7 +651,15 @@ class GentleGrasp(MultimodeGrasp):
         the drive pressed the 2 kg block from 1.25x to 1.78x as the place began.  Landing, the
         table takes the weight and the pads' pressure falls (read as a slip, whose raise must not
         reach the pads: it would press the object as it lands;
-        tests/test_grip_on_fingertips.py::test_placing_the_falling_pressure_is_not_closed_on)."""
+        tests/test_grip_on_fingertips.py::test_placing_the_falling_pressure_is_not_closed_on).
+
+        While a pad settles the fingers' joints stand in for the fingertips: the grip last felt less
+        the pads' loaded stiffness times the opening since (:func:`loaded_pad_stiffness_n_m`: the
+        stiffest contact's fall, so a contact creeping open is seen as soon as it can be).  Handed
+        a pull's drive by the hold and blind as the descent began, the Panda's 500 g can (0.9x
+        friction and mass, noise seed 1, `balanced`) crept open unread from 1.23x its need to 1.00x
+        and slid out as the descent braked (tests/test_grip_on_fingertips.py::
+        test_a_friction_drives_place_reckons_a_contact_creeping_open_on_its_joints_while_blind)."""
         drive_n = grip_n if math.isnan(self._drive_n) else self._drive_n
         felt = self._fingertips_grip_n()
         if felt is not None:
@@ -802,7 +811,7 @@ class GentleGrasp(MultimodeGrasp):
                 f"controller.touch_force_n {bound!r} N is not above the grip floor, {floor:.3g} N: the least grip the fingertip "
                 "resolves (its lowest mode to 10 % over the pad), at which a touch is detected; a touch cannot be bounded below it"
             )
-        gel = self._gel = fingertip.gel.params
+        gel = fingertip.gel.params
         #: The touch's bound, N per finger (``controller.touch_force_n``; TOUCH_FLOORS grip floors).
         self.touch_force_n = bound
         #: The pads' contact stiffness on the opening, N/m (:func:`pad_contact_stiffness_n_m`).
