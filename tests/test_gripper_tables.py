@@ -139,3 +139,22 @@ def test_a_load_changes_peak_is_judged_against_the_need_it_raised_and_its_answer
     text = gt.tables([row])
     line = "- menagerie gentle grasp-disturb: success 1.30, 0.01 N, slip 0.67 mm, answered in 25 ms, held at 1.39x the new need"
     assert f"{line}, peak 1.50x the need" in text
+
+
+def test_a_run_takes_the_noise_seed_it_is_given_and_seed_0_as_before(monkeypatch):
+    """``--seed`` reaches every run as ``sensor.seed``; seed 0 (the default) leaves the run's
+    overrides as they were."""
+    import piezotip
+
+    seen = []
+
+    def refuse(scenario, overrides, preset):
+        seen.append(dict(overrides))
+        raise ValueError("the object does not fit")
+
+    monkeypatch.setattr(piezotip, "run", refuse)
+    run = {"gripper": "Panda", "object": "cube-3g", "controller": "gentle", "scenario": "grasp", "friction_x": 1.0, "mass_x": 1.0}
+    run["overrides"] = {"object.mass_kg": 0.003}
+    assert gt.one(run, "balanced", seed=2)["outcome"] == "does_not_fit"
+    assert gt.one(run, "balanced")["outcome"] == "does_not_fit"
+    assert seen == [{"object.mass_kg": 0.003, "sensor.seed": 2}, {"object.mass_kg": 0.003}]
