@@ -22,7 +22,7 @@ import piezotip
 from piezotip import scenarios
 from piezotip.cosim.control import Phase, phase_index
 from piezotip.cosim.control.config import GentleConfig
-from piezotip.cosim.control.gentle import CLOSING_GAIN, EASE_LAG_PERIODS, FEEL_TOLERANCE
+from piezotip.cosim.control.gentle import CLOSING_GAIN, EASE_LAG_PERIODS, FEEL_TOLERANCE, felt_tolerance_n, loaded_pad_stiffness_n_m
 from piezotip.cosim.loop import CoSimulation
 
 #: Each finger slide's dry friction, N: robosuite's Panda and Rethink carry 1 N.
@@ -58,6 +58,12 @@ class _At:
     def __init__(self, by_m: float, drive_n: float = 0.0) -> None:
         self.opening_m = _Obs.opening_m + by_m
         self.grip_force_n = drive_n
+
+
+def _k(c, felt_n: float) -> float:
+    """The pads' stiffness on the opening under a grip felt at ``felt_n`` (N), N/m: the joints'
+    reckoning's (GentleGrasp._joint_contact_n)."""
+    return loaded_pad_stiffness_n_m(c._gel, c.robot.pad_area_m2, felt_n)
 
 
 def _drive(c, felt_n: float, grip_n: float, t: float = 10.0, sigma_n: float = 1e-4, obs=None):
@@ -437,7 +443,7 @@ def test_a_push_is_not_kept_while_the_fingertips_are_blind(controller):
     to 24x its need in the 0.6 s its readout read the ramp "settling", at the balanced preset).
     Below detection is a reading, not blindness: there the push goes on (a contact lost is
     closed on)."""
-    c, k = controller, controller.contact_stiffness_n_m
+    c, k = controller, _k(controller, 0.05)
     friction_n = c.robot.finger_friction_n
     assert _drive(c, 0.05, 0.1)[0] > 0.1 + friction_n  # too light: pushed
     c._fingertips_grip_n = lambda: None
@@ -455,9 +461,29 @@ def test_a_push_is_not_kept_while_the_fingertips_are_blind(controller):
     controller._fingertips_blind, controller._fingertips_grip_n = (lambda: True), (lambda: None)
     # blind, the joints stand in for the fingertips: the fingers still, the contact is the last felt, held as it was
     assert controller._drive_for_grip(_Obs(), 10.02, 0.1)[0] == pytest.approx(held_n)
-    k = controller.contact_stiffness_n_m
+    k = _k(controller, 0.11)
     # the fingers opened (the contact creeping down toward that drive): the joints say under the grip, brought up to it
     assert controller._drive_for_grip(_At(0.02 / k), 10.025, 0.1)[0] == 0.1
+
+
+def test_a_blind_pull_reckons_the_contact_on_the_loaded_pads(controller):
+    """Blind, the joints reckon the contact as the grip last felt less the pads' stiffness under it
+    times the opening since (loaded_pad_stiffness_n_m): at a heavy grip the gel is stiffer than at
+    no load (Gent's law), and a reckoning at the no-load stiffness read a contact creeping open
+    short, so a pull went on past the grip (robosuite's Panda's 500 g can: pulled from 3.4 N toward
+    3.0 N wanted, blind, on to 2.5 N, its need, and slid out in the hold).  Fingers opened so far
+    that the no-load stiffness says the contact is still within the tolerance under the grip,
+    and the loaded one says it is under it: the drive goes back up to the grip."""
+    grip_n, k0 = 3.0, controller.contact_stiffness_n_m
+    k_loaded = loaded_pad_stiffness_n_m(controller._gel, controller.robot.pad_area_m2, grip_n)
+    assert k_loaded > 1.5 * k0
+    _drive(controller, grip_n, grip_n, t=10.0)  # a reading at the grip: the joints' reference
+    controller._fingertips_blind, controller._fingertips_grip_n = (lambda: True), (lambda: None)
+    below = felt_tolerance_n(grip_n, 1e-4)[0]
+    opened_m = 1.5 * below / k_loaded  # the loaded pads: 1.5 tolerances under; the no-load ones: under one
+    assert k0 * opened_m < below
+    assert controller._joint_contact_n(_At(opened_m).opening_m) == pytest.approx(grip_n - k_loaded * opened_m)
+    assert controller._drive_for_grip(_At(opened_m), 10.005, grip_n)[0] >= grip_n
 
 
 def test_a_blind_hold_whose_joints_see_the_contact_creep_up_holds_the_drive_under_the_grip(controller):
@@ -470,8 +496,8 @@ def test_a_blind_hold_whose_joints_see_the_contact_creep_up_holds_the_drive_unde
     excess over the tolerance, as a reading would (robosuite's Panda, its 60 g egg at the
     accurate preset: blind for 0.8 s of its hold, the fingers crept 0.33 mm closed and the egg
     was held at 1.81x its need, 1.40x since)."""
-    c, k = controller, controller.contact_stiffness_n_m
-    grip_n = 0.5
+    c, grip_n = controller, 0.5
+    k = _k(c, grip_n)
     held_n = _drive(c, grip_n, grip_n)[0]  # felt at the grip: held there
     c._slip_watch_from_s = -math.inf
     assert held_n == pytest.approx(grip_n)
@@ -1182,8 +1208,8 @@ def test_a_pull_kept_while_blind_stops_where_the_joints_say_the_grip_is(controll
     felt, less the pads' contact stiffness times the opening since, is over the grip: kept on
     unseen, robosuite's Panda pulled its rubber ball's contact from 0.38 N to 0.18 N in 0.6 s of
     a pad settling, under the 0.33 N grip, and dropped it."""
-    c, k = controller, controller.contact_stiffness_n_m
     grip_n, felt_n = 4.0, 5.2  # past the friction's band (in it: test_a_contact_held_over_the_grip_in_the_band_is_pulled_open...)
+    c, k = controller, _k(controller, felt_n)
     for i in range(c.cfg.persist + 1):
         _drive(c, felt_n, grip_n, t=10.0 + i * c.dt_s)
     assert c._moved_dir == -1  # pulling

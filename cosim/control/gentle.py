@@ -1643,15 +1643,18 @@ class GentleGrasp(MultimodeGrasp):
     def _joint_contact_n(self, opening_m: float, felt_ref: tuple[float, float] | None = None) -> float:
         """The grip on the fingertips by the fingers' own joints, N: the grip last felt less the
         pads' contact stiffness k times the opening since (``felt_ref``, (opening m, grip felt N):
-        by default ``_felt_ref``, the hold's last reading; the squeeze's ease passes its own).  k is a full face's at
-        small strain (:func:`pad_contact_stiffness_n_m`), the stiffest contact there: a pull or a
-        push blind stops at the grip or before it, and a softer contact, a sphere's, is left over
-        the grip by a pull and under it by a push, for the fingertips to correct once they read.
-        A loaded gel is stiffer (Gent's law; robosuite's Rethink pads' contact rose 1.1 N over
-        1.43 mm at about 1 N, 770 N/m against the 480 N/m here), so a heavy grip's rise is read
-        short: a blind push reads the drive past its friction as well (:meth:`_drive_for_grip`)."""
+        by default ``_felt_ref``, the hold's last reading; the squeeze's ease passes its own).  k is a full face's
+        under the grip last felt (:func:`loaded_pad_stiffness_n_m`), the stiffest contact there:
+        a pull or a push blind stops at the grip or before it, and a softer contact, a sphere's,
+        is left over the grip by a pull and under it by a push, for the fingertips to correct once
+        they read.  A loaded gel is stiffer (Gent's law; robosuite's Rethink pads' contact rose
+        1.1 N over 1.43 mm at about 1 N, 770 N/m against its 480 N/m at no load): taken at no load,
+        k read a blind pull's fall short, and robosuite's Panda, pulling its 500 g can (1.1x
+        friction and mass) down from 3.4 N toward the 3.0 N wanted as the carry's raise went
+        blind, pulled it on to 2.5 N, its need, where the hold's first load change slid it out
+        (tests/test_grip_on_fingertips.py::test_a_blind_pull_reckons_the_contact_on_the_loaded_pads)."""
         opened_from_m, felt_n = self._felt_ref if felt_ref is None else felt_ref
-        return felt_n - self.contact_stiffness_n_m * (opening_m - opened_from_m)
+        return felt_n - self._loaded_stiffness_n_m(felt_n) * (opening_m - opened_from_m)
 
     def _linkage_drive_n(self, obs: Observation, grip_n: float) -> float:
         """The drive's force that brings the pads of a linkage without dry friction to ``grip_n``,
