@@ -108,8 +108,8 @@ def change_detection_s(mu_rate_per_s: float, tau0_s: float, sigma: float, readin
         t_d = (72 SUSPECT_STAT dt tau0^2 sigma^2 / mu'^2)^(1/5).
 
     The readout's own flag comes within a reading before it noise-free, and with noise at most a
-    reading after it (sooner at the median, by a reading or two): when a touch is seen, at the latest
-    (tests/test_readout_ramps.py::test_the_change_tests_latency_on_a_ramp_from_no_load).  So a
+    reading after it (sooner at the median, by a reading or two): when a touch is seen, to within
+    a reading (tests/test_readout_ramps.py::test_the_change_tests_latency_on_a_ramp_from_no_load).  So a
     ramp from no load is seen after a time that falls only as its rate to the -2/5: a touch at
     Table I's damping is flagged 15-40 ms after it starts, where the steady readout sees it within
     a reading.  Infinite for no ramp."""
