@@ -653,9 +653,8 @@ class GentleGrasp(MultimodeGrasp):
         reach the pads: it would press the object as it lands;
         tests/test_grip_on_fingertips.py::test_placing_the_falling_pressure_is_not_closed_on).
 
-        While a pad settles the fingers' joints stand in for the fingertips: the grip last felt less
-        the pads' loaded stiffness times the opening since (:func:`loaded_pad_stiffness_n_m`: the
-        stiffest contact's fall, so a contact creeping open is seen as soon as it can be).  Handed
+        While a pad settles the fingers' joints stand in for the fingertips (:meth:`_joint_contact_n`:
+        the stiffest contact's fall, so a contact creeping open is seen as soon as it can be).  Handed
         a pull's drive by the hold and blind as the descent began, the Panda's 500 g can (0.9x
         friction and mass, noise seed 1, `balanced`) crept open unread from 1.23x its need to 1.00x
         and slid out as the descent braked (tests/test_grip_on_fingertips.py::
@@ -665,11 +664,8 @@ class GentleGrasp(MultimodeGrasp):
         if felt is not None:
             self._felt_ref, self._felt_sigma_n = (obs.opening_m, felt[0]), felt[1]
         elif math.isfinite(self._felt_ref[0]):
-            # Blind (a pad settling: the descent's own load change), the joints stand in: the grip
-            # last felt less the pads' loaded stiffness times the opening since, the stiffest
-            # contact's fall, so that a contact creeping open is seen soon enough
-            opened_from_m, felt_n = self._felt_ref
-            felt = (felt_n - self._loaded_stiffness_n_m(felt_n) * (obs.opening_m - opened_from_m), self._felt_sigma_n)
+            # Blind (a pad settling: the descent's own load change), the joints stand in
+            felt = (self._joint_contact_n(obs.opening_m), self._felt_sigma_n)
         if felt is not None and not self._landing(obs):
             if felt[0] < grip_n - felt_tolerance_n(grip_n, felt[1])[0]:
                 drive_n = max(drive_n, grip_n)
