@@ -152,10 +152,12 @@ def _number(value) -> float | None:
 
 def one(run: dict, preset: str = "fast", seed: int = 0) -> dict:
     """Run one grasp at ``preset`` with the readout's noise seed ``seed`` (``sensor.seed``); the row
-    the tables read (a refused object: outcome ``does_not_fit``)."""
+    the tables read, which names the preset and the seed it ran at (a refused object: outcome
+    ``does_not_fit``)."""
     import piezotip
 
     row = {k: run[k] for k in ("gripper", "object", "controller", "scenario", "friction_x", "mass_x")}
+    row.update(preset=preset, seed=seed)
     overrides = {**run["overrides"], "sensor.seed": seed} if seed else run["overrides"]
     start = time.perf_counter()
     try:
@@ -396,6 +398,31 @@ def _journal(folder: Path) -> list[dict]:
     return _rows(path)
 
 
+def _settings(rows: list[dict]) -> set[tuple[str | None, int | None]]:
+    """The (preset, seed) pairs ``rows`` ran at; (None, None) for a row written before rows named them."""
+    return {(row.get("preset"), row.get("seed")) for row in rows}
+
+
+def _settings_text(rows: list[dict]) -> str:
+    return ", ".join(
+        "preset and seed unrecorded" if preset is None else f"preset {preset}, seed {seed}"
+        for preset, seed in sorted(_settings(rows), key=str)
+    )
+
+
+def resumable(rows: list[dict], preset: str, seed: int) -> list[dict]:
+    """A journal's ``rows`` to resume at ``preset`` and ``seed``: all of them, where every one ran
+    at those settings; a ValueError naming the settings found otherwise (a resume under another
+    preset or seed would mix two runs' tables without a word)."""
+    found = _settings(rows)
+    if found and found != {(preset, seed)}:
+        raise ValueError(
+            f"its runs were made at {_settings_text(rows)}, not at preset {preset}, seed {seed}: "
+            "give the same --preset and --seed to resume it, or another --out"
+        )
+    return rows
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--out", type=Path, help="folder for runs.jsonl and tables.md")
@@ -416,6 +443,7 @@ def main(argv: list[str] | None = None) -> int:
             before, after = (_journal(folder) for folder in args.compare)
         except FileNotFoundError as error:
             parser.error(str(error))
+        print(f"before: {_settings_text(before)}; after: {_settings_text(after)}")
         print(compare(before, after))
         return 0
     if args.out is None:
@@ -428,7 +456,10 @@ def main(argv: list[str] | None = None) -> int:
     keys = {name: found[name] for name in wanted if name in found}
     args.out.mkdir(parents=True, exist_ok=True)
     journal = args.out / "runs.jsonl"
-    done = {_key(row): row for row in _rows(journal)} if journal.is_file() else {}
+    try:
+        done = {_key(row): row for row in resumable(_rows(journal), args.preset, args.seed)} if journal.is_file() else {}
+    except ValueError as error:
+        parser.error(f"{journal}: {error}")
     todo = runs(tuple(args.parts), keys)
     start = time.perf_counter()
     with journal.open("a") as fh:

@@ -158,3 +158,36 @@ def test_a_run_takes_the_noise_seed_it_is_given_and_seed_0_as_before(monkeypatch
     assert gt.one(run, "balanced", seed=2)["outcome"] == "does_not_fit"
     assert gt.one(run, "balanced")["outcome"] == "does_not_fit"
     assert seen == [{"object.mass_kg": 0.003, "sensor.seed": 2}, {"object.mass_kg": 0.003}]
+
+
+def test_a_row_names_its_preset_and_seed_and_a_resume_under_others_is_refused(monkeypatch, tmp_path, capsys):
+    """A journal is resumed only at the preset and seed its runs were made at: resumed under
+    another ``--seed`` it would mix two seeds' runs into one table without a word."""
+    import piezotip
+
+    monkeypatch.setattr(piezotip, "run", lambda scenario, overrides, preset: (_ for _ in ()).throw(ValueError("does not fit")))
+    run = {"gripper": "Panda", "object": "cube-3g", "controller": "gentle", "scenario": "grasp", "friction_x": 1.0, "mass_x": 1.0}
+    row = gt.one(run | {"overrides": {}}, "balanced", seed=1)
+    assert (row["preset"], row["seed"]) == ("balanced", 1)
+    assert gt.resumable([row], "balanced", 1) == [row] and gt.resumable([], "fast", 0) == []
+    with pytest.raises(ValueError, match="preset balanced, seed 1, not at preset balanced, seed 2"):
+        gt.resumable([row], "balanced", 2)
+    with pytest.raises(ValueError, match="not at preset accurate, seed 1"):
+        gt.resumable([row], "accurate", 1)
+    with pytest.raises(ValueError, match="preset and seed unrecorded"):
+        gt.resumable([_row("panda", "cube-3g", "gentle", "success")], "fast", 0)
+    (tmp_path / "runs.jsonl").write_text(json.dumps(row) + "\n")
+    with pytest.raises(SystemExit):
+        gt.main(["--out", str(tmp_path), "--preset", "balanced", "--seed", "2", "--grippers", "none"])
+    assert "give the same --preset and --seed to resume it" in capsys.readouterr().err
+    assert (tmp_path / "runs.jsonl").read_text() == json.dumps(row) + "\n"  # nothing written over
+
+
+def test_compare_says_which_preset_and_seed_each_side_ran_at(tmp_path, capsys):
+    name = next(iter(OBJECTS))
+    for folder, seed in (("before", 0), ("after", 2)):
+        (tmp_path / folder).mkdir()
+        row = _row("rethink", name, "gentle", "success") | {"preset": "balanced", "seed": seed}
+        (tmp_path / folder / "runs.jsonl").write_text(json.dumps(row) + "\n")
+    assert gt.main(["--compare", str(tmp_path / "before"), str(tmp_path / "after")]) == 0
+    assert "before: preset balanced, seed 0; after: preset balanced, seed 2" in capsys.readouterr().out
