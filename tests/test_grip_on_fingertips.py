@@ -22,7 +22,14 @@ import piezotip
 from piezotip import scenarios
 from piezotip.cosim.control import Phase, phase_index
 from piezotip.cosim.control.config import GentleConfig
-from piezotip.cosim.control.gentle import CLOSING_GAIN, EASE_LAG_PERIODS, FEEL_TOLERANCE, felt_tolerance_n, loaded_pad_stiffness_n_m
+from piezotip.cosim.control.gentle import (
+    CLOSING_GAIN,
+    EASE_LAG_PERIODS,
+    FEEL_TOLERANCE,
+    LetDown,
+    felt_tolerance_n,
+    loaded_pad_stiffness_n_m,
+)
 from piezotip.cosim.loop import CoSimulation
 
 #: Each finger slide's dry friction, N: robosuite's Panda and Rethink carry 1 N.
@@ -1459,3 +1466,28 @@ def test_the_raise_waits_until_the_carrys_grip_is_read_and_pushed_on(controller)
     assert c._hold_pull.closing and c._grip_not_on(10.005)
     assert not c._grip_not_on(10.0 + c.ease_wait_s)  # waited the readout's longest window: the raise goes
     assert not CoSimulation(scenarios.get("grasp")).controller._grip_not_on(0.0)  # the house's drive is the grip: never waits
+
+
+@pytest.mark.parametrize("falling", [False, True])
+def test_a_let_down_whose_load_falls_as_its_wait_ends_is_not_carried(controller, falling):
+    """The let-down's verdict, its wait over and the contact read: a load steady at the weight is
+    carried; one falling in the window's last periods (robosuite's Rethink's raspberry slid back
+    onto the table there, 0.035 -> 0.026 N, the window's mean still over half the weight) is no
+    verdict yet, and once the window's mean is under half the weight the probe grows the grip
+    from the contact left."""
+    c, obs, weight_n = controller, _Obs(), 0.035
+    n, carried = c.lift.plateau_steps, []
+    c._carry = lambda obs, t, weight_n, *bounds: carried.append(t)
+    c._fingertips_grip_n = lambda every_pad=True: (0.05, 1e-4)
+    pull = c._start_pull(obs, 9.0, 0.06, 0.01, 0.001)
+    c._let_down = LetDown(pull, weight_n, 0.06, loads=[weight_n] * 3 * n, pulled_s=9.5)
+    loads = [weight_n * (1.0 - 0.08 * i) for i in range(1, 4 * n)] if falling else [weight_n] * 4 * n
+    for i, load_n in enumerate(loads):
+        c.lift.raw_load_n = load_n
+        c._let_down_step(obs, 10.0 + i * c.dt_s)
+        if c._let_down is None:
+            break
+    if falling:
+        assert not carried and c.events[-1].kind == "let_down" and "the load fell" in c.events[-1].message
+    else:
+        assert carried == [10.0]
