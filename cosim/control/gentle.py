@@ -771,7 +771,8 @@ class GentleGrasp(MultimodeGrasp):
         )
 
     def _pull_drive_n(self, pull: Pull, obs: Observation, t: float) -> float | None:
-        """A period of a paced pull on a drive with dry friction F_f: the drive's force (N on the
+        """A period of a paced pull on a drive with dry friction F_f (or a push, its way reversed:
+        :meth:`_start_push`): the drive's force (N on the
         closing, negative pulls open) that opens the fingers toward ``pull.to_m``, read on their own
         joints, the contact C taken as the felt one less the pads' contact stiffness k (a full
         face's, the stiffest contact at small strain: a softer one is left over the goal, never
@@ -1615,14 +1616,15 @@ class GentleGrasp(MultimodeGrasp):
             # At most what presses the contact to grip_safety x the grip once the fingers move
             # (past the friction they close against): a contact beside the element's coverage
             # reads low however hard it is pressed, and closing on to make it read more would
-            # run away (tests/test_grip_on_fingertips.py::test_a_grip_felt_too_light_closes_the_fingers_past_their_friction_at_once).
+            # run away (tests/test_grip_on_fingertips.py::
+            # test_a_grip_wanted_that_rises_past_the_felt_closes_the_fingers_past_their_friction_at_once).
             if push_n == 0.0 and self._moved_dir == 0:
                 # Under the grip by a reading, the grip wanted not risen (no load change to
                 # answer, no closing under way): pushed at a pace, as a pull is, on the joints'
                 # reckoning, and read again.  At the four periods' speed the readout's lag let
                 # the fingers run on: robosuite's Rethink, its raspberry carried at 0.047 N and
-                # read 18 % under the 0.078 N the carry set, closed 84 um in 40 ms as the raise
-                # began, and squeezed the sphere out from between pads above its centre
+                # read 18 % under the 0.078 N the carry set, closed 84 um in 40 ms, three times
+                # what the shortfall asks of its pads, as the raise began, and lost the sphere
                 # (tests/test_grip_on_fingertips.py::test_a_shortfall_read_in_the_carry_is_pushed_at_a_pace).
                 self._hold_pull = self._start_push(obs, t, felt_n, off_n, 0.5 * FEEL_TOLERANCE * grip_n)
                 drive_n, self._moved_dir = felt_n + self._hold_pull.pull_n, 1
@@ -1803,10 +1805,12 @@ class GentleGrasp(MultimodeGrasp):
         speed_m_s = lift.speed_m_s
         if speed_m_s == 0.0 and self._grip_not_on(t):
             # The raise starts once the carry's grip is on: read, and pushed for if short
-            # (:meth:`_start_push`), within the readout's longest window: started under it, robosuite's Rethink, its
-            # raspberry carried at 0.047 N by pads 17 degrees above the sphere's centre (1.2x what
-            # holds it there still), let the sphere slip as the lift sped up; slipping up a
-            # sphere above its equator the pads press it less, and it was lost in 20 ms
+            # (:meth:`_start_push`), within the readout's longest window.  Started under it,
+            # robosuite's Rethink, its raspberry carried at 0.047 N by pads 17 degrees above the
+            # sphere's centre (about its need there: the let-down looks for the least grip that
+            # carries, and the carry's safety factor covers the raise), let the sphere slip as the
+            # lift sped up; slipping up a sphere above its equator the pads press it less, and it
+            # was lost in 20 ms
             # (tests/test_grip_on_fingertips.py::test_the_raise_waits_for_the_carrys_push).
             lift.target_m = lift.servo_target(self._weight_n, 0.0)
             return
