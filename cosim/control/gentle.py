@@ -569,7 +569,7 @@ class GentleGrasp(MultimodeGrasp):
         self._ease_from_s = -math.inf  # when the squeeze's last pull ended, s
         self._eases = 0  # how many pulls the squeeze made
         self._ease_goal_n = 0.0  # the contact the squeeze's pull eases to, N: the squeeze's grip after it
-        self._hold_pull: Pull | None = None  # the carry's pull easing a contact held over the grip (_drive_for_grip)
+        self._hold_pull: Pull | None = None  # the carry's paced pull (a contact held over the grip) or push (under it): _drive_for_grip
         self._carried_s, self._read_in_carry = -math.inf, False  # the carry's start, s; a reading since (_grip_not_on)
         #: How long the squeeze waits for the fingertips to read the touch, s: the readout's
         #: longest window, in which a reading that settles settles (sensor.inference.WINDOW_S).
