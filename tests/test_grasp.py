@@ -319,6 +319,22 @@ def test_the_settling_remainder_is_the_geometric_tail_of_shrinking_rises():
     assert settling_remainder_n(0.0, 0.003) == 0.0
 
 
+def test_the_release_is_clear_past_the_widest_the_squeezed_object_can_be():
+    """The object is no wider than the release's opening plus both gels' whole travel, nor
+    narrower than where the pads first touched it: the 40 mm box released at 39.5 mm with 4 mm of
+    travel a pad is clear at 47.5 mm; one turned to a 30 mm face in the grip, at the 40 mm it
+    was touched at; nothing touched, never (the fingers open home)."""
+    from piezotip.cosim.control.multimode import clear_opening_m
+
+    assert clear_opening_m(0.040, 0.0395, 0.004) == pytest.approx(0.0475)
+    assert clear_opening_m(0.040, 0.030, 0.004) == pytest.approx(0.040)
+    assert clear_opening_m(math.nan, 0.030, 0.004) == math.inf
+    # the house pads' travel, which the release opens by: 80 % of the gel's 5 mm (sensor.gel.GelParams, PadGeometry.stop_strain)
+    from piezotip.cosim.loop import CoSimulation
+
+    assert CoSimulation(scenarios.get("grasp")).controller.robot.pad_travel_m == pytest.approx(0.8 * 5e-3)
+
+
 def test_the_joints_feel_a_contact_as_a_rise_of_the_closing_drive_over_the_grip_floor():
     """The drive's force at pace is learned once steady; a rise over it by more than the grip
     floor is a contact felt by the joints, a smaller one (or any while speeding up) is not (the

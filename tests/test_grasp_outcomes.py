@@ -334,7 +334,8 @@ def test_an_object_no_fingertip_feels_is_given_up_not_pushed_until_the_clock_run
     gave_up = next(e for e in summary["events"] if e["kind"] == "unfelt_contact")
     touched_s = data["time_s"][np.flatnonzero(np.maximum(data["left_finger_force_n"], data["right_finger_force_n"]) > 0.0)[0]]
     assert gave_up["time_s"] < touched_s + 1.0
-    assert data["opening_m"][-1] > 0.08  # opened again, and the run ended before its duration
+    # opened again, off the ball (its 13 mm), and the run ended before its duration
+    assert data["opening_m"][-1] > 0.013 and data["left_finger_force_n"][-1] == data["right_finger_force_n"][-1] == 0.0
     assert data["time_s"][-1] < scenarios.get("grasp").duration_s - 1.0
     assert data["left_finger_force_n"].max() > 0.0 and data["right_finger_force_n"].max() > 0.0  # it was touched
 

@@ -1167,6 +1167,25 @@ def test_the_raise_waits_for_the_carrys_push():
 
 
 @pytest.mark.slow
+def test_a_held_grasp_is_done_once_its_pads_are_off_the_object_not_when_the_fingers_reach_home():
+    """robosuite's Rethink, its raspberry at 0.9x mass, the balanced preset, seed 1: held at 1.24x
+    after a second probe, placed and let go, it was a ``timeout`` at 12 s, the fingers still
+    opening from the 20 mm sphere to their 48 mm home (1.1 s).  The release ends once the fingers
+    are past any squeeze of the pads' gel (multimode.clear_opening_m): a success, done with the
+    pads off the sphere, short of home, and the fingers go on opening."""
+    result = _robosuite_run("rethink", "raspberry-4g", "balanced", mass_x=0.9, seed=1)
+    assert result.outcome == "success", result.reason
+    assert result.summary["grip_margin"] <= 1.5
+    data = result.data
+    done = int(np.flatnonzero(data["phase"] == phase_index(Phase.DONE))[0])
+    release = int(np.flatnonzero(data["phase"] == phase_index(Phase.RELEASE))[0])
+    assert data["left_finger_force_n"][done] == data["right_finger_force_n"][done] == 0.0
+    assert data["opening_m"][done] < data["opening_m"][0] - 0.01  # a centimetre short of home (where it began)
+    assert data["opening_m"][-1] > data["opening_m"][done]  # and still opening
+    assert data["time_s"][done] - data["time_s"][release] < 0.8
+
+
+@pytest.mark.slow
 @pytest.mark.parametrize(("obj", "friction_x", "mass_x", "was"), [("egg-60g", 1.1, 0.9, 1.85), ("rubber-ball-50g", 0.9, 0.9, 1.61)])
 def test_the_pandas_curved_patches_are_held_within_one_and_a_half_at_accurate(obj, friction_x, mass_x, was):
     """robosuite's Panda at the accurate preset: the element reads the egg's and the rubber ball's

@@ -93,6 +93,20 @@ def trapezoid_speed(distance_m: float, speed_m_s: float, top_speed_m_s: float, a
 RESOLVED_FRACTION = 0.1
 
 
+def clear_opening_m(touch_width_m: float, release_opening_m: float, pad_travel_m: float) -> float:
+    """The opening past which both pads are off the object, m (inf where no touch was felt).
+
+    As the release begins, the object between the pads is no wider than the opening then plus
+    both gels' travel (the most each compresses before its housing stops it, ``pad_travel_m``):
+    whatever grip squeezed them, pads that have opened that far have let their gel's surface off
+    it.  Nor is it narrower than where the pads first touched it (no squeeze), which bounds the
+    opening from below where the object turned in the grip to a narrower face.
+    """
+    if math.isnan(touch_width_m):
+        return math.inf
+    return max(touch_width_m, release_opening_m + 2.0 * pad_travel_m)
+
+
 def settling_remainder_n(rise_n: float, last_rise_n: float) -> float:
     """What a force that rose by ``last_rise_n`` then ``rise_n`` (N, over two periods) has still
     to rise if each period's rise keeps the ratio r = rise / last rise (a first-order settling):
@@ -299,6 +313,7 @@ class MultimodeGrasp:
         self._last_slip_s = -math.inf
         self._width_m = math.nan
         self._released_from_n = math.nan  # the grip as the release began, N (_release)
+        self._clear_opening_m = math.nan  # the opening past which the pads are off the object, m (_release)
         self._saturated_logged: set[str] = set()
         self._unfelt_opening_m: float | None = None  # the opening at the last false touch felt by no fingertip
         self._felt_in_squeeze: set[str] = set()  # the pads with a trusted "ok" reading since the touch
@@ -852,6 +867,7 @@ class MultimodeGrasp:
     def _release(self, obs: Observation, t: float, dt_s: float) -> None:
         if math.isnan(self._released_from_n):
             self._released_from_n = self.grip_n
+            self._clear_opening_m = clear_opening_m(self._width_m, obs.opening_m, self.robot.pad_travel_m)
         if self.opening_target < obs.opening_m:
             # The fingers are ahead of their target: squeezing (the target inside the object) on
             # the first period, then the pads' gel unloading pushes them out.  The target jumps
@@ -875,7 +891,10 @@ class MultimodeGrasp:
                 # grip it released from.
                 self.grip_n = min(self.opening_force_n, max(self._released_from_n, self.grip_floor_n))
         self._open_toward_home(dt_s)
-        if obs.opening_m >= self.robot.home_opening_m - 0.002:
+        # Done once the pads are off the object: the fingers go on opening home in DONE, but a
+        # grasp whose hand is clear is over (the Rethink opened 1.1 s from a 20 mm raspberry to
+        # its 48 mm home, which timed a held grasp out at 12 s).
+        if obs.opening_m >= min(self.robot.home_opening_m - 0.002, self._clear_opening_m):
             self._enter(Phase.DONE, t, self.gave_up or "")
 
     def _done(self, obs: Observation, t: float, dt_s: float) -> None:
