@@ -133,15 +133,34 @@ print("go", flush=True)
 exec(code)
 """
 
+#: The installed ``piezotip`` console script as pip's wrapper runs it: ``from <module> import
+#: <function>; sys.exit(<function>())``, its entry point read from the project's metadata.
+_CONSOLE_SCRIPT = """
+import importlib, importlib.metadata, sys
+(entry,) = importlib.metadata.entry_points(group="console_scripts", name="piezotip")
+module, _, function = entry.value.partition(":")
+sys.argv = ["piezotip", *sys.argv[1:]]
+print("go", flush=True)
+sys.exit(getattr(importlib.import_module(module), function)())
+"""
+
 
 @pytest.mark.parametrize(
-    "signum, delay_s", [*((signal.SIGINT, d) for d in (0.01, 0.03, 0.07, 0.12, 0.2, 0.3)), (signal.SIGTERM, 0.01), (signal.SIGTERM, 0.12)]
+    "command, signum, delay_s",
+    [
+        *(("run_sim.py", signal.SIGINT, d) for d in (0.01, 0.03, 0.07, 0.12, 0.2, 0.3)),
+        ("run_sim.py", signal.SIGTERM, 0.01),
+        ("run_sim.py", signal.SIGTERM, 0.12),
+        *(("piezotip", signum, d) for signum in (signal.SIGINT, signal.SIGTERM) for d in (0.01, 0.12)),
+    ],
 )
-def test_a_signal_in_the_commands_first_tenths_of_a_second_is_one_line_and_its_status(tmp_path, signum, delay_s):
+def test_a_signal_in_the_commands_first_tenths_of_a_second_is_one_line_and_its_status(tmp_path, command, signum, delay_s):
     """Before: a traceback (an import cut short), or exit 3 (numpy's or MuJoCo's import cut
-    short raises ImportError: initialization failed)."""
+    short raises ImportError: initialization failed).  The console script ended by SIGTERM's
+    default action (-15, no line) in its first tens of milliseconds, before piezotip/_console.py."""
     sets = [arg for setting in LONG for arg in ("--set", setting)]
-    argv = [sys.executable, "-c", _COMMAND, "run", "grasp", "--preset", "fast", "--no-plot", "--out", str(tmp_path / "run"), *sets]
+    code = _COMMAND if command == "run_sim.py" else _CONSOLE_SCRIPT
+    argv = [sys.executable, "-c", code, "run", "grasp", "--preset", "fast", "--no-plot", "--out", str(tmp_path / "run"), *sets]
     proc = subprocess.Popen(argv, cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, preexec_fn=_ctrl_c_as_in_a_terminal)
     try:
         assert proc.stdout.readline() == "go\n"
