@@ -14,8 +14,8 @@ class Phase(IntEnum):
     LIFT = 3  # move the weight from the table onto the pads, then raise
     HOLD = 4  # hold at the top, watching for slip
     PLACE = 5  # lower until the table takes the weight
-    RELEASE = 6  # open the fingers at the gripper's speed
-    DONE = 7  # finished (a success or a reasoned give-up)
+    RELEASE = 6  # open the fingers at the gripper's speed until the pads are off the object
+    DONE = 7  # finished (a success or a reasoned give-up); the fingers open on home
     FAULT = 8  # refused to grasp (self-test) or a sensor fault
 
     @property
