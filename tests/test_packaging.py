@@ -328,3 +328,26 @@ def test_mypy_resolves_the_public_names(tmp_path):
     assert revealed[0].endswith("-> piezotip.api.Result") and revealed[3].endswith("-> piezotip.gym_env.GraspEnv")
     assert any(line.startswith("probe.py:8:") and "[arg-type]" in line for line in lines), "\n".join(lines)
     assert any(line.startswith("probe.py:9:") and '"rnu"' in line for line in lines), "\n".join(lines)
+
+
+def test_auto_workers_are_the_cpus_this_process_may_use_within_a_containers_quota(tmp_path, monkeypatch):
+    """`-n auto` (tests/conftest.py): 1.5 CPUs of quota on a host of many cores is one worker; no
+    quota, the affinity's CPUs, at most ten; the environment's count is left to xdist."""
+    import conftest
+
+    cpu_max = tmp_path / "cpu.max"
+    cpu_max.write_text("150000 100000\n")
+    assert conftest.cgroup_cpus(cpu_max) == 1.5
+    cpu_max.write_text("max 100000\n")
+    assert conftest.cgroup_cpus(cpu_max) == float("inf")
+    assert conftest.cgroup_cpus(tmp_path / "none") == float("inf")
+    monkeypatch.setattr(conftest, "cgroup_cpus", lambda: 1.5)
+    monkeypatch.setattr(os, "sched_getaffinity", lambda pid: set(range(64)), raising=False)
+    monkeypatch.delenv("PYTEST_XDIST_AUTO_NUM_WORKERS", raising=False)
+    assert conftest.pytest_xdist_auto_num_workers(None) == 1
+    monkeypatch.setattr(conftest, "cgroup_cpus", lambda: float("inf"))
+    assert conftest.pytest_xdist_auto_num_workers(None) == conftest.MAX_AUTO_WORKERS
+    monkeypatch.setattr(os, "sched_getaffinity", lambda pid: {0, 1}, raising=False)
+    assert conftest.pytest_xdist_auto_num_workers(None) == 2
+    monkeypatch.setenv("PYTEST_XDIST_AUTO_NUM_WORKERS", "3")
+    assert conftest.pytest_xdist_auto_num_workers(None) is None
