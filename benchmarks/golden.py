@@ -10,6 +10,11 @@ is installed (:func:`reports.gripper_tables.grippers`; the fast preset), and wri
 the SHA-256 of each recorded column's bytes and the referee's outcome (CONTRIBUTING.md,
 "Refactoring: the golden record").  ``--compare`` prints every run and column that differs and
 exits 1 if any does (a run only one file has counts as a difference).  Progress on stderr.
+
+For a change meant to alter a run only from some point on (an earlier end of its release, say),
+each run also keeps running hashes of the whole record at every :data:`CHECKPOINT_S` of it
+(``prefix``): ``--compare`` says how far two runs that differ still agree ("the first 7.75 s,
+into the release phase"), which the columns' hashes alone cannot.
 """
 
 from __future__ import annotations
@@ -43,8 +48,39 @@ def cases(quick: bool = False) -> list[tuple[str, str, dict]]:
 VOLATILE_SUMMARY_KEYS = ("wall_time_s", "realtime_factor", "files", "versions")
 
 
+#: How often along a record its running hash is kept, s of simulated time (:func:`prefix_hashes`).
+CHECKPOINT_S = 0.1
+
+
 def _sha(text: bytes) -> str:
     return hashlib.sha256(text).hexdigest()
+
+
+def prefix_hashes(data, every_s: float = CHECKPOINT_S) -> list[list]:
+    """``[time_s, phase, hash]`` at every ``every_s`` (s) of a record ``data`` (columns of equal
+    length, ``time_s`` and ``phase`` among them) and at its end: one SHA-256 running over every
+    column's rows up to there (blocks of rows in order, each block's columns in sorted order).
+    Two records that agree row for row up to a time share every hash up to it."""
+    t = np.asarray(data["time_s"])
+    step = max(1, round(every_s / (t[1] - t[0]))) if t.size > 1 else 1
+    running, out = hashlib.sha256(), []
+    for start in range(0, t.size, step):
+        stop = min(t.size, start + step)
+        for column in sorted(data):
+            running.update(np.ascontiguousarray(np.asarray(data[column])[start:stop]).tobytes())
+        out.append([float(t[stop - 1]), int(np.asarray(data["phase"])[stop - 1]), running.hexdigest()])
+    return out
+
+
+def agreement(before: list[list], after: list[list]) -> tuple[float, int] | None:
+    """(time_s, phase) of the last checkpoint two :func:`prefix_hashes` share, or None where they
+    differ from the first."""
+    shared = None
+    for (t_s, phase, h_before), (_, _, h_after) in zip(before, after, strict=False):  # the shorter record's length
+        if h_before != h_after:
+            break
+        shared = (t_s, phase)
+    return shared
 
 
 def record_hashes(result) -> dict[str, str]:
@@ -54,7 +90,7 @@ def record_hashes(result) -> dict[str, str]:
     summary = {k: v for k, v in result.summary.items() if k not in VOLATILE_SUMMARY_KEYS}
     hashes["events"] = _sha(json.dumps([dict(e) for e in result.events], sort_keys=True, default=repr).encode())
     hashes["summary"] = _sha(json.dumps(summary, sort_keys=True, default=repr).encode())
-    return hashes | {"outcome": result.outcome}
+    return hashes | {"outcome": result.outcome, "prefix": prefix_hashes(result.data)}
 
 
 def golden(quick: bool = False) -> dict[str, dict[str, str]]:
@@ -77,10 +113,23 @@ def differences(before: dict, after: dict) -> list[str]:
         if key not in before or key not in after:
             out.append(f"{key}: only {'after' if key not in before else 'before'}")
             continue
-        changed = sorted(c for c in set(before[key]) | set(after[key]) if before[key].get(c) != after[key].get(c))
+        changed = sorted(c for c in (set(before[key]) | set(after[key])) - {"prefix"} if before[key].get(c) != after[key].get(c))
         if changed:
-            out.append(f"{key}: {len(changed)} columns differ ({', '.join(changed[:6])}{', ...' if len(changed) > 6 else ''})")
+            line = f"{key}: {len(changed)} columns differ ({', '.join(changed[:6])}{', ...' if len(changed) > 6 else ''})"
+            if "prefix" in before[key] and "prefix" in after[key]:
+                shared = agreement(before[key]["prefix"], after[key]["prefix"])
+                if shared is None:
+                    line += "; the records differ from their start"
+                else:
+                    line += f"; they agree for their first {shared[0]:.3f} s (into {_phase(shared[1])})"
+            out.append(line)
     return out
+
+
+def _phase(code: int) -> str:
+    from piezotip.cosim.control.phases import Phase
+
+    return f"the {Phase(code).label} phase"
 
 
 def main(argv: list[str] | None = None) -> int:
