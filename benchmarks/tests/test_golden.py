@@ -7,14 +7,15 @@ import numpy as np
 from benchmarks import golden
 
 
-def _record(rows: int, changed_from: int | None = None) -> dict:
-    """A stand-in record at 5 ms a row: phase 5 (place) for the first 100 rows, then 6
-    (release); a column changed from row ``changed_from`` on."""
+def _record(rows: int, changed_from: int | None = None, changed_rows: int | None = None) -> dict:
+    """A stand-in record at 5 ms a row: phase 5 (place) for the first 110 rows, then 6
+    (release); a column changed from row ``changed_from`` on (for ``changed_rows`` rows, or to
+    the end)."""
     t = np.arange(1, rows + 1) * 0.005
     x = np.sin(t)
     if changed_from is not None:
-        x[changed_from:] += 1.0
-    return {"time_s": t, "phase": np.where(np.arange(rows) < 100, 5.0, 6.0), "x": x}
+        x[changed_from : None if changed_rows is None else changed_from + changed_rows] += 1.0
+    return {"time_s": t, "phase": np.where(np.arange(rows) < 110, 5.0, 6.0), "x": x}
 
 
 def test_a_record_shares_its_running_hashes_up_to_its_first_changed_row():
@@ -25,6 +26,11 @@ def test_a_record_shares_its_running_hashes_up_to_its_first_changed_row():
     assert golden.agreement(before, golden.prefix_hashes(_record(400))) == (2.0, 6)
     shared = golden.agreement(before, golden.prefix_hashes(_record(400, changed_from=130)))
     assert shared == (0.6, 6)
+    # one row changed: the records agree again after it, row for row, but not from their start,
+    # and every hash after it says so (a running hash, not one per block)
+    one_row = golden.prefix_hashes(_record(400, changed_from=130, changed_rows=1))
+    assert golden.agreement(before, one_row) == (0.6, 6)
+    assert all(b[2] != a[2] for b, a in zip(before[6:], one_row[6:], strict=True))
     assert golden.agreement(before, golden.prefix_hashes(_record(250, changed_from=None))) == (1.2, 6)
     assert golden.agreement(before, golden.prefix_hashes(_record(400, changed_from=0))) is None
 
