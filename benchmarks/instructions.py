@@ -34,6 +34,7 @@ import shutil
 import subprocess
 import sys
 import tempfile
+from collections.abc import Mapping
 from pathlib import Path
 
 if not __package__:  # run as a file (python benchmarks/instructions.py): its siblings by their package's name
@@ -65,6 +66,37 @@ def parse_annotation(text: str) -> tuple[int, int]:
         raise ValueError("no 'PROGRAM TOTALS' line: not callgrind_annotate output")
     step = _MJ_STEP.search(text)
     return int(total.group(1).replace(",", "")), int(step.group(1).replace(",", "")) if step else 0
+
+
+#: glibc's heap padding for the counted runs, in bytes: past valgrind's cap on a client's brk
+#: segment (8 MiB, valgrind 3.x's initimg), so that the heap's first growth is refused once, at
+#: start-up, and glibc takes one mapping this large in its place, which the run never outgrows.
+HEAP_TOP_PAD_BYTES = 1 << 30
+
+
+def counted_env(base: Mapping[str, str]) -> dict[str, str]:
+    """The environment of a counted run: ``base`` with one hash seed, one BLAS thread, the Agg
+    backend and glibc's heap padded by :data:`HEAP_TOP_PAD_BYTES`.
+
+    - One hash seed: string hashes, and so dict and set probing, differ from process to process
+      otherwise (a few thousand instructions a step).
+    - One BLAS thread: an idle OpenBLAS thread spins, and what it counts depends on timing.
+    - The padded heap: under valgrind, every growth of glibc's heap past the 8 MiB brk cap is
+      refused (glibc then maps the memory instead) and leaves ``errno`` at ENOMEM.  MuJoCo's XML
+      reader takes any ``errno`` left after it parses a number as that number's error, so a
+      growth that falls inside it fails the model with "unknown error in attribute 'pos'".
+      Where the growths fall depends on the environment's size and paths: it passed on one
+      machine and failed on the CI's.  Padded, the heap grows once, at start-up, before any model.
+    """
+    tunables = [t for t in base.get("GLIBC_TUNABLES", "").split(":") if t and not t.startswith("glibc.malloc.top_pad=")]
+    blas = dict.fromkeys(("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"), "1")
+    return {
+        **base,
+        "MPLBACKEND": "Agg",
+        "PYTHONHASHSEED": "0",
+        **blas,
+        "GLIBC_TUNABLES": ":".join([*tunables, f"glibc.malloc.top_pad={HEAP_TOP_PAD_BYTES}"]),
+    }
 
 
 def _start_count(steps: int, scenario: str, overrides: list[str], work: Path, env: dict[str, str]) -> tuple[subprocess.Popen, Path, int]:
@@ -103,11 +135,7 @@ def instruction_counts(
     if missing:
         raise RuntimeError(f"counting instructions needs {' and '.join(missing)} on the PATH (valgrind's package)")
     overrides = list(overrides or [])
-    # One hash seed for both runs: string hashes, and so dict and set probing, differ from
-    # process to process otherwise (a few thousand instructions a step).
-    # One BLAS thread: an idle OpenBLAS thread spins, and what it counts depends on timing.
-    blas = dict.fromkeys(("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"), "1")
-    env = {**os.environ, "MPLBACKEND": "Agg", "PYTHONHASHSEED": "0", **blas}
+    env = counted_env(os.environ)
     # Bytecode compiled first: a module imported between the two runs' ends would otherwise be
     # compiled inside the counted steps (under PYTHONDONTWRITEBYTECODE, by every run).
     compile_bytecode(*source_folders())
