@@ -331,9 +331,11 @@ def test_mypy_resolves_the_public_names(tmp_path):
 
 
 def test_auto_workers_are_the_cpus_this_process_may_use_within_a_containers_quota(tmp_path, monkeypatch):
-    """`-n auto` (tests/conftest.py): 1.5 CPUs of quota on a host of many cores is one worker; no
-    quota, the affinity's CPUs, at most ten; the environment's count is left to xdist."""
-    import conftest
+    """`-n auto` (the repository's conftest.py): 1.5 CPUs of quota on a host of many cores is one
+    worker; no quota, the affinity's CPUs, at most ten; the environment's count is left to xdist."""
+    spec = importlib.util.spec_from_file_location("root_conftest", ROOT / "conftest.py")
+    conftest = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(conftest)
 
     cpu_max = tmp_path / "cpu.max"
     cpu_max.write_text("150000 100000\n")
@@ -351,3 +353,17 @@ def test_auto_workers_are_the_cpus_this_process_may_use_within_a_containers_quot
     assert conftest.pytest_xdist_auto_num_workers(None) == 2
     monkeypatch.setenv("PYTEST_XDIST_AUTO_NUM_WORKERS", "3")
     assert conftest.pytest_xdist_auto_num_workers(None) is None
+
+
+def test_auto_workers_are_counted_alike_for_the_benchmarks_tests_alone():
+    """`pytest benchmarks/tests` alone also counts `-n auto`'s workers by the CPUs this process may
+    use: one CPU's affinity, one worker (tests/conftest.py served tests/ only, and there xdist
+    counted the host's cores)."""
+    if not hasattr(os, "sched_setaffinity") or shutil.which("taskset") is None:
+        pytest.skip("needs CPU affinity (Linux's taskset)")
+    env = {k: v for k, v in os.environ.items() if k != "PYTEST_XDIST_AUTO_NUM_WORKERS"}
+    test = "benchmarks/tests/test_instructions.py"
+    cmd = ["taskset", "-c", "0", sys.executable, "-m", "pytest", test, "-k", "annotation", "-p", "no:cacheprovider"]
+    run = subprocess.run(cmd, cwd=ROOT, env=env, capture_output=True, text=True, timeout=300)
+    assert run.returncode == 0, run.stdout[-2000:] + run.stderr[-2000:]
+    assert re.search(r"\b1 worker\b", run.stdout), run.stdout[-2000:]
