@@ -61,14 +61,15 @@ def prefix_hashes(data, every_s: float = CHECKPOINT_S) -> list[list]:
     length, ``time_s`` and ``phase`` among them) and at its end: one SHA-256 running over every
     column's rows up to there (blocks of rows in order, each block's columns in sorted order).
     Two records that agree row for row up to a time share every hash up to it."""
-    t = np.asarray(data["time_s"])
+    columns = [np.ascontiguousarray(np.asarray(data[column])) for column in sorted(data)]
+    t, phase = np.asarray(data["time_s"]), np.asarray(data["phase"])
     step = max(1, round(every_s / (t[1] - t[0]))) if t.size > 1 else 1
     running, out = hashlib.sha256(), []
     for start in range(0, t.size, step):
         stop = min(t.size, start + step)
-        for column in sorted(data):
-            running.update(np.ascontiguousarray(np.asarray(data[column])[start:stop]).tobytes())
-        out.append([float(t[stop - 1]), int(np.asarray(data["phase"])[stop - 1]), running.hexdigest()])
+        for column in columns:
+            running.update(column[start:stop].tobytes())
+        out.append([float(t[stop - 1]), int(phase[stop - 1]), running.hexdigest()])
     return out
 
 
