@@ -5,9 +5,10 @@
 Timed ratios on a shared VM swing by several percent from one run to the next, more than a
 change to the loop's Python moves them.  Counted instructions do not: valgrind's callgrind
 counts every instruction a process executes, and how many of them ran inside ``mj_step``
-(inclusive of everything it calls).  Two runs of the same scenario, ``warmup_steps`` and
-``warmup_steps + steps`` control steps (the set-up, imports and first steps identical in
-both), differ by ``steps`` control steps of the loop alone:
+(inclusive of everything it calls).  One counted run steps the scenario ``warmup_steps``
+control steps, calls a marker, steps ``steps`` more and calls the marker again; callgrind dumps
+its counts at each call of the marker (``--dump-before``), so the part between the two holds the
+counted steps alone, the set-up, imports, first steps and the interpreter's exit outside it:
 
 - ``mj_step_per_step``: instructions inside ``mj_step`` per control step (all its substeps);
 - ``loop_per_step``: instructions outside it per control step (the co-simulation's Python,
@@ -16,12 +17,14 @@ both), differ by ``steps`` control steps of the loop alone:
   counterpart (lower than the timed one: Python's instructions run slower than MuJoCo's, and
   the cache misses each causes the other are not instructions).
 
-Repeated, the counts agree to about ten thousand instructions a run (a few per step over the
-default 1000 steps): one hash seed and one BLAS thread make the rest the same.
+The marker is MuJoCo's ``mj_version``, which neither MuJoCo nor the loop calls; a count whose
+marker fired other than twice is refused.  Repeated, the loop's count agrees to about ten thousand
+instructions a run (12,000 over 20 steps of the grasp, checked by hand), ``mj_step``'s exactly:
+one hash seed and one BLAS thread make the rest the same.
 
 About a minute (valgrind runs Python some 50x slower); needs valgrind on the PATH.  The disk
-cache of set-up tables is filled first by a plain run, so that neither counted run computes
-them, and the project's bytecode compiled, so that neither compiles a module.
+cache of set-up tables is filled first by a plain run, so that the counted run computes none
+of them, and the project's bytecode compiled, so that it compiles no module.
 """
 
 from __future__ import annotations
@@ -42,15 +45,22 @@ if not __package__:  # run as a file (python benchmarks/instructions.py): its si
 
 from benchmarks.revisions import compile_bytecode, source_folders
 
-#: The counted runs' script: the scenario's simulation, stepped ``n`` control steps (argv: n,
-#: scenario, overrides...).
+#: The marker whose calls split the counted run (callgrind's ``--dump-before``): a MuJoCo
+#: function that neither MuJoCo nor the loop calls.
+MARKER = "mj_version"
+
+#: The counted run's script: the scenario's simulation, stepped ``warmup`` control steps, the
+#: marker, ``steps`` more, the marker (argv: warmup, steps, scenario, overrides...).
 _SCRIPT = (
     "import sys\n"
+    "import mujoco\n"
     "from piezotip import scenarios\n"
     "from piezotip.cosim.loop import CoSimulation\n"
-    "sim = CoSimulation(scenarios.get(sys.argv[2], sys.argv[3:]))\n"
-    "for _ in range(int(sys.argv[1])):\n"
-    "    sim.advance()\n"
+    "sim = CoSimulation(scenarios.get(sys.argv[3], sys.argv[4:]))\n"
+    "for n in map(int, sys.argv[1:3]):\n"
+    "    for _ in range(n):\n"
+    "        sim.advance()\n"
+    f"    mujoco.{MARKER}()\n"
 )
 
 _TOTAL = re.compile(r"^\s*([\d,]+)\s.*PROGRAM TOTALS", re.MULTILINE)
@@ -99,36 +109,29 @@ def counted_env(base: Mapping[str, str]) -> dict[str, str]:
     }
 
 
-def _start_count(steps: int, scenario: str, overrides: list[str], work: Path, env: dict[str, str]) -> tuple[subprocess.Popen, Path, int]:
-    """A counted run of ``steps`` control steps, started: (its process, its callgrind file, steps)."""
-    out = work / f"callgrind.{steps}"
-    cmd = ["valgrind", "--tool=callgrind", f"--callgrind-out-file={out}", sys.executable, "-c", _SCRIPT, str(steps), scenario, *overrides]
-    return subprocess.Popen(cmd, env=env, cwd=work, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True), out, steps
+def _counted_part(steps: int, warmup_steps: int, scenario: str, overrides: list[str], work: Path, env: dict[str, str]) -> Path:
+    """The counted run's callgrind file of its counted steps: the part between the marker's two
+    calls.  Raises RuntimeError when the run fails or the marker fired other than twice."""
+    out = work / "callgrind.out"
+    cmd = [
+        "valgrind", "--tool=callgrind", f"--dump-before={MARKER}", f"--callgrind-out-file={out}",
+        sys.executable, "-c", _SCRIPT, str(warmup_steps), str(steps), scenario, *overrides,
+    ]  # fmt: skip
+    run = subprocess.run(cmd, env=env, cwd=work, capture_output=True, text=True)
+    if run.returncode != 0:
+        raise RuntimeError(f"the counted run of {steps} steps failed ({run.returncode}): {run.stderr.strip()[-500:]}")
+    # callgrind writes out.1 up to the first call, out.2 up to the second, and out to the exit.
+    parts = sorted(work.glob("callgrind.out.*"))
+    if len(parts) != 2:
+        fired = len(parts)
+        raise RuntimeError(f"the marker {MARKER} fired {fired} times, not twice: the counted steps are not one part")
+    return work / "callgrind.out.2"
 
 
-def _counted(run: tuple[subprocess.Popen, Path, int]) -> tuple[int, int]:
-    """A started counted run (:func:`_start_count`) waited for: (all instructions, those inside mj_step)."""
-    proc, out, steps = run
-    _, stderr = proc.communicate()
-    if proc.returncode != 0:
-        raise RuntimeError(f"the counted run of {steps} steps failed ({proc.returncode}): {stderr.strip()[-500:]}")
-    # Every function listed (the default lists only those that make 99 % of the total).
-    annotated = subprocess.run(
-        ["callgrind_annotate", "--inclusive=yes", "--threshold=100", str(out)], capture_output=True, text=True, check=True
-    )
-    return parse_annotation(annotated.stdout)
-
-
-def instruction_counts(
-    scenario: str = "grasp", overrides: list[str] | None = None, steps: int = 1000, warmup_steps: int = 200, side_by_side: bool = False
-) -> dict:
+def instruction_counts(scenario: str = "grasp", overrides: list[str] | None = None, steps: int = 1000, warmup_steps: int = 200) -> dict:
     """Instructions per control step of ``scenario``'s loop, inside and outside ``mj_step``
-    (the module docstring).  ``side_by_side`` runs the two counted runs at once, in the time of
-    one on two cores; ``mj_step``'s count is the same, but the loop's comes out about 3 % higher
-    (113,000 against 110,000 instructions a step over 20 steps of the grasp, each way repeated
-    within 0.2 %), so the command line counts them one after the other.  Raises RuntimeError
-    naming what is missing when valgrind or callgrind_annotate is not on the PATH, or when a
-    run fails."""
+    (the module docstring).  Raises RuntimeError naming what is missing when valgrind or
+    callgrind_annotate is not on the PATH, or when the run fails."""
     if steps < 1 or warmup_steps < 1:
         raise ValueError(f"steps and warmup_steps must be at least 1, got {steps} and {warmup_steps}")
     missing = [tool for tool in ("valgrind", "callgrind_annotate") if shutil.which(tool) is None]
@@ -136,31 +139,25 @@ def instruction_counts(
         raise RuntimeError(f"counting instructions needs {' and '.join(missing)} on the PATH (valgrind's package)")
     overrides = list(overrides or [])
     env = counted_env(os.environ)
-    # Bytecode compiled first: a module imported between the two runs' ends would otherwise be
-    # compiled inside the counted steps (under PYTHONDONTWRITEBYTECODE, by every run).
+    # Bytecode compiled first: a module imported in the counted steps would otherwise be compiled
+    # there (under PYTHONDONTWRITEBYTECODE, by every run).
     compile_bytecode(*source_folders())
     with tempfile.TemporaryDirectory(prefix="piezotip-instructions-") as tmp:
         work = Path(tmp)
-        # The set-up tables on disk first: neither counted run computes them.
+        # The set-up tables on disk first: a table made lazily in the counted steps is not counted.
         # (Run from the temporary folder: the current one could hold a folder named piezotip.)
-        warm = subprocess.run([sys.executable, "-c", _SCRIPT, "1", scenario, *overrides], env=env, cwd=work, capture_output=True, text=True)
+        plain = [sys.executable, "-c", _SCRIPT, "1", "0", scenario, *overrides]
+        warm = subprocess.run(plain, env=env, cwd=work, capture_output=True, text=True)
         if warm.returncode != 0:
             raise RuntimeError(f"{scenario} with {overrides} does not run: {warm.stderr.strip()[-500:]}")
-        runs, counts = [], []
-        try:
-            for n in (warmup_steps, warmup_steps + steps):
-                runs.append(_start_count(n, scenario, overrides, work, env))
-                if not side_by_side:
-                    counts.append(_counted(runs[-1]))
-            counts = counts or [_counted(run) for run in runs]
-            (short_total, short_step), (long_total, long_step) = counts
-        finally:
-            for proc, *_ in runs:
-                if proc.poll() is None:
-                    proc.kill()
-                    proc.wait()
-    mj_step = (long_step - short_step) / steps
-    loop = ((long_total - long_step) - (short_total - short_step)) / steps
+        part = _counted_part(steps, warmup_steps, scenario, overrides, work, env)
+        # Every function listed (the default lists only those that make 99 % of the total).
+        annotated = subprocess.run(
+            ["callgrind_annotate", "--inclusive=yes", "--threshold=100", str(part)], capture_output=True, text=True, check=True
+        )
+        total, in_mj_step = parse_annotation(annotated.stdout)
+    mj_step = in_mj_step / steps
+    loop = (total - in_mj_step) / steps
     return {
         "scenario": scenario,
         "overrides": overrides,
