@@ -22,8 +22,10 @@ from piezotip.cosim.control.config import GentleConfig
 from piezotip.cosim.control.gentle import (
     TOUCH_FLOORS,
     approach_pace_m_s,
+    flagged_touch_speed_m_s,
     landing_speed_m_s,
     pad_contact_stiffness_n_m,
+    touch_flag_latency_s,
     touch_reaction_s,
     touch_speed_m_s,
 )
@@ -55,6 +57,42 @@ def test_the_touch_speed_keeps_the_force_the_loop_adds_within_the_bound():
     assert 0.0062 + 1200.0 * v * 0.0073 == pytest.approx(0.0185, rel=1e-12)
     assert touch_speed_m_s(0.03, 0.0062, 1200.0, 0.0073) > v  # a harder bound closes faster
     assert touch_speed_m_s(0.0185, 0.0062, 1200.0, 0.004) > v  # so does a faster loop
+
+
+def test_the_flags_latency_is_the_change_tests_on_the_contacts_ramp_and_falls_as_the_speed_to_the_minus_two_fifths():
+    """A full face closing at v: the load factor ramps at |d mu / dP| k v / A, and the change test
+    flags it after (72 S dt tau0^2 sigma^2 / mu'^2)^(1/5) (sensor.inference.change_detection_s's
+    closed form, written out here): 4x the speed, 4^(-2/5) the latency."""
+    from piezotip.sensor import Fingertip
+    from piezotip.sensor.inference import SUSPECT_STAT
+
+    tip, k, area, dt = Fingertip(), 1200.0, 4e-4, 0.005
+    mu_rate = abs(tip.load_factor_slope_per_pa(0.0, 1)) * k * 1e-3 / area
+    closed_form = (72.0 * SUSPECT_STAT * dt * (tip.envelope_time_constant_s() * tip.sigma(1) / mu_rate) ** 2) ** 0.2
+    assert touch_flag_latency_s(1e-3, k, area, tip, dt) == pytest.approx(closed_form, rel=1e-12)
+    assert touch_flag_latency_s(4e-3, k, area, tip, dt) == pytest.approx(closed_form * 4.0**-0.4, rel=1e-12)
+    assert 0.005 < closed_form < 0.05  # a touch at Table I's damping: tens of milliseconds
+
+
+def test_the_flagged_touch_speed_keeps_the_force_at_the_flag_and_the_reaction_within_the_bound():
+    """max(F_floor, k v t_d(v)) + k v t_react reaches the bound at the speed; with no latency it is
+    the floor's touch speed (the limit), with one it is slower; a bound the loop's top speed
+    keeps is kept at the top speed; a bound at the floor is refused."""
+    k, t_react, floor, bound, top = 768.0, 0.010, 0.00395, 0.0119, 0.05
+
+    def latency(v: float) -> float:
+        return 0.0131 * (v / 1.03e-3) ** -0.4
+
+    v = flagged_touch_speed_m_s(bound, floor, k, t_react, latency, top)
+    assert max(floor, k * v * latency(v)) + k * v * t_react == pytest.approx(bound, rel=1e-9)
+    assert k * v * latency(v) > floor  # here the flag, not the floor, sets it
+    assert v < touch_speed_m_s(bound, floor, k, t_react)
+    no_lag = flagged_touch_speed_m_s(bound, floor, k, t_react, lambda v: 0.0, top)
+    assert no_lag == pytest.approx(touch_speed_m_s(bound, floor, k, t_react), rel=1e-9)
+    assert flagged_touch_speed_m_s(bound, floor, k, t_react, latency, 1e-4) == 1e-4  # the top speed keeps it
+    assert flagged_touch_speed_m_s(2.0 * bound, floor, k, t_react, latency, top) > v
+    with pytest.raises(ValueError, match="touch_force_n"):
+        flagged_touch_speed_m_s(floor, floor, k, t_react, latency, top)
 
 
 def test_the_pace_is_fast_far_from_the_band_and_the_touch_speed_inside_it():
@@ -105,6 +143,10 @@ def test_without_a_camera_the_fingers_close_at_the_touch_speed_from_the_start():
 
 
 # -- the closing --------------------------------------------------------------------------------
+
+
+#: The touch stopped on the readouts' flags where only they can tell it (``controller.touch_on_flags``).
+FLAGS = {"controller.touch_on_flags": True}
 
 
 def _panda(**more) -> dict:
@@ -183,6 +225,73 @@ def test_fingers_that_never_cruise_meet_the_object_at_the_touch_speed():
     assert result.summary["touch_peak_n"] < box["object.crush_force_n"]
 
 
+def test_a_friction_drive_with_a_lagging_readout_plans_its_touch_on_the_readouts_flags():
+    """robosuite's Panda (1 N of dry friction a finger: its joints cannot feel a few millinewtons)
+    at `balanced`, whose envelope readouts flag a touch tens of milliseconds after contact: the
+    touch speed keeps the force at the flag plus the loop's reaction within the bound.  At `fast`
+    (the steady readout: detected at the floor) and on the house gripper (its joints feel the
+    touch) the plan is the floor's."""
+    c = CoSimulation(scenarios.get("grasp", _panda(**FLAGS), "balanced")).controller
+    k, v, t_d = c.contact_stiffness_n_m, c.touch_speed_m_s, c.touch_flag_latency_s
+    assert t_d == pytest.approx(touch_flag_latency_s(v, k, c.robot.pad_area_m2, c.selectors[c.pads[0]].fingertip, c.dt_s), rel=1e-12)
+    assert max(c.grip_floor_n, k * v * t_d) + k * v * c.touch_reaction_s == pytest.approx(c.touch_force_n, rel=1e-6)
+    fast = CoSimulation(scenarios.get("grasp", _panda(**FLAGS), "fast")).controller
+    assert fast.touch_flag_latency_s is None and v < fast.touch_speed_m_s
+    assert fast.touch_speed_m_s == pytest.approx(touch_speed_m_s(fast.touch_force_n, fast.grip_floor_n, k, fast.touch_reaction_s))
+    house = CoSimulation(scenarios.get("grasp", FLAGS)).controller  # the envelope readout, a drive with no dry friction
+    assert house.touch_flag_latency_s is None
+    by_default = CoSimulation(scenarios.get("grasp", _panda(), "balanced")).controller  # the floor's plan
+    assert by_default.touch_flag_latency_s is None and by_default.touch_speed_m_s == fast.touch_speed_m_s
+
+
+def _cues(c, *statuses: str) -> tuple[list[bool], str]:
+    """The controller's touch cues for a period whose readouts say ``statuses`` (one a pad), every
+    reading at its CUSUM's baseline."""
+    from types import SimpleNamespace
+
+    pads = {}
+    for pad, status in zip(c.pads, statuses, strict=True):
+        c.touch[pad].learn(1.0)
+        pads[pad] = SimpleNamespace(reading=SimpleNamespace(v1=c.touch[pad].baseline), estimate=SimpleNamespace(status=status))
+    return c._touch_cues(SimpleNamespace(pads=pads))
+
+
+def test_the_readouts_flags_cue_a_touch_on_every_pad_at_once_and_only_at_the_touch_speed():
+    """A pad whose readout flags a change ("settling") cues a touch where the plan counts on it,
+    while the fingers close steadily at the touch speed; not while they brake into the band or
+    speed up (their pads' gel presses on the elements), and never without a flag or a CUSUM."""
+    c = CoSimulation(scenarios.get("grasp", _panda(**FLAGS), "balanced")).controller
+    c._steady, c._pace_m_s = True, c.touch_speed_m_s
+    assert _cues(c, "settling", "settling") == ([True, True], "change test")
+    assert _cues(c, "settling", "below_detection") == ([True, False], "change test")  # one pad: no touch yet
+    assert _cues(c, "below_detection", "below_detection") == ([False, False], "change test")
+    c._pace_m_s = 2.0 * c.touch_speed_m_s  # braking into the band
+    assert _cues(c, "settling", "settling") == ([False, False], "CUSUM")
+    c._steady, c._pace_m_s = False, c.touch_speed_m_s  # speeding up
+    assert _cues(c, "settling", "settling") == ([False, False], "CUSUM")
+    fast = CoSimulation(scenarios.get("grasp", _panda(**FLAGS), "fast")).controller
+    fast._steady, fast._pace_m_s = True, fast.touch_speed_m_s
+    assert _cues(fast, "settling", "settling") == ([False, False], "CUSUM")  # the steady readout's touch is the CUSUM's
+
+
+@pytest.mark.slow
+def test_the_pandas_tissue_box_is_touched_within_the_bound_at_the_balanced_preset_on_the_readouts_flags():
+    """robosuite's Panda on its 1 g tissue box at `balanced`: its CUSUM alarmed 40 ms after
+    contact, at 26 mN, and the touch peaked at 31 mN, 2.6x its 11.9 mN bound.  With
+    ``controller.touch_on_flags``, stopped on both readouts' flags and closing at the speed that
+    counts their latency: within the bound, and held."""
+    from test_grip_on_fingertips import _catalogue
+
+    overrides = _panda(**_catalogue("tissue-box-1g"), **{"controller.kind": "gentle"}, **FLAGS)
+    bound = CoSimulation(scenarios.get("grasp", overrides, "balanced")).controller.touch_force_n
+    result = piezotip.run("grasp", overrides=overrides, preset="balanced")
+    touch = next(e["message"] for e in result.events if e["message"].startswith("squeeze: touch"))
+    assert "(change test)" in touch
+    assert impact_n(result.data) <= bound
+    assert result.outcome == "success", result.reason
+    assert result.grip_margin <= 1.5
+
+
 def test_the_fingers_speed_up_is_not_a_touch_at_the_fast_presets_steady_readout():
     """Speeding up, the fingers press each pad's gel on its element by rho h0 a: at the fast
     preset's steady readout that is a drop the CUSUM sums past its alarm while the speed-up to
@@ -221,6 +330,7 @@ def test_the_joints_learn_the_free_force_over_a_plateau_window():
         ("perception.width_sigma_m=-0.001", ["perception.width_sigma_m", "-0.001"]),
         ("perception.width_m=0", ["perception.width_m"]),
         ("controller.touch_band_sigmas=0", ["controller.touch_band_sigmas"]),
+        ("controller.touch_on_flags=maybe", ["controller.touch_on_flags", "maybe"]),
     ],
 )
 def test_a_bad_touch_or_camera_is_one_line_naming_the_key_and_exit_2(capsys, tmp_path, assignment, words):

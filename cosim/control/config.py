@@ -306,6 +306,17 @@ class GentleConfig(MultimodeConfig):
     touch_band_sigmas : how many of the camera's sigmas (``perception.width_sigma_m``) wider
         than its width the fingers slow to their touch speed, -: 3 (a Gaussian error past 3
         sigma comes once in 740 objects).
+    touch_on_flags : whether, where only the fingertips can tell the touch (the fingers' drive has
+        dry friction, ``RobotLimits.finger_friction_n``, which hides a few millinewtons from its
+        joints) through a readout that lags (``sensor.dynamics`` envelope or carrier), the fingers
+        stop on the readouts' change flags and close at the speed that keeps the touch within its
+        bound counting the flags' latency (cosim/control/gentle.py, ``flagged_touch_speed_m_s``):
+        a trade, measured on robosuite's Panda (docs/grippers.md, twenty-first session).  True:
+        its 1 g tissue box touched at 10.6 mN for its 11.9 mN bound at `balanced` (31.6 mN
+        without), every grasp 1.1 s longer to the touch, which runs its heavy objects (a 2 kg
+        block, a 500 g can) past the scenario's 12 s (``duration_s``: give them more).  False (the
+        default): the touch is planned for detection at the grip floor, which the CUSUM on a
+        lagging readout reaches 20-40 ms late.
     slowest_climb : the slowest the probe's climb goes, as a share of ``probe_speed_m_s``, on a
         drive with dry friction where the fingertips read the contact fade under pads sliding up
         an object that narrows under them (cosim/control/gentle.py, ``GentleGrasp._pace_climb``:
@@ -320,6 +331,7 @@ class GentleConfig(MultimodeConfig):
     probe_speed_m_s: float = 0.001
     touch_force_n: float | None = None
     touch_band_sigmas: float = 3.0
+    touch_on_flags: bool = False
     slowest_climb: float = SLOWEST_CLIMB_DEFAULT
 
     def validate(self) -> None:
@@ -332,6 +344,8 @@ class GentleConfig(MultimodeConfig):
         if self.touch_force_n is not None:
             _positive("controller.touch_force_n", self.touch_force_n)
         _positive("controller.touch_band_sigmas", self.touch_band_sigmas)
+        if not isinstance(self.touch_on_flags, bool):
+            raise ValueError(f"controller.touch_on_flags must be True or False, got {self.touch_on_flags!r}")
 
 
 __all__ = [

@@ -10,7 +10,11 @@ period and the fingers' stop), is kept within ``touch_force_n`` (3 grip floors b
 the grip floor it is detected at, by closing at v = (F_touch - F_floor) / (k t_react) where
 contact can come: within ``touch_band_sigmas`` of the width a camera reports
 (``perception.*``), fast (``closing_speed_m_s``) until there.  Nothing of the object is known
-but that camera's width, with its stated sigma.
+but that camera's width, with its stated sigma.  Where only the fingertips can tell the touch
+(a drive with dry friction) through a readout that lags (the envelope presets), the CUSUM
+reaches the floor tens of milliseconds late; ``controller.touch_on_flags`` stops the fingers on
+the readouts' change flags and closes at :func:`flagged_touch_speed_m_s`, which counts their
+latency (a trade, off by default: docs/cosimulation.md).
 
 *The touchdown* (:meth:`GentleGrasp._plan_touchdown`): as the object lands, the pads slide down
 it at the lift's speed until the lift stops, and the slip presses them by up to k mu v t (the
@@ -70,7 +74,8 @@ from typing import TYPE_CHECKING
 from piezotip.cosim.control.config import GentleConfig
 from piezotip.sensor import Fingertip
 from piezotip.sensor.gel import GelParams, gent_tangent_pa, stretch_from_pressure
-from piezotip.sensor.inference import WINDOW_S
+from piezotip.sensor.inference import WINDOW_S, change_detection_s
+from piezotip.sensor.numerics import brentq
 
 from .interface import Observation, RobotLimits, pad_names
 from .lift import grip_for_load_n, load_is_steady, ratchet_grip_n
@@ -148,6 +153,53 @@ def touch_speed_m_s(touch_force_n: float, detected_n: float, stiffness_n_m: floa
     ``reaction_s`` the fingers press on at the speed v into pads of stiffness k, adding k v t.
     So v = (F_touch - F_detected) / (k t_react)."""
     return (touch_force_n - detected_n) / (stiffness_n_m * reaction_s)
+
+
+def touch_flag_latency_s(
+    speed_m_s: float, stiffness_n_m: float, pad_area_m2: float, fingertip: Fingertip, reading_period_s: float
+) -> float:
+    """How long after the pads first touch the envelope readout flags the touch, s, the fingers
+    closing at ``speed_m_s`` (m/s of opening) into pads of contact stiffness ``stiffness_n_m``
+    (N/m) over a full face of ``pad_area_m2`` (m^2), read every ``reading_period_s`` (s): the
+    contact's force rises at k v, its pressure at k v / A and the load's complex factor at
+    |d mu / dP| k v / A (the lowest mode near no load, :meth:`Fingertip.load_factor_slope_per_pa`),
+    which the readout's change test flags after :func:`sensor.inference.change_detection_s` of
+    that rate.  The full face is the stiffest contact, so the fastest force for its flag's delay."""
+    mode = min(fingertip.modes)
+    mu_rate_per_s = abs(fingertip.load_factor_slope_per_pa(0.0, mode)) * stiffness_n_m * speed_m_s / pad_area_m2
+    return change_detection_s(mu_rate_per_s, fingertip.envelope_time_constant_s(), fingertip.sigma(mode), reading_period_s)
+
+
+def flagged_touch_speed_m_s(
+    touch_force_n: float, detected_n: float, stiffness_n_m: float, reaction_s: float, latency_s: Callable[[float], float], top_m_s: float
+) -> float:
+    """The closing speed at which a touch that only the readout's change test tells (an envelope
+    readout on fingers whose joints' dry friction hides it) stays within ``touch_force_n``, m/s of
+    opening, at most ``top_m_s``: the test flags it ``latency_s(v)`` after contact (s:
+    :func:`touch_flag_latency_s`), the force then k v t_d, at least ``detected_n`` (the grip floor:
+    an earlier flag finds no pressure to squeeze at), and the fingers press on for ``reaction_s``
+    (:func:`touch_reaction_s`).  The flag comes at a reading, at most a reading after t_d (the
+    noise, and the later of the two pads: tests/test_readout_ramps.py::
+    test_the_change_tests_latency_on_a_ramp_from_no_load), and the loop's wait for a reading, up to
+    a period of ``reaction_s``, is then spent: the two cancel.  So the touch's force is
+
+        F(v) = max(F_detected, k v t_d(v)) + k v t_react,
+
+    which rises with v (t_d falls only as v^(-2/5)); v is its root at ``touch_force_n``.  Slower
+    than :func:`touch_speed_m_s`, whose touch is detected at the grip floor itself."""
+    if not touch_force_n > detected_n:
+        raise ValueError(f"touch_force_n {touch_force_n!r} N must exceed the force the touch is detected at, {detected_n!r} N")
+
+    def excess_n(speed: float) -> float:
+        return max(detected_n, stiffness_n_m * speed * latency_s(speed)) + stiffness_n_m * speed * reaction_s - touch_force_n
+
+    if excess_n(top_m_s) <= 0.0:
+        return top_m_s
+    # F(v) -> F_detected < F_touch as v -> 0 (k v t_d falls as v^(3/5)): a bracket's low end.
+    low = min(top_m_s, (touch_force_n - detected_n) / (stiffness_n_m * reaction_s))
+    while excess_n(low) > 0.0:
+        low *= 0.5
+    return float(brentq(excess_n, low, top_m_s, xtol=1e-9 * top_m_s, rtol=1e-9))
 
 
 def landing_speed_m_s(allowed_n: float, stiffness_n_m: float, friction: float, give_way_s: float) -> float:
@@ -505,14 +557,18 @@ class GentleGrasp(MultimodeGrasp):
         message = element_self_test(config, fingertip)
         prior = config.perception.width_prior_m(config.object.size_m)
         dt_s = config.physics.control_period_s
-        return cls(config.controller, robot, pad_names(config.sensor.pads), fingertip, message, dt_s, width_prior_m=prior)
+        names = pad_names(config.sensor.pads)
+        return cls(config.controller, robot, names, fingertip, message, dt_s, width_prior_m=prior, readout_dynamics=config.sensor.dynamics)
 
-    def __init__(self, *args, width_prior_m: tuple[float, float] | None = None, **kwargs) -> None:
+    def __init__(self, *args, width_prior_m: tuple[float, float] | None = None, readout_dynamics: str = "steady", **kwargs) -> None:
+        """The multimode controller's arguments, with what the camera reports of the object's
+        width (``width_prior_m``: its width and sigma, m, or None) and the fingertips' readout
+        dynamics (``readout_dynamics``, ``sensor.dynamics``: how soon a readout can tell a touch)."""
         super().__init__(*args, **kwargs)
         c, robot, dt_s = self.cfg, self.robot, self.dt_s
         fingertip = self.selectors[self.pads[0]].fingertip
         self._gel = fingertip.gel.params  # the pads' gel (_loaded_stiffness_n_m)
-        self._init_touch(fingertip, width_prior_m)
+        self._init_touch(fingertip, width_prior_m, readout_dynamics)
         #: The fingers' force limit as they start to close (from rest, and closing on after a false
         #: touch): what their drive needs at no speed, its dry friction (x ``drive_margin``); it
         #: grows with their speed (_close_step).  Not the top pace's force: the servo's target,
@@ -816,9 +872,18 @@ class GentleGrasp(MultimodeGrasp):
             return drive_n, closing_target_m
         return -drive_n, self.robot.home_opening_m
 
-    def _init_touch(self, fingertip: Fingertip, width_prior_m: tuple[float, float] | None) -> None:
+    def _init_touch(self, fingertip: Fingertip, width_prior_m: tuple[float, float] | None, readout_dynamics: str) -> None:
         """The touch's bound, the speed that keeps it, and where the fingers slow to it (the
-        module docstring's touch); a bound below the grip floor is a ValueError naming its key."""
+        module docstring's touch); a bound below the grip floor is a ValueError naming its key.
+
+        Where only the fingertips can tell the touch through a readout that lags (the joints'
+        dry friction hides a few millinewtons; the envelope readouts, ``sensor.dynamics`` other
+        than steady, follow the load through the resonator's envelope), the touch is flagged by
+        the readouts' change test, later than the grip floor: robosuite's Panda touched its 1 g
+        tissue box at 31 mN against its 11.9 mN bound at ``balanced``, its CUSUM alarming 40 ms
+        after contact, at 26 mN, where both readouts had flagged it by 20 ms, at 11 mN.  With
+        ``controller.touch_on_flags`` the fingers stop on the flags there, and close at
+        :func:`flagged_touch_speed_m_s` (10.6 mN; 1.1 s more to the touch)."""
         c, robot = self.cfg, self.robot
         floor = self.grip_floor_n
         bound = c.touch_force_n if c.touch_force_n is not None else TOUCH_FLOORS * floor
@@ -837,11 +902,28 @@ class GentleGrasp(MultimodeGrasp):
         #: The closing speed within the camera's band (everywhere without a camera), m/s of
         #: opening (:func:`touch_speed_m_s`), at most ``closing_speed_m_s``.
         self.touch_speed_m_s = min(c.closing_speed_m_s, touch_speed_m_s(bound, floor, self.contact_stiffness_n_m, self.touch_reaction_s))
+        #: How long after contact the readouts' change test flags the touch at the touch speed, s,
+        #: where the fingers stop on its flags (``controller.touch_on_flags``, and only the
+        #: fingertips tell the touch, through a readout that lags: :meth:`_touch_cues`); None where
+        #: the touch is planned for detection at the floor.
+        self.touch_flag_latency_s: float | None = None
+        if c.touch_on_flags and readout_dynamics != "steady" and robot.finger_friction_n > 0.0:
+            k, area = self.contact_stiffness_n_m, robot.pad_area_m2
+
+            def latency_s(speed_m_s: float) -> float:
+                return touch_flag_latency_s(speed_m_s, k, area, fingertip, self.dt_s)
+
+            self.touch_speed_m_s = flagged_touch_speed_m_s(bound, floor, k, self.touch_reaction_s, latency_s, c.closing_speed_m_s)
+            self.touch_flag_latency_s = latency_s(self.touch_speed_m_s)
         #: The camera's width and sigma, m (``perception.*``), or None: no prior.
         self.width_prior_m = width_prior_m
         #: The opening from which the fingers close at the touch speed, m: the camera's width
         #: plus ``touch_band_sigmas`` of its sigma; without a camera, from the open fingers on.
         self.slow_from_m = math.inf if width_prior_m is None else width_prior_m[0] + c.touch_band_sigmas * width_prior_m[1]
+        detected = f"detected at {floor:.3g} N"
+        if self.touch_flag_latency_s is not None:
+            flag_n = max(floor, self.contact_stiffness_n_m * self.touch_speed_m_s * self.touch_flag_latency_s)
+            detected = f"flagged by the readouts {self.touch_flag_latency_s * 1e3:.3g} ms after contact, at {flag_n:.3g} N"
         if width_prior_m is None:
             where = "from the open fingers (no camera)"
         else:
@@ -850,7 +932,7 @@ class GentleGrasp(MultimodeGrasp):
             0.0,
             "touch_plan",
             f"touch within {bound:.3g} N: closing at {self.touch_speed_m_s * 1e3:.3g} mm/s {where}; pads {self.contact_stiffness_n_m:.3g} "
-            f"N/m, reaction {self.touch_reaction_s * 1e3:.3g} ms, detected at {floor:.3g} N",
+            f"N/m, reaction {self.touch_reaction_s * 1e3:.3g} ms, {detected}",
         )
         self._moved_m_s = 0.0  # the fingers' own closing speed over the last period, m/s (_close_step)
         # their servo's lead behind its target per N of drive (_close_step): its compliance until
@@ -901,6 +983,20 @@ class GentleGrasp(MultimodeGrasp):
             # where the fingers are at the period's end at this speed, less the lead their servo keeps there
             self.opening_target = max(self.opening_target, obs.opening_m - speed * dt_s - self._lead_m_per_n * wanted_n)
         self.grip_n = min(robot.finger_force_limit_n, max(self.grip_floor_n, c.drive_margin * wanted_n))
+
+    def _touch_cues(self, obs: Observation) -> tuple[list[bool], str]:
+        """The CUSUM's cues, and where the touch plan counts on the readouts' change test
+        (:attr:`touch_flag_latency_s`), a pad whose readout flags a change ("settling") while the
+        fingers close steadily at the touch speed: inside the camera's band, so that neither the
+        fingers' speed-up nor the braking into it, which press the pads' gel on their elements,
+        is read as a touch.  Every pad must cue at once: in the Panda's and the Rethink's closings
+        at `balanced` (17 runs, 9,100 periods of free closing) a pad's readout flagged a change
+        in 0.2-6 % of periods, both pads in none.  A false cue is the squeeze's false touch: it
+        reads nothing and closes on."""
+        cues, how = super()._touch_cues(obs)
+        if self.touch_flag_latency_s is None or all(cues) or not (self._steady and self._pace_m_s <= self.touch_speed_m_s):
+            return cues, how
+        return [cue or obs.pads[pad].estimate.status == "settling" for cue, pad in zip(cues, self.pads, strict=True)], "change test"
 
     def _joint_touch(self, drive_n: float) -> str:
         """Whether the drive, its fingers closing at the pace, meets a resistance (the multimode

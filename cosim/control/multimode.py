@@ -422,10 +422,15 @@ class MultimodeGrasp:
         self._finger_speed = min(self.cfg.closing_speed_m_s, self._finger_speed + self.finger_accel_m_s2 * dt_s)
         self.opening_target = max(0.0, self.opening_target - self._finger_speed * dt_s)
 
+    def _touch_cues(self, obs: Observation) -> tuple[list[bool], str]:
+        """Each pad's touch cue this period, and what gave them: the CUSUM on the lowest mode's
+        reading, with the press of the pad's own gel as the fingers speed up taken off."""
+        inertia_v1 = self._pad_inertia_v1
+        return [self.touch[pad].update(obs.pads[pad].reading.v1 + inertia_v1) for pad in self.pads], "CUSUM"
+
     def _close(self, obs: Observation, t: float, dt_s: float) -> None:
         self._close_step(obs, dt_s)
-        inertia_v1 = self._pad_inertia_v1
-        touched = [self.touch[pad].update(obs.pads[pad].reading.v1 + inertia_v1) for pad in self.pads]
+        touched, cue = self._touch_cues(obs)
         felt_by_joints = self._joint_touch(obs.grip_force_n)
         if all(touched) or felt_by_joints:
             self.touch_time_s = t
@@ -439,7 +444,7 @@ class MultimodeGrasp:
             self._free_drive_n = None
             self._felt_in_squeeze = set()
             self._joints_felt_touch = not all(touched)
-            how = f"on {', '.join(self.pads)} (CUSUM)" if all(touched) else f"felt by the joints ({felt_by_joints})"
+            how = f"on {', '.join(self.pads)} ({cue})" if all(touched) else f"felt by the joints ({felt_by_joints})"
             self._enter(Phase.SQUEEZE, t, f"touch {how}; grip floor {self.grip_floor_n:.3g} N")
         else:
             self.lift.note_free_load()  # nothing touched yet: the lift carries the gripper alone
