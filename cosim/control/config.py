@@ -312,9 +312,9 @@ class GentleConfig(MultimodeConfig):
         stop on the readouts' change flags and close at the speed that keeps the touch within its
         bound counting the flags' latency (cosim/control/gentle.py, ``flagged_touch_speed_m_s``):
         a trade, measured on robosuite's Panda (docs/grippers.md, twenty-first session).  True:
-        its 1 g tissue box touched at 10.6 mN for its 11.9 mN bound at `balanced` (31.6 mN
-        without), every grasp 1.1 s longer to the touch, which runs its heavy objects (a 2 kg
-        block, a 500 g can) past the scenario's 12 s (``duration_s``: give them more).  False (the
+        its 1 g tissue box touched at 10.4 mN for its 11.9 mN bound at `balanced` (31.6 mN
+        without), every grasp about 1.1 s longer, which runs its heavy objects (a 2 kg block, a
+        300 g jar) past the scenario's 12 s (``duration_s``: give them more).  False (the
         default): the touch is planned for detection at the grip floor, which the CUSUM on a
         lagging readout reaches 20-40 ms late.
     slowest_climb : the slowest the probe's climb goes, as a share of ``probe_speed_m_s``, on a

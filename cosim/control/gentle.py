@@ -115,6 +115,12 @@ GRIP_OVER_READ = 4.0
 #: drive's force follows its command a period late and MuJoCo's soft friction follows the force
 #: about as late again (robosuite's fingers: 2-3 periods at 5 ms).
 EASE_LAG_PERIODS = 3
+#: The readings in a row a pad's readout must flag a change ("settling") for its flag to cue a
+#: touch (GentleGrasp._touch_cues, ``controller.touch_on_flags``), -: a touch keeps it flagged for
+#: tens of readings, where a flag by chance (the change test's suspicion, 0.25 % a look-back) lasts
+#: one: both pads flagged the same single reading once in robosuite's Panda's closings at
+#: `balanced` seeds 0-2 (a false touch, 2.6 s to close on from), never two running.
+FLAG_PERIODS = 2
 
 
 def pad_contact_stiffness_n_m(youngs_modulus_pa: float, thickness_m: float, pad_area_m2: float) -> float:
@@ -883,7 +889,7 @@ class GentleGrasp(MultimodeGrasp):
         tissue box at 31 mN against its 11.9 mN bound at ``balanced``, its CUSUM alarming 40 ms
         after contact, at 26 mN, where both readouts had flagged it by 20 ms, at 11 mN.  With
         ``controller.touch_on_flags`` the fingers stop on the flags there, and close at
-        :func:`flagged_touch_speed_m_s` (10.6 mN; 1.1 s more to the touch)."""
+        :func:`flagged_touch_speed_m_s` (10.4 mN; 1 s more to the touch)."""
         c, robot = self.cfg, self.robot
         floor = self.grip_floor_n
         bound = c.touch_force_n if c.touch_force_n is not None else TOUCH_FLOORS * floor
@@ -907,11 +913,12 @@ class GentleGrasp(MultimodeGrasp):
         #: fingertips tell the touch, through a readout that lags: :meth:`_touch_cues`); None where
         #: the touch is planned for detection at the floor.
         self.touch_flag_latency_s: float | None = None
+        self._flagged_periods: dict[str, int] = {}  # each pad's readings in a row flagged "settling" (_touch_cues)
         if c.touch_on_flags and readout_dynamics != "steady" and robot.finger_friction_n > 0.0:
             k, area = self.contact_stiffness_n_m, robot.pad_area_m2
 
-            def latency_s(speed_m_s: float) -> float:
-                return touch_flag_latency_s(speed_m_s, k, area, fingertip, self.dt_s)
+            def latency_s(speed_m_s: float) -> float:  # to the flag's FLAG_PERIODS-th reading
+                return touch_flag_latency_s(speed_m_s, k, area, fingertip, self.dt_s) + (FLAG_PERIODS - 1) * self.dt_s
 
             self.touch_speed_m_s = flagged_touch_speed_m_s(bound, floor, k, self.touch_reaction_s, latency_s, c.closing_speed_m_s)
             self.touch_flag_latency_s = latency_s(self.touch_speed_m_s)
@@ -986,17 +993,23 @@ class GentleGrasp(MultimodeGrasp):
 
     def _touch_cues(self, obs: Observation) -> tuple[list[bool], str]:
         """The CUSUM's cues, and where the touch plan counts on the readouts' change test
-        (:attr:`touch_flag_latency_s`), a pad whose readout flags a change ("settling") while the
-        fingers close steadily at the touch speed: inside the camera's band, so that neither the
-        fingers' speed-up nor the braking into it, which press the pads' gel on their elements,
-        is read as a touch.  Every pad must cue at once: in the Panda's and the Rethink's closings
-        at `balanced` (17 runs, 9,100 periods of free closing) a pad's readout flagged a change
-        in 0.2-6 % of periods, both pads in none.  A false cue is the squeeze's false touch: it
-        reads nothing and closes on."""
+        (:attr:`touch_flag_latency_s`), a pad whose readout has flagged a change ("settling") for
+        FLAG_PERIODS readings running while the fingers close steadily at the touch speed: inside
+        the camera's band, so that neither the fingers' speed-up nor the braking into it, which
+        press the pads' gel on their elements, is read as a touch.  Every pad must cue at once: in
+        the Panda's and the Rethink's closings at `balanced` (17 runs, 9,100 periods of free
+        closing) a pad's readout flagged a change in 0.2-6 % of periods.  A false cue is the
+        squeeze's false touch: it reads nothing and closes on."""
         cues, how = super()._touch_cues(obs)
-        if self.touch_flag_latency_s is None or all(cues) or not (self._steady and self._pace_m_s <= self.touch_speed_m_s):
+        flagged = self._flagged_periods
+        if self.touch_flag_latency_s is None or not (self._steady and self._pace_m_s <= self.touch_speed_m_s):
+            flagged.clear()
             return cues, how
-        return [cue or obs.pads[pad].estimate.status == "settling" for cue, pad in zip(cues, self.pads, strict=True)], "change test"
+        for pad in self.pads:
+            flagged[pad] = flagged.get(pad, 0) + 1 if obs.pads[pad].estimate.status == "settling" else 0
+        if all(cues):
+            return cues, how
+        return [cue or flagged[pad] >= FLAG_PERIODS for cue, pad in zip(cues, self.pads, strict=True)], "change test"
 
     def _joint_touch(self, drive_n: float) -> str:
         """Whether the drive, its fingers closing at the pace, meets a resistance (the multimode
