@@ -181,6 +181,24 @@ def test_the_carried_bound_is_the_least_grip_that_carried_the_weight():
     assert least_carrying_grip_n([(0.01, 0.004), (0.02, 0.006)], weight_n, 0.005) == 0.01  # none carried it: the least
 
 
+def test_one_reading_under_both_its_neighbours_does_not_set_the_carried_bound():
+    """robosuite's Panda read its 1 g tissue box (need 8.2 mN) carried at 6.59 mN: one reading
+    between 8.86 and 7.70 mN, the fingertips' scatter.  Its friction "at least 0.744" for 0.6
+    held the box at its need, and it slipped.  A dip under both neighbours counts as the lower of
+    them; a dip of two readings is read at the higher of the two (each is the other's neighbour); the
+    span's ends are read as they are."""
+    weight_n = 0.00981
+    mn = [8.861, 6.594, 7.698, 7.746, 7.819, 7.764, 7.927]  # the Panda's span, mN (the first not yet carrying)
+    span = [(g * 1e-3, 0.0095 if k == 0 else weight_n) for k, g in enumerate(mn)]
+    least = least_carrying_grip_n(span, weight_n, 0.005)
+    assert least == pytest.approx(7.698e-3, rel=1e-12)  # the dip at 6.594 counts as 7.698 (its lower neighbour)
+    assert weight_n / (2.0 * least) < 0.64  # the friction bound: 0.637 for the true 0.6, not 0.744
+    two = [(g, weight_n) for g in (0.0080, 0.0065, 0.0066, 0.0079)]  # a dip of two readings
+    assert least_carrying_grip_n(two, weight_n, 0.005) == pytest.approx(0.0066, rel=1e-12)
+    ends = [(g, weight_n) for g in (0.0060, 0.0080, 0.0079, 0.0070)]  # dips at the ends are read
+    assert least_carrying_grip_n(ends, weight_n, 0.005) == 0.0060
+
+
 #: Objects no other test names, across the rating, with the fragile ones of issue 29's table
 #: (each was crushed, or held at 4-7x its need, by the controller before the probe).
 HOLDOUT = {
