@@ -1013,8 +1013,10 @@ class GentleGrasp(MultimodeGrasp):
         closing) a pad's readout flagged a change in 0.2-6 % of periods.  A false cue is the
         squeeze's false touch: it reads nothing and closes on."""
         cues, how = super()._touch_cues(obs)
+        if self.touch_flag_latency_s is None:
+            return cues, how
         flagged = self._flagged_periods
-        if self.touch_flag_latency_s is None or not (self._steady and self._pace_m_s <= self.touch_speed_m_s):
+        if not (self._steady and self._pace_m_s <= self.touch_speed_m_s):
             flagged.clear()
             return cues, how
         for pad in self.pads:
