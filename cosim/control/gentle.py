@@ -457,6 +457,24 @@ def least_carrying_grip_n(span: Sequence[tuple[float, ...]], weight_n: float, fr
     return min(grips[i] if i in (0, last) else max(grips[i], min(grips[i - 1], grips[i + 1])) for i in carrying)
 
 
+def span_contact_stiffness_n_m(span: Sequence[tuple[float, float, float]]) -> tuple[float, float] | None:
+    """The contact's stiffness on the opening as the fingertips read it over a probe's span of
+    (grip read N, load N, opening m) samples, N/m, and its standard error: minus the least-squares
+    slope of the grip read over the opening (the drive's creep closes the fingers on the contact
+    as the probe's grip grows; ordinary least squares, its error from the residuals over n - 2).
+    None with fewer than three samples or openings that do not spread."""
+    n = len(span)
+    openings = [o for *_, o in span]
+    if n < 3 or max(openings) == min(openings):
+        return None
+    mean_o = sum(openings) / n
+    mean_g = sum(g for g, *_ in span) / n
+    sxx = sum((o - mean_o) ** 2 for o in openings)
+    slope = sum((o - mean_o) * (g - mean_g) for g, _, o in span) / sxx
+    residual = sum((g - mean_g - slope * (o - mean_o)) ** 2 for g, _, o in span)
+    return -slope, math.sqrt(residual / (n - 2) / sxx)
+
+
 def sliding_read(samples: Sequence[tuple[float, float]], weight_n: float, fraction: float) -> float | None:
     """The friction a probe's span read over its samples whose load stayed under the weight
     ``weight_n`` (N, by the load's steady ``fraction``), -: their mean load over twice their mean
@@ -1390,7 +1408,7 @@ class GentleGrasp(MultimodeGrasp):
         # test_the_gentle_probe_reads_the_pandas_contact_creeping_down_from_the_touch[glass-jar-300g-0.27]).
         self._lifted_off_m = lifted_off_m
         if self._lets_down(at_cap):
-            self._start_let_down(obs, t, weight_n, carried_from_n)
+            self._start_let_down(obs, t, weight_n, carried_from_n, span)
             return
         self._carry(obs, t, weight_n, carried_from_n, grip_n)
 
@@ -1400,7 +1418,9 @@ class GentleGrasp(MultimodeGrasp):
         the grip's cap, once."""
         return self.grips_on_fingertips and not self._slid and not at_cap and not self._let_down_tried
 
-    def _start_let_down(self, obs: Observation, t: float, weight_n: float, carried_from_n: float) -> None:
+    def _start_let_down(
+        self, obs: Observation, t: float, weight_n: float, carried_from_n: float, span: Sequence[tuple[float, float, float]] = ()
+    ) -> None:
         """The object was found carried, its weight ``weight_n`` (N), from ``carried_from_n`` (N),
         the least grip that carried it, before the pads were ever seen to slide: that grip bounds
         the friction only from below, so the need is anywhere under it.  A drive with dry friction
@@ -1421,7 +1441,8 @@ class GentleGrasp(MultimodeGrasp):
         if contact_n <= goal_n:
             self._carry(obs, t, weight_n, carried_from_n, carried_from_n)
             return
-        pull = self._start_pull(obs, t, contact_n, contact_n - goal_n, goal_n - goal_n / self.cfg.grip_safety)
+        k = self._let_down_stiffness_n_m(span)
+        pull = self._paced(obs, t, contact_n, contact_n - goal_n, k, goal_n - goal_n / self.cfg.grip_safety, closing=False)
         self._let_down = LetDown(pull, weight_n, carried_from_n)
         self._set_drive(contact_n - pull.pull_n)
         self._event(
@@ -1430,6 +1451,23 @@ class GentleGrasp(MultimodeGrasp):
             f"carried before the pads were seen to slide, from {carried_from_n:.3g} N (friction at least "
             f"{weight_n / (2.0 * carried_from_n):.3g}): easing the contact from {contact_n:.3g} N to {goal_n:.3g} N to bound the need",
         )
+
+    def _let_down_stiffness_n_m(self, span: Sequence[tuple[float, float, float]]) -> float:
+        """The stiffness the let-down's pull opens the fingers over, N/m: the contact's own as the
+        probe's span read it (:func:`span_contact_stiffness_n_m`) where that is a face's, softer
+        than a full face's but surely over half of it (2 standard errors); a full face's
+        otherwise.  A full face's, the stiffest, leaves a softer contact over the goal: robosuite's
+        Panda let its tissue box down from 17.5 mN toward 8.1 mN over 770 N/m, its span having read
+        560 N/m, and left it at 10.3 mN, held at 1.53x its need.  A curved patch reads far softer
+        (the Rethink's raspberry 184-218 N/m of 490) and keeps the full face's: let down to its
+        goal, a sphere slides back onto the table and its pads sit higher on it, where the probe
+        loses it (docs/grippers.md, twenty-second session)."""
+        full_n_m = self.contact_stiffness_n_m
+        fit = span_contact_stiffness_n_m(span)
+        if fit is None:
+            return full_n_m
+        k_n_m, error_n_m = fit
+        return k_n_m if 0.5 * full_n_m < k_n_m - 2.0 * error_n_m and k_n_m < full_n_m else full_n_m
 
     def _let_down_step(self, obs: Observation, t: float) -> None:
         """A period of the probe's let-down (:meth:`_start_let_down`): the paced pull
