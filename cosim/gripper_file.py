@@ -35,7 +35,11 @@ def load_gripper_spec(path: str | Path, warn: bool = True) -> mujoco.MjSpec:
     - an asset (mesh, texture, material, ...) named twice keeps its first definition, as
       robosuite's merge keeps it; MuJoCo refuses the second;
     - an attribute this MuJoCo does not know (such a merge lets one through, on a ``<default>``
-      say) is left out; MuJoCo refuses the file.
+      say) is left out; MuJoCo refuses the file;
+    - a body without a name is named ``body<i>``, its index in the model (``_<n>`` appended where
+      the file has that name already): the mount names the gripper's bodies in the scene (the pads'
+      contact exclusions, the fingers' force sensors), and MuJoCo finds an unnamed one by no name
+      (robosuite's Fourier hands hang their palm from one).  Nothing else changes.
 
     Each repair comes with a :class:`GripperFileWarning` naming it (with ``warn``;
     tests/test_third_party_grippers.py::test_a_gripper_file_loads_as_a_part_of_the_scene).
@@ -52,7 +56,23 @@ def load_gripper_spec(path: str | Path, warn: bool = True) -> mujoco.MjSpec:
     spec.modelfiledir = directory
     if not has_angle:
         spec.compiler.degree = False
+    _name_unnamed_bodies(spec)
     return spec
+
+
+def _name_unnamed_bodies(spec: mujoco.MjSpec) -> None:
+    """Name each unnamed body of ``spec`` but the world ``body<i>``, i its index in the compiled
+    model (the spec's bodies are in the model's order), ``_<n>`` appended where taken."""
+    bodies = list(spec.bodies)
+    taken = {body.name for body in bodies}
+    for index, body in enumerate(bodies[1:], start=1):
+        if body.name:
+            continue
+        name, n = f"body{index}", 1
+        while name in taken:
+            name, n = f"body{index}_{n}", n + 1
+        body.name = name
+        taken.add(name)
 
 
 def _file_key(path: str | Path) -> tuple[str, int, int]:

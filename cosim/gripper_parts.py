@@ -129,6 +129,18 @@ def _parts(key: tuple, given: str, fingertips: tuple[str, ...], actuators: tuple
     if paths[0][0] != paths[1][0]:
         raise ValueError(f"gripper.fingertips {list(fingertips)!r} hang from two top bodies of {given!r}: a gripper is one body tree")
     common = [a for a, b in zip(paths[0], paths[1], strict=False) if a == b]
+    for i in range(2):
+        if len(paths[i]) == len(common):
+            # A fixed jaw: one fingertip on a body that carries the other's finger (robosuite's
+            # Spot gripper, bd_gripper.xml, its jaw on the stator that carries the hinged mover).
+            # The mount centres the object between the open pads and closes both onto it;
+            # a fixed jaw's grasp must instead be placed beside the object by its width.
+            raise ValueError(
+                f"gripper.fingertips {list(fingertips)!r}: {fingertips[i]!r} is on body {model.body(bodies[i]).name!r}, which "
+                f"carries the other fingertip's body {model.body(bodies[1 - i]).name!r}: a fixed jaw, which the mount does not "
+                f"take (it centres the object between two fingers that each close on it from their own branch of the gripper; "
+                f"gripper.mjcf {given!r})"
+            )
     branches = tuple(model.body(p[len(common)]).name for p in paths)
     tree = _subtree(model, paths[0][0])
     _refuse_free_joints(model, tree, given)

@@ -338,6 +338,39 @@ def test_bad_gripper_keys_are_named(tmp_path, change, message):
         scenarios.get("grasp", overrides)
 
 
+@pytest.mark.parametrize("jaw", ["hand", "left"])
+def test_a_fixed_jaw_is_refused_with_the_reason(tmp_path, jaw):
+    """One fingertip on a body that carries the other's finger (robosuite's Spot gripper: its jaw
+    on the stator, the hinged mover below it) is named, not an IndexError of the mount."""
+    text = SLIDE_GRIPPER.format(actuators=SERVOS.format(force=30))
+    if jaw == "left":  # the right finger moved under the left one's body
+        right = text[text.index('      <body name="right"') : text.index("    </body>\n  </worldbody>")]
+        tip = '<geom name="left_tip" size="0.004 0.012 0.015"/>'
+        text = text.replace(right, "").replace(tip, tip + "\n" + right)
+    path = tmp_path / "jaw.xml"
+    path.write_text(text)
+    tips = ("hand", "right") if jaw == "hand" else ("left", "right")
+    message = rf"gripper.fingertips .*'{jaw}' is on body '{jaw}', which carries the other fingertip's body 'right': a fixed jaw"
+    with pytest.raises(ValueError, match=message):
+        scenarios.get("grasp", keys(path, tips))
+
+
+def test_a_gripper_with_unnamed_bodies_mounts_and_grasps(tmp_path):
+    """An unnamed body (robosuite's Fourier hands hang their palm from one) is named ``body<i>``
+    as the file is read: the mount names the gripper's bodies in the scene (the pads' contact
+    exclusions, the fingers' force sensors), and MuJoCo finds an unnamed one by no name.  Here the
+    left finger hangs from an unnamed bracket, so it is the finger's branch too."""
+    text = SLIDE_GRIPPER.format(actuators=SERVOS.format(force=30))
+    left = text[text.index('      <body name="left"') : text.index('      <body name="right"')]
+    text = text.replace(left, f'      <body pos="0 0 0.002">\n        <geom size="0.004 0.004 0.004"/>\n{left}      </body>\n')
+    path = tmp_path / "unnamed.xml"
+    path.write_text(text)
+    assert [body.name for body in load_gripper_spec(path).bodies] == ["world", "hand", "body2", "left", "right"]
+    assert gripper_parts(config(keys(path)).gripper).branches == ("body2", "right")
+    result = piezotip.run("grasp", overrides=keys(path), preset="fast")
+    assert result.outcome == "success", result.reason
+
+
 def test_an_unquoted_list_is_told_how_to_quote(tmp_path):
     path = write_gripper(tmp_path)
     with pytest.raises(ValueError, match=r"reads as one name; quote each: gripper.fingertips=\['left', 'right'\]"):
