@@ -13,7 +13,9 @@ gripper in the house scene: its table, object, options (timestep, integrator, co
    (``left_pad_seg0``, ...), so every reader of the house's pads reads these.  A pad touches the
    object, the table and the other finger, never its own gripper's links; links the file models
    through each other in its reference pose (a linkage's bars) do not touch each other either.
-3. The file's top body holding both fingertips hangs from the palm, turned so that its approach
+3. The file's top body holding both fingertips (or, where an arm or a base in the file moves the
+   gripper, the gripper under its last joint: :func:`cosim.gripper_parts._mounted_body`) hangs
+   from the palm, turned so that its approach
    axis points down and its fingertips close along world x (the first at -x, as the house's left
    finger), the pads' centre 70 mm below the palm as the house's.  Every body of it is
    gravity-compensated (the arm holds the gripper's weight, as the house's ``gravcomp``).

@@ -63,7 +63,8 @@ class GripperParts:
     Attributes
     ----------
     path : the file.
-    top_body : the file's top body that holds both fingertips (what is mounted).
+    top_body : the body mounted on the lift's palm: the top of the rigid chain that holds both
+        fingertips (:func:`_mounted_body`), the file's top body unless an arm or a base moves it.
     branches : per fingertip, the body under the fingertips' common root that holds it: the
         finger, whose contacts with the object are its push (the referee's).
     untouched : per fingertip, the gripper's bodies its pad never touches: all but the other
@@ -75,9 +76,11 @@ class GripperParts:
         mechanism's links modelled as solids through each other (a linkage's bars), whose
         contacts the scene leaves out, as robot set-up tools leave out link pairs colliding in
         the default pose (MoveIt's setup assistant); the fingers never among them.
-    closing_axis : unit vector from the first fingertip's pad to the second's, in the file's frame.
-    approach_axis : unit vector of the approach, normal to ``closing_axis``, in the file's frame.
-    pad_centre_m : the middle between the pads' surfaces in the file's reference pose, m.
+    closing_axis : unit vector from the first fingertip's pad to the second's, in the frame
+        ``top_body`` hangs in (its parent's: the file's own for a top body of the file).
+    approach_axis : unit vector of the approach, normal to ``closing_axis``, in that frame
+        (``gripper.approach_axis`` is given in the file's).
+    pad_centre_m : the middle between the pads' surfaces in the file's reference pose, m, in that frame.
     """
 
     path: str
@@ -142,7 +145,8 @@ def _parts(key: tuple, given: str, fingertips: tuple[str, ...], actuators: tuple
                 f"gripper.mjcf {given!r})"
             )
     branches = tuple(model.body(p[len(common)]).name for p in paths)
-    tree = _subtree(model, paths[0][0])
+    top = _mounted_body(model, common)
+    tree = _subtree(model, top)
     _refuse_free_joints(model, tree, given)
     fingers = [_subtree(model, model.body(b).id) for b in branches]
     untouched = tuple(tuple(sorted(model.body(b).name for b in tree - fingers[1 - i])) for i in range(2))
@@ -173,9 +177,15 @@ def _parts(key: tuple, given: str, fingertips: tuple[str, ...], actuators: tuple
     towards = towards - closing * (towards @ closing)
     if not np.linalg.norm(towards) > 1e-6 * max(1.0, np.linalg.norm(centre)):
         raise ValueError(f"{what} lies along the line between the fingertips: give gripper.approach_axis (gripper.mjcf {given!r})")
+    parent = int(model.body_parentid[top])
+    if parent != 0:
+        # The mounted body's pose in the file is its parent's frame's (MuJoCo's body pos and quat),
+        # and the mount hangs it from the palm by that: its axes and pads' centre go there too.
+        to_parent = data.xmat[parent].reshape(3, 3).T
+        closing, towards, centre = to_parent @ closing, to_parent @ towards, to_parent @ (centre - data.xpos[parent])
     return GripperParts(
         given,
-        model.body(paths[0][0]).name,
+        model.body(top).name,
         branches,
         untouched,
         tuple(pads),
@@ -232,6 +242,24 @@ def _overlapping(model: mujoco.MjModel, data: mujoco.MjData, tree: set[int], fin
         if a in tree and b in tree and not across:  # fingers closed on each other still touch
             pairs.add((model.body(a).name, model.body(b).name))
     return tuple(sorted(pairs))
+
+
+def _mounted_body(model: mujoco.MjModel, common: list[int]) -> int:
+    """The body the mount hangs from the lift's palm, given ``common``, the bodies from the
+    world's child down to the fingertips' lowest common one: the highest of them that reaches
+    that one through no joint.  A gripper file's top body (robosuite's, dm_robotics' and
+    Menagerie's grippers: nothing moves them); where the fingertips hang from an arm or a
+    mobile base in the file (Gymnasium-Robotics' Fetch, ``fetch/pick_and_place.xml``: three
+    slides under the base, seven joints in the arm), the gripper under its last joint, the palm
+    standing in for what carried it: mounted whole, the file's base moved on its own joints
+    under a palm with nothing fixed to it (MuJoCo refuses such a body: no mass).  Where the
+    common body itself moves on a joint (a wrist that carries both fingers), that body."""
+    top = len(common) - 1
+    while top > 0 and not any(model.body_jntnum[b] for b in common[top:]):
+        top -= 1
+    if model.body_jntnum[common[top]] and top < len(common) - 1:
+        top += 1
+    return common[top]
 
 
 def _path_from_world(model: mujoco.MjModel, body: int) -> list[int]:

@@ -371,6 +371,33 @@ def test_a_gripper_with_unnamed_bodies_mounts_and_grasps(tmp_path):
     assert result.outcome == "success", result.reason
 
 
+def test_a_gripper_on_an_arm_in_its_file_is_mounted_without_the_arm(tmp_path):
+    """Fingertips that hang from an arm or a mobile base in the file (Gymnasium-Robotics' Fetch:
+    three slides under its base, seven joints in its arm) are mounted from the gripper under the
+    arm's last joint, its axes and pads' centre in the frame it hangs in: mounted whole, the arm
+    moved on its own joints under a palm with nothing fixed to it, and MuJoCo refused the scene
+    ("mass and inertia of moving bodies", naming the palm); from the file's frame, the gripper
+    hung 1.5 m off."""
+    plain = write_gripper(tmp_path)
+    text = plain.read_text()
+    hand = text[text.index('    <body name="hand">') : text.index("  </worldbody>")]
+    arm = (
+        '    <body name="base" pos="0.3 -0.2 0.6" euler="0.4 -0.3 1.1"><joint name="base_slide" type="slide" axis="1 0 0"/>'
+        '<geom size="0.02 0.02 0.02"/>\n'
+        '      <body name="wrist" pos="0 0.1 0.2" euler="0 1.2 0"><joint name="wrist_hinge" type="hinge" axis="0 0 1"/>'
+        '<geom size="0.01 0.01 0.01"/>\n'
+        f"{hand}      </body>\n    </body>\n"
+    )
+    path = tmp_path / "on_arm.xml"
+    path.write_text(text.replace(hand, arm))
+    alone, on_arm = (gripper_parts(config(keys(p)).gripper) for p in (plain, path))
+    assert on_arm.top_body == "hand"
+    for name in ("closing_axis", "approach_axis", "pad_centre_m"):
+        assert getattr(on_arm, name) == pytest.approx(getattr(alone, name), abs=1e-9), name
+    result = piezotip.run("grasp", overrides=keys(path), preset="fast")
+    assert result.outcome == "success", result.reason
+
+
 def test_an_unquoted_list_is_told_how_to_quote(tmp_path):
     path = write_gripper(tmp_path)
     with pytest.raises(ValueError, match=r"reads as one name; quote each: gripper.fingertips=\['left', 'right'\]"):
