@@ -49,11 +49,19 @@ def load_gripper_spec(path: str | Path, warn: bool = True) -> mujoco.MjSpec:
     ValueError
         naming ``gripper.mjcf`` and the file: missing, not XML, or refused by MuJoCo.
     """
-    text, repairs, has_angle, directory, includes = _read_file(*_file_key(path))
+    key = _file_key(path)
+    text, repairs, has_angle, directory, includes = _read_file(*key)
     for repair in repairs if warn else ():
         warnings.warn(f"gripper.mjcf {str(path)!r}: {repair}", GripperFileWarning, 2)
-    spec = mujoco.MjSpec.from_string(text, include=dict(includes))
-    spec.modelfiledir = directory
+    if repairs:
+        spec = mujoco.MjSpec.from_string(text, include=dict(includes))
+        spec.modelfiledir = directory
+    else:
+        # MuJoCo's own reading where nothing needs repair: its includes and their compiler's
+        # folders as MuJoCo resolves them (Gymnasium-Robotics' Franka kitchen includes
+        # ../franka_assets/assets.xml, whose meshdir the including file sets again; read from a
+        # string with its includes given, the meshes were looked for in a folder that is not there).
+        spec = mujoco.MjSpec.from_file(key[0])
     if not has_angle:
         spec.compiler.degree = False
     _name_unnamed_bodies(spec)

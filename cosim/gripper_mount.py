@@ -164,9 +164,12 @@ def _mount_edit(config: ScenarioConfig, parts: GripperParts, geometry: PadGeomet
                 setattr(gripper.option, name, getattr(spec.option, name))
         for actuator in parts.actuators:
             _as_drive(gripper.actuator(actuator.name), actuator)
+        top = gripper.body(parts.top_body)
+        for joint in list(top.joints):  # the arm's last joint, where it carries both fingers: the palm's now
+            gripper.delete(joint)
         pos, quat = _mount_pose(parts)
         frame = spec.body("palm").add_frame(pos=pos.tolist(), quat=quat.tolist())
-        frame.attach_body(gripper.body(parts.top_body), PREFIX, "")
+        frame.attach_body(top, PREFIX, "")
         for body in spec.bodies:
             if body.name.startswith(PREFIX):
                 body.gravcomp = 1.0  # the arm carries the gripper, as the house's gravcomp

@@ -302,6 +302,30 @@ def test_a_gripper_file_loads_as_a_part_of_the_scene(tmp_path):
     spec.compile()
 
 
+def test_a_gripper_file_whose_includes_set_their_own_mesh_folder_loads_as_mujoco_loads_it(tmp_path):
+    """Gymnasium-Robotics' Franka kitchen: the model includes ../franka_assets/assets.xml, whose
+    ``<compiler meshdir>`` the including file sets again, after it.  MuJoCo reads its meshes from
+    the last one; read from a string with its includes given, they were looked for in a folder
+    that is not there, and the file "did not compile"."""
+    (tmp_path / "assets" / "meshes" / "collision").mkdir(parents=True)
+    (tmp_path / "assets" / "meshes" / "collision" / "finger.obj").write_text(
+        "v 0 0 0\nv 0.01 0 0\nv 0 0.01 0\nv 0 0 0.01\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n"
+    )
+    (tmp_path / "assets" / "assets.xml").write_text(
+        '<mujocoinclude><compiler meshdir="assets/meshes"/><asset><mesh name="finger" file="collision/finger.obj"/></asset></mujocoinclude>'
+    )
+    (tmp_path / "scene").mkdir()
+    text = SLIDE_GRIPPER.format(actuators=SERVOS.format(force=30))
+    text = text.replace(
+        "<default>", '<include file="../assets/assets.xml"/>\n  <compiler meshdir="../assets/meshes"/>\n  <default>'
+    ).replace('<geom name="palm"', '<geom type="mesh" mesh="finger" pos="0 0 0.02"/><geom name="palm"')
+    path = tmp_path / "scene" / "kitchen.xml"
+    path.write_text(text)
+    mujoco.MjModel.from_xml_path(str(path))  # as MuJoCo loads it
+    assert load_gripper_spec(path).compile().nmesh == 1
+    assert piezotip.run("grasp", overrides=keys(path), preset="fast").outcome == "success"
+
+
 def test_the_house_gripper_is_the_default_and_takes_no_gripper_keys():
     cfg = scenarios.get("grasp")
     assert cfg.gripper.mjcf is None and cfg.gripper.fingertips == () and cfg.gripper.actuators == ()
@@ -371,15 +395,19 @@ def test_a_gripper_with_unnamed_bodies_mounts_and_grasps(tmp_path):
     assert result.outcome == "success", result.reason
 
 
-def test_a_gripper_on_an_arm_in_its_file_is_mounted_without_the_arm(tmp_path):
+@pytest.mark.parametrize("last_joint", ["wrist", "hand"])
+def test_a_gripper_on_an_arm_in_its_file_is_mounted_without_the_arm(tmp_path, last_joint):
     """Fingertips that hang from an arm or a mobile base in the file (Gymnasium-Robotics' Fetch:
     three slides under its base, seven joints in its arm) are mounted from the gripper under the
     arm's last joint, its axes and pads' centre in the frame it hangs in: mounted whole, the arm
     moved on its own joints under a palm with nothing fixed to it, and MuJoCo refused the scene
     ("mass and inertia of moving bodies", naming the palm); from the file's frame, the gripper
-    hung 1.5 m off."""
+    hung 1.5 m off.  Where the arm's last joint turns the body that carries both fingers itself
+    (the Franka kitchen's link 7), that body is mounted and the joint goes with the arm."""
     plain = write_gripper(tmp_path)
     text = plain.read_text()
+    if last_joint == "hand":
+        text = text.replace('    <body name="hand">', '    <body name="hand"><joint name="hand_roll" type="hinge" axis="0 0 1"/>')
     hand = text[text.index('    <body name="hand">') : text.index("  </worldbody>")]
     arm = (
         '    <body name="base" pos="0.3 -0.2 0.6" euler="0.4 -0.3 1.1"><joint name="base_slide" type="slide" axis="1 0 0"/>'
