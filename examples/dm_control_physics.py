@@ -29,7 +29,14 @@ import argparse
 import sys
 
 import mujoco
-from dm_control import mujoco as dm_mujoco
+
+try:
+    from dm_control import mujoco as dm_mujoco
+except ModuleNotFoundError:
+    sys.exit(
+        'examples/dm_control_physics.py needs dm_control: pip install "dm-control>=1.0.48" (none yet runs under MuJoCo 4; '
+        f"this is MuJoCo {mujoco.__version__})"
+    )
 
 import piezotip
 
