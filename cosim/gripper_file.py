@@ -36,8 +36,8 @@ def load_gripper_spec(path: str | Path, warn: bool = True) -> mujoco.MjSpec:
       robosuite's merge keeps it; MuJoCo refuses the second;
     - an attribute this MuJoCo does not know (such a merge lets one through, on a ``<default>``
       say) is left out; MuJoCo refuses the file;
-    - a body without a name is named ``body<i>``, its index in the model (``_<n>`` appended where
-      the file has that name already): the mount names the gripper's bodies in the scene (the pads'
+    - a body without a name is named ``body<i>``, i its place among the file's bodies (``_<n>``
+      appended where the file has that name already): the mount names the gripper's bodies in the scene (the pads'
       contact exclusions, the fingers' force sensors), and MuJoCo finds an unnamed one by no name
       (robosuite's Fourier hands hang their palm from one).  Nothing else changes.
 
@@ -69,8 +69,9 @@ def load_gripper_spec(path: str | Path, warn: bool = True) -> mujoco.MjSpec:
 
 
 def _name_unnamed_bodies(spec: mujoco.MjSpec) -> None:
-    """Name each unnamed body of ``spec`` but the world ``body<i>``, i its index in the compiled
-    model (the spec's bodies are in the model's order), ``_<n>`` appended where taken."""
+    """Name each unnamed body of ``spec`` but the world ``body<i>``, i its place among the spec's
+    bodies (the compiled model's index where the file replicates none), ``_<n>`` appended where
+    taken: a name to find it by, the same at every reading of the file."""
     bodies = list(spec.bodies)
     taken = {body.name for body in bodies}
     for index, body in enumerate(bodies[1:], start=1):

@@ -253,7 +253,8 @@ def _mounted_body(model: mujoco.MjModel, common: list[int]) -> int:
     slides under the base, seven joints in the arm), the gripper under its last joint, the palm
     standing in for what carried it: mounted whole, the file's base moved on its own joints
     under a palm with nothing fixed to it (MuJoCo refuses such a body: no mass).  Where the
-    common body itself moves on a joint (a wrist that carries both fingers), that body."""
+    common body itself moves on a joint (the Franka kitchen's link 7, the arm's last joint
+    carrying both fingers), that body, its joints left with the arm (the mount deletes them)."""
     top = len(common) - 1
     while top > 0 and not any(model.body_jntnum[b] for b in common[top:]):
         top -= 1
