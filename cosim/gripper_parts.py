@@ -220,8 +220,9 @@ def _refuse_free_joints(model: mujoco.MjModel, tree: set[int], given: str) -> No
     """Raise ValueError naming the file, the body and the joint when a body of the mounted
     ``tree`` moves on a free joint (``<freejoint>``, ``<joint type="free">``): the mounted gripper
     hangs from the lift's palm, where MuJoCo takes no free joint (a file's top body may have one
-    when it is a model alone, a floating hand); left in, it fails the scene's compile, which names
-    the scene file, not the gripper's."""
+    when it is a model alone, a floating hand).  Named, not dropped: a file that floats its hand
+    is the user's to change (an arm's joints above the gripper, which the mount does drop, are the
+    palm's stand-in's: :func:`_mounted_body`)."""
     for j in range(model.njnt):
         body = int(model.jnt_bodyid[j])
         if body in tree and int(model.jnt_type[j]) == mujoco.mjtJoint.mjJNT_FREE:

@@ -23,7 +23,7 @@ from test_third_party_grippers import SERVOS, SLIDE_GRIPPER, keys
 from piezotip import cli, scenarios
 from piezotip.analysis import sweep as sweep_module
 from piezotip.analysis.sweep_rows import error_row
-from piezotip.cosim import gripper_parts
+from piezotip.cosim import gripper_mount
 from piezotip.cosim import recorder as recorder_module
 from piezotip.cosim.loop import CoSimulation
 from piezotip.cosim.recorder import Recorder, read_recording
@@ -295,10 +295,18 @@ def test_the_command_line_names_the_gripper_file_with_a_free_joint(tmp_path, cap
 
 
 def test_a_gripper_that_does_not_compile_mounted_names_its_file(tmp_path, monkeypatch):
-    """Whatever else fails once the file is mounted (here the free joint, its check switched off)
-    names the gripper's file first, then what MuJoCo said of the scene."""
-    monkeypatch.setattr(gripper_parts, "_refuse_free_joints", lambda *args: None)
-    path = tmp_path / "floating_hand.xml"
-    path.write_text(SLIDE_GRIPPER.format(actuators=SERVOS.format(force=30)).replace('<body name="hand">', '<body name="hand"><freejoint/>'))
+    """Whatever else fails once the file is mounted names the gripper's file first, then what
+    MuJoCo said of the scene.  Here a drive's force range turned inside out as it is mounted (the
+    free joint this test once switched its check off for is now the arm's: the mount deletes the
+    mounted body's own joints, cosim/gripper_parts.py::_mounted_body)."""
+    as_drive = gripper_mount._as_drive
+
+    def misaimed(actuator, found):
+        as_drive(actuator, found)
+        actuator.forcerange = [found.force_max, -found.force_max]
+
+    monkeypatch.setattr(gripper_mount, "_as_drive", misaimed)
+    path = tmp_path / "hand.xml"
+    path.write_text(SLIDE_GRIPPER.format(actuators=SERVOS.format(force=30)))
     with pytest.raises(ValueError, match=rf"^gripper.mjcf '{path}' does not mount in the scene: MJCF file .*scene_grasp.xml"):
         CoSimulation(scenarios.get("grasp", keys(path), "fast"))
