@@ -13,6 +13,7 @@ import dataclasses
 import importlib.util
 import math
 import re
+import warnings
 from pathlib import Path
 
 import mujoco
@@ -22,7 +23,15 @@ import pytest
 import piezotip
 from piezotip import scenarios
 from piezotip.analysis.referee import OUTCOMES
-from piezotip.cosim.gripper_mount import MASS_POINTS, PREFIX, GripperFileWarning, gripper_parts, load_gripper_spec, mount_gripper
+from piezotip.cosim.gripper_mount import (
+    MASS_POINTS,
+    PADS_BELOW_PALM_M,
+    PREFIX,
+    GripperFileWarning,
+    gripper_parts,
+    load_gripper_spec,
+    mount_gripper,
+)
 from piezotip.cosim.loop import CoSimulation
 
 #: A two-finger gripper on slides, as a third party might write it: its own names, its fingers
@@ -788,6 +797,55 @@ def test_robosuite_grippers_grasp_the_default_box(gripper):
     result = piezotip.run("grasp", overrides=keys(path, tips, actuators), preset="fast")
     assert result.outcome in OUTCOMES
     assert_carried_and_felt(result)
+
+
+def test_robosuites_spot_gripper_a_fixed_jaw_is_refused_with_the_reason():
+    path = _robosuite_grippers() / "bd_gripper.xml"
+    with pytest.raises(ValueError, match=r"'stator' is on body 'stator', which carries the other fingertip's body 'mover': a fixed jaw"):
+        scenarios.get("grasp", keys(path, ("stator", "mover"), ["arm_f1x"]), "fast")
+
+
+def test_robosuites_fourier_hand_with_its_unnamed_body_mounts():
+    """The hand's palm hangs from an unnamed body: named as the file is read, the scene builds
+    (it failed to compile on an exclusion naming ``gripper/``)."""
+    path = _robosuite_grippers() / "fourier_left_hand.xml"
+    tips = ("L_thumb_distal_link", "L_index_intermediate_link")
+    drives = ["L_thumb_distal_joint_drive", "L_thumb_proximal_pitch_joint_drive", "L_index_intermediate_joint_drive"]
+    sim = CoSimulation(config(keys(path, tips, drives)))
+    assert "gripper/body3" in {sim.model.body(b).name for b in range(sim.model.nbody)}
+
+
+def _gymnasium_robotics_assets() -> Path:
+    spec = importlib.util.find_spec("gymnasium_robotics")
+    if spec is None or not spec.submodule_search_locations:
+        pytest.skip("gymnasium-robotics is not installed (pip install -e .[hand])")
+    return Path(next(iter(spec.submodule_search_locations))) / "envs" / "assets"
+
+
+@pytest.mark.parametrize("robot", ["fetch", "kitchen"])
+def test_gymnasium_robotics_grippers_inside_whole_robots_mount_without_their_arms(robot):
+    """The Fetch (a mobile base, seven arm joints) and the Franka kitchen (an arm whose last joint
+    turns the link that carries both fingers; an include whose mesh folder the model sets again)
+    mount from under the arm's last joint, the pads' centre where the palm holds the house's:
+    whole, the Fetch's base moved under a massless palm (MuJoCo refused the scene), and read in
+    the file's frame its gripper hung 1.5 m off; the kitchen's meshes were not found."""
+    assets = _gymnasium_robotics_assets()
+    if robot == "fetch":
+        fingers = ("robot0:r_gripper_finger_link", "robot0:l_gripper_finger_link")
+        path, more = assets / "fetch" / "pick_and_place.xml", {"gripper.approach_axis": [1.0, 0.0, 0.0]}
+        overrides = keys(path, fingers, [f.replace("_link", "_joint") for f in fingers[::-1]], **more)
+    else:
+        fingers = ("panda0_leftfinger", "panda0_rightfinger")
+        path = assets / "kitchen_franka" / "kitchen_assets" / "kitchen_env_model.xml"
+        overrides = keys(path, fingers, ["r_gripper_finger_joint", "l_gripper_finger_joint"])
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # MuJoCo's attach conflict on the kitchen's user sizes
+        sim = CoSimulation(config(overrides))
+    expected = {"fetch": "robot0:gripper_link", "kitchen": "panda0_link7"}[robot]
+    assert gripper_parts(sim.config.gripper).top_body == expected
+    centre_z = 0.5 * sum(sim.data.site(f"{side}_pad_surface").xpos[2] for side in ("left", "right"))
+    palm_z = sim.data.body("palm").xpos[2]
+    assert centre_z - palm_z == pytest.approx(-PADS_BELOW_PALM_M, abs=1e-3)  # as the house's
 
 
 # -- Robotiq's 2F-85 (dm_robotics' vendored model: `pip install --no-deps dm-robotics-moma`) -----
