@@ -13,8 +13,8 @@ import mujoco
 from piezotip.cosim.config import ScenarioConfig
 from piezotip.sensor.gel import GelParams
 
-from .gripper_mount import mount_gripper
-from .scene import build_house_scene, finger_force_limit_n, gravity_m_s2
+from .gripper_mount import mount_gripper, widest_object_m
+from .scene import HOME_OPENING_M, build_house_scene, finger_force_limit_n, gravity_m_s2
 
 __all__ = ["GripperRanges", "build_scene", "gripper_ranges"]
 
@@ -39,6 +39,8 @@ class GripperRanges:
     opening_joint_range_m : the openings the fingers reach, (low, high), m.
     finger_force_limit_n : the fingers' force limit, N per finger.
     gravity_m_s2 : the magnitude of gravity, m/s^2.
+    widest_object_m : the widest object the gripper takes, m: its open pads less a clearance a
+        side (:func:`cosim.gripper_mount.widest_object_m`; the house's 85 mm).
     """
 
     lift_range_m: tuple[float, float]
@@ -46,6 +48,7 @@ class GripperRanges:
     opening_joint_range_m: tuple[float, float]
     finger_force_limit_n: float
     gravity_m_s2: float
+    widest_object_m: float
 
 
 def gripper_ranges(config: ScenarioConfig) -> GripperRanges:
@@ -57,7 +60,7 @@ def gripper_ranges(config: ScenarioConfig) -> GripperRanges:
         lift, drive = mounted.model.actuator("lift_actuator"), mounted.drive
         reach = (float(drive.path.opening_m[0]), drive.home_opening_m)
         ranges = (float(lift.ctrlrange[0]), float(lift.ctrlrange[1])), (0.0, drive.home_opening_m), reach
-        return GripperRanges(*ranges, drive.rating_n(), gravity_m_s2(mounted.model))
+        return GripperRanges(*ranges, drive.rating_n(), gravity_m_s2(mounted.model), widest_object_m(drive.home_opening_m))
     model = build_house_scene(config)
     lift, fingers = model.actuator("lift_actuator"), model.actuator("fingers_actuator")
     joints = [model.joint(f"{side}_finger_joint").range for side in ("left", "right")]
@@ -68,4 +71,5 @@ def gripper_ranges(config: ScenarioConfig) -> GripperRanges:
         (float(joints[0][0] + joints[1][0]), float(joints[0][1] + joints[1][1])),
         finger_force_limit_n(model),
         gravity_m_s2(model),
+        widest_object_m(HOME_OPENING_M),
     )

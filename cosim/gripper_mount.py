@@ -322,7 +322,7 @@ def mount_gripper(config: ScenarioConfig, gel: GelParams | None = None) -> Mount
         path, open_ctrl = _free_closing(model, parts, actuators, joints)  # the fingers as the servo moves them
     kv, kp = -model.actuator_biasprm[actuators, 2], -model.actuator_biasprm[actuators, 1]
     drive = GripperDrive(model, parts, path, joints, kv, kp)
-    widest = drive.home_opening_m - 2.0 * HOME_CLEARANCE_M
+    widest = widest_object_m(drive.home_opening_m)
     if config.object.size_m > widest:
         raise ValueError(
             f"object.size_m {config.object.size_m!r} m does not fit the gripper of gripper.mjcf {parts.path!r}: its pads open "
@@ -330,6 +330,12 @@ def mount_gripper(config: ScenarioConfig, gel: GelParams | None = None) -> Mount
         )
     pads = {f"{side}_pad": geometry.strip_names(side) for side in PAD_SIDES}
     return MountedGripper(model, parts, geometry, pads, drive, open_ctrl)
+
+
+def widest_object_m(home_opening_m: float) -> float:
+    """The widest object a gripper whose pads open ``home_opening_m`` (m) takes, m: HOME_CLEARANCE_M
+    left a side (the house's 90 mm takes 85 mm, ObjectConfig's widest)."""
+    return home_opening_m - 2.0 * HOME_CLEARANCE_M
 
 
 def _gripper_joints(model: mujoco.MjModel) -> list[int]:

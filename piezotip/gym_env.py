@@ -99,6 +99,21 @@ class ObjectRanges:
             ).validate()
         return self
 
+    def fitted(self, widest_m: float, given: bool) -> ObjectRanges:
+        """These ranges for a gripper that takes objects up to ``widest_m`` (m) wide
+        (:attr:`cosim.assembly.GripperRanges.widest_object_m`): the defaults (``given`` False) with
+        their sizes cut there; ranges the user gave (``given``) that reach past it are a
+        ValueError naming the size, not an episode's reset that fails on the object drawn."""
+        low, high = self.size_m
+        if high <= widest_m:
+            return self
+        if given or low > widest_m:
+            raise ValueError(
+                f"randomize_object: ObjectRanges.size_m {self.size_m!r} reaches past the widest object this gripper takes, "
+                f"{widest_m:.4g} m (its open pads less 2.5 mm a side)"
+            )
+        return dataclasses.replace(self, size_m=(low, widest_m))
+
 
 @dataclass(frozen=True)
 class RewardWeights:
@@ -259,7 +274,7 @@ class GraspEnv(gym.Env):
     | ``overrides`` | None | ``{"object.mass_kg": 0.4}`` or ``["object.mass_kg=0.4"]``, as ``--set`` |
     | ``preset`` | None | ``fast``, ``balanced``, ``accurate``, ``reference`` |
     | ``render_mode`` | None | None or ``"rgb_array"`` (the scene's ``grasp_camera``) |
-    | ``randomize_object`` | False | True (:class:`ObjectRanges`' defaults) or an ``ObjectRanges`` |
+    | ``randomize_object`` | False | True (:class:`ObjectRanges`' defaults, sizes cut to the gripper's) or an ``ObjectRanges`` |
     | ``reward`` | None | a :class:`RewardWeights` (None: the defaults) |
     | ``width``, ``height`` | 640, 480 | ``render()``'s image size, pixels (whole, 1 to 4096) |
 
@@ -312,6 +327,8 @@ class GraspEnv(gym.Env):
         from piezotip.cosim.assembly import gripper_ranges
 
         ranges = gripper_ranges(cfg)  # the house gripper's servos, or a mounted gripper's drive (gripper.mjcf)
+        if self.object_ranges is not None:  # objects a mounted gripper's narrower pads take (robosuite's Panda: 64 mm)
+            self.object_ranges = self.object_ranges.fitted(ranges.widest_object_m, isinstance(randomize_object, ObjectRanges))
         self.lift_range_m, self.opening_range_m = ranges.lift_range_m, ranges.opening_range_m
         self.finger_force_limit_n, self.gravity_m_s2 = ranges.finger_force_limit_n, ranges.gravity_m_s2
         n, m = len(self.pads), len(self.modes)
