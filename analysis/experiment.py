@@ -128,10 +128,25 @@ def gripper() -> tuple[float, float]:
     return finger_force_limit_n(model), gravity_m_s2(model)
 
 
-def feasible(obj, finger_force_limit_n: float | None = None, gravity_m_s2: float | None = None) -> tuple[bool, str]:
-    """Whether any controller could carry ``obj``: holding its weight needs m g / (2 mu) per
-    finger, which must fit under the fingers' force limit and the object's crush limit (the
-    limit and g default to the gripper model's: :func:`gripper`)."""
+def gripper_limits(config) -> tuple[float, float, float]:
+    """(the fingers' force limit, N per finger; gravity, m/s^2; the widest object its open pads
+    take, m) of ``config``'s gripper: the house's, or the one its ``gripper.*`` keys mount
+    (:func:`cosim.assembly.gripper_ranges`: robosuite's Panda is rated 20 N and takes 64 mm)."""
+    from piezotip.cosim.assembly import gripper_ranges
+
+    ranges = gripper_ranges(config)
+    return ranges.finger_force_limit_n, ranges.gravity_m_s2, ranges.widest_object_m
+
+
+def feasible(
+    obj, finger_force_limit_n: float | None = None, gravity_m_s2: float | None = None, widest_object_m: float | None = None
+) -> tuple[bool, str]:
+    """Whether any controller could carry ``obj``: it must fit between the open pads (where
+    ``widest_object_m``, m, is given), and holding its weight needs m g / (2 mu) per finger,
+    which must fit under the fingers' force limit and the object's crush limit (the limit and g
+    default to the gripper model's: :func:`gripper`)."""
+    if widest_object_m is not None and obj.size_m > widest_object_m:
+        return False, f"{1e3 * obj.size_m:.3g} mm wide, past the {1e3 * widest_object_m:.3g} mm the gripper's open pads take"
     if finger_force_limit_n is None or gravity_m_s2 is None:
         limit_n, g = gripper()
         finger_force_limit_n = limit_n if finger_force_limit_n is None else finger_force_limit_n
@@ -161,19 +176,25 @@ def experiment_points(objects=None, controllers=None, base_overrides: tuple[str,
     ]
 
 
-def experiment_row(row: dict) -> dict:
+def experiment_row(row: dict, limits: tuple[float, float, float] | None = None, planned=None) -> dict:
     """A sweep row as a row of the experiment's table (:data:`COLUMNS`), with the gripper's
-    feasibility for the object that was simulated (after every override)."""
+    feasibility for the object that was simulated (after every override; ``planned``, the
+    point's ObjectConfig, where the run raised before it said): the house gripper's, or
+    ``limits``' (:func:`gripper_limits`: a mounted gripper's).  An object wider than the
+    gripper's open pads, which the mount refuses (the sweep's ``error``), is ``does_not_fit``."""
     from piezotip.scenarios.config import ObjectConfig
 
-    ok, why_not = True, ""
+    ok, why_not, fits = True, "", True
+    simulated = planned
     if row.get("object_config"):
         simulated = ObjectConfig(**{k: row["object_config"][k] for k in ("shape", "mass_kg", "size_m", "friction", "crush_force_n")})
-        ok, why_not = feasible(simulated)
+    if simulated is not None:
+        ok, why_not = feasible(simulated, *(limits or ()))
+        fits = limits is None or simulated.size_m <= limits[2]
     return {
         "object": row["object"],
         "controller": row["controller"],
-        "outcome": row["outcome"],
+        "outcome": "does_not_fit" if not fits and row["outcome"] == "error" else row["outcome"],
         "reason": row["reason"] + (f" (infeasible: {why_not})" if not ok else ""),
         "success": row["success"],
         "feasible": ok,
@@ -205,13 +226,18 @@ def run_experiment(
     """Every (object, controller) on the sweep machinery (:func:`analysis.sweep.run_points`:
     Dask, resumable from ``out``); each run's files in ``out/runs/NN``.  The result's rows are
     the experiment's (:func:`experiment_row`), its ``skipped`` the runs found done in ``out``."""
+    from piezotip import scenarios
+
     from .sweep import run_points
 
     points = experiment_points(objects, controllers, base_overrides)
     result = run_points(
         "grasp", points, preset, out, workers, scheduler, progress, keep_runs=out is not None, desc="grasp-range", options=options
     )
-    return dataclasses.replace(result, rows=[experiment_row(r) for r in result.rows])
+    limits = gripper_limits(scenarios.get("grasp", list(base_overrides), preset))  # the gripper the runs had
+    planned = {point.values["object"]: point for point in points}  # an object's overrides are every controller's
+    objects_of = {name: scenarios.get("grasp", list(point.overrides), preset).object for name, point in planned.items()}
+    return dataclasses.replace(result, rows=[experiment_row(r, limits, objects_of.get(r["object"])) for r in result.rows])
 
 
 def experiment_provenance(preset: str | None = None, base_overrides: tuple[str, ...] = (), objects=None, controllers=None) -> dict:

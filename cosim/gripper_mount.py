@@ -334,8 +334,9 @@ def mount_gripper(config: ScenarioConfig, gel: GelParams | None = None) -> Mount
 
 def widest_object_m(home_opening_m: float) -> float:
     """The widest object a gripper whose pads open ``home_opening_m`` (m) takes, m: HOME_CLEARANCE_M
-    left a side (the house's 90 mm takes 85 mm, ObjectConfig's widest)."""
-    return home_opening_m - 2.0 * HOME_CLEARANCE_M
+    left a side (the house's 90 mm takes 85 mm, ObjectConfig's widest), to the nanometre (so
+    that 0.09 - 0.005 takes an object of 0.085)."""
+    return round(home_opening_m - 2.0 * HOME_CLEARANCE_M, 9)
 
 
 def _gripper_joints(model: mujoco.MjModel) -> list[int]:

@@ -112,3 +112,37 @@ def test_feasibility_reads_the_grippers_limits_from_its_model():
     assert not ok and f"{limit_n:.3g} N" in why
     # on the Moon the same object is light enough
     assert experiment.feasible(ObjectConfig(mass_kg=1.001 * just, friction=mu), gravity_m_s2=1.62)[0]
+
+
+def test_an_object_wider_than_a_mounted_grippers_open_pads_is_infeasible_and_does_not_fit():
+    """The mount refuses an object wider than the open pads take (the sweep's ``error``): the
+    experiment's row says ``does_not_fit``, infeasible, and the pass rule holds (the experiment
+    on robosuite's Panda, which takes 64 mm, failed its rule on the two 80 mm blocks' errors, and
+    judged feasibility by the house gripper's 100 N, not the Panda's 20 N)."""
+    from piezotip.analysis.sweep_rows import error_row
+    from piezotip.scenarios.config import ObjectConfig
+
+    block = ObjectConfig(mass_kg=1.0, size_m=0.08)
+    limits = (20.0, 9.81, 0.064)
+    ok, why = experiment.feasible(block, *limits)
+    assert not ok and why == "80 mm wide, past the 64 mm the gripper's open pads take"
+    assert experiment.feasible(ObjectConfig(mass_kg=1.0, size_m=0.064), *limits)[0]
+    assert not experiment.feasible(ObjectConfig(mass_kg=5.0, size_m=0.04, friction=1.0), *limits)[0]  # 24.5 N over its 20 N
+    refused = {**error_row("ValueError: object.size_m 0.08 m does not fit the gripper"), "object": "block", "controller": "gentle"}
+    row = experiment.experiment_row(refused, limits, block)
+    assert (row["outcome"], row["feasible"], row["success"]) == ("does_not_fit", False, False)
+    assert experiment.passes([row])
+    crashed = experiment.experiment_row(refused, limits, ObjectConfig(size_m=0.04))  # an error that is no refusal stays one
+    assert (crashed["outcome"], crashed["feasible"]) == ("error", True) and not experiment.passes([crashed])
+
+
+def test_the_experiment_on_a_mounted_gripper_judges_by_that_grippers_limits(tmp_path):
+    from test_third_party_grippers import keys, write_gripper
+
+    sets = tuple(f"{k}={v!r}" if isinstance(v, list) else f"{k}={v}" for k, v in keys(write_gripper(tmp_path)).items())
+    objects = [o for o in OBJECTS if o.name in ("box-100g", "block-10kg")]
+    result = experiment.run_experiment("fast", sets, objects=objects, controllers=[("gentle", ())], workers=1, progress=False)
+    rows = {r["object"]: r for r in result.rows}
+    assert rows["block-10kg"]["outcome"] == "does_not_fit" and not rows["block-10kg"]["feasible"]
+    assert "past the 67 mm the gripper's open pads take" in rows["block-10kg"]["reason"]
+    assert rows["box-100g"]["success"] and experiment.passes(result.rows)
