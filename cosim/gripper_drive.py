@@ -5,6 +5,7 @@ of a mount's jobs (:mod:`cosim.gripper_mount`)."""
 
 from __future__ import annotations
 
+import bisect
 import math
 from dataclasses import dataclass
 
@@ -117,6 +118,7 @@ class GripperDrive:
     ) -> None:
         self.actuators = [model.actuator(PREFIX + a.name).id for a in parts.actuators]
         self.force_max = np.array([a.force_max for a in parts.actuators])
+        self._force_max = self.force_max.tolist()
         self.ctrl_range = np.array([a.ctrl_range for a in parts.actuators])
         self._kp = np.asarray(kp, dtype=float)
         # The length each actuator's command holds at the closing end of its range: of the two
@@ -131,6 +133,9 @@ class GripperDrive:
         self._sites = [model.site(f"{side}_pad_surface").id for side in PAD_SIDES]
         self._grid = path.opening_m
         self._slopes = path.slopes()
+        self._lengths_at = PathTable(self._grid, path.lengths)
+        self._slopes_at = PathTable(self._grid, self._slopes)
+        self._static_at = PathTable(self._grid, path.static_force)
         self.home_opening_m = float(path.opening_m[-1])
         idle = [a.name for a, row in zip(parts.actuators, self._slopes, strict=True) if not np.abs(row).max() > 0]
         if idle:
@@ -138,6 +143,7 @@ class GripperDrive:
         speeds = path.joint_rates()  # joint speed per opening speed, (points, joints)
         dofs = [int(model.jnt_dofadr[j]) for j in joints]
         self.joint_damping_n_s_m = speeds**2 @ model.dof_damping[dofs]
+        self._damping_at = PathTable(self._grid, self.joint_damping_n_s_m)
         self.servo_damping_n_s_m = (np.asarray(kv)[:, None] * self._slopes**2).sum(axis=0)
         self.servo_stiffness_n_m = (np.maximum(np.asarray(kp, dtype=float), 0.0)[:, None] * self._slopes**2).sum(axis=0)
         self.friction_n = np.abs(speeds) @ model.dof_frictionloss[dofs]
@@ -146,7 +152,7 @@ class GripperDrive:
     def ctrl_for(self, opening_m: float) -> list[float]:
         """The actuators' commands for an opening target, m: those that hold the path's lengths
         there (a target past the path's ends commands its end), within their ranges."""
-        lengths = [float(np.interp(opening_m, self._grid, row)) for row in self.path.lengths]
+        lengths = self._lengths_at(opening_m)
         commands = [(v - o) * c for v, o, c in zip(lengths, self._length_offset, self._ctrl_per_length, strict=True)]
         return [min(max(v, lo), hi) for v, (lo, hi) in zip(commands, self.ctrl_range, strict=True)]
 
@@ -156,29 +162,30 @@ class GripperDrive:
         left, right = self._sites
         return float(data.site_xpos[right, 0] - data.site_xpos[left, 0])
 
-    def _at(self, table: np.ndarray, opening_m: float) -> np.ndarray:
-        return np.array([np.interp(opening_m, self._grid, row) for row in table])
-
     def grip_force_n(self, data: mujoco.MjData) -> float:
         """The squeeze of each finger by the drive, N (positive squeezes), from the actuators'
         forces less the free fingers' need (the class docstring): the robot's own sensing, as
         the house's fingers_actuator force."""
         opening = self.opening_m(data)
-        slopes = self._at(self._slopes, opening)
-        forces = data.actuator_force[self.actuators] - self._at(self.path.static_force, opening)
-        moving = np.abs(slopes) > 0
-        speed = float(np.mean(data.actuator_velocity[self.actuators][moving] / slopes[moving]))  # d opening / dt
-        damping = float(np.interp(opening, self._grid, self.joint_damping_n_s_m))
-        return float(-(forces @ slopes) + damping * speed)
+        slopes, static = self._slopes_at(opening), self._static_at(opening)
+        force, velocity = data.actuator_force, data.actuator_velocity
+        forces = [force[a] - s for a, s in zip(self.actuators, static, strict=True)]
+        rates = [velocity[a] / s for a, s in zip(self.actuators, slopes, strict=True) if abs(s) > 0]
+        # d opening / dt: their mean as np.mean takes it (add.reduce over the count), bit for bit
+        speed = float(np.add.reduce(np.array(rates)) / len(rates)) if rates else math.nan
+        damping = self._damping_at(opening)[0]
+        return float(-(np.array(forces) @ np.array(slopes)) + damping * speed)
 
     def force_limits(self, grip_n: float, opening_m: float) -> tuple[np.ndarray, np.ndarray]:
         """Each actuator's force range (low, high; its units) for a grip of ``grip_n`` per finger
         at the opening ``opening_m``: what the free fingers need there at rest, plus or minus
         the actuator's equal share of the grip, within its rating."""
-        slopes = np.abs(self._at(self._slopes, opening_m))
-        share = grip_n / (len(self.actuators) * np.maximum(slopes, 1e-12))
-        static = self._at(self.path.static_force, opening_m)
-        return np.clip(static - share, -self.force_max, self.force_max), np.clip(static + share, -self.force_max, self.force_max)
+        count, low, high = len(self.actuators), [], []
+        for slope, static, most in zip(self._slopes_at(opening_m), self._static_at(opening_m), self._force_max, strict=True):
+            share = grip_n / (count * max(abs(slope), 1e-12))
+            low.append(min(max(static - share, -most), most))
+            high.append(min(max(static + share, -most), most))
+        return np.array(low), np.array(high)
 
     def rating_n(self) -> float:
         """The grip the drive is rated for, N per finger: sum_a F_a |dl_a/do|, the least along
@@ -311,6 +318,38 @@ def _static_force(model: mujoco.MjModel, joints: list[int], grid: np.ndarray, le
         mujoco.mj_forward(model, data)
         need[k] = -speeds[k] @ (data.qfrc_passive[dofs] - data.qfrc_bias[dofs])
     return need / (len(lengths) * np.where(slopes == 0, np.inf, slopes))
+
+
+class PathTable:
+    """Rows of a drive's path table (shape (rows, points) on the path's openings), read at an
+    opening as ``np.interp(x, grid, row)`` reads each row, bit for bit (numpy's formula,
+    (y1 - y0) / (x1 - x0) * (x - x0) + y0 on the interval x0 <= x < x1, its other end where that
+    is NaN; the ends held past them), in Python floats: the drive reads its tables at the opening
+    several times a period, and numpy's per-call cost on a table of two rows was most of a
+    mounted gripper's Python (robosuite's Panda: 51 us a period, 20 us so; tests/
+    test_third_party_grippers.py::test_the_drives_tables_are_read_as_numpy_interpolates_them)."""
+
+    __slots__ = ("_grid", "_rows")
+
+    def __init__(self, grid: np.ndarray, table: np.ndarray) -> None:
+        self._grid = [float(g) for g in grid]
+        self._rows = [[float(v) for v in row] for row in np.atleast_2d(table)]
+
+    def __call__(self, x: float) -> list[float]:
+        """Each row at the opening ``x``, m."""
+        grid, x = self._grid, float(x)
+        if not x > grid[0]:  # at or below the first point (np.interp's left value), or NaN
+            return [row[0] if x <= grid[0] else math.nan for row in self._rows]
+        if not x < grid[-1]:
+            return [row[-1] for row in self._rows]
+        j = bisect.bisect_right(grid, x) - 1
+        x0, x1 = grid[j], grid[j + 1]
+        out = []
+        for row in self._rows:
+            slope = (row[j + 1] - row[j]) / (x1 - x0)
+            value = slope * (x - x0) + row[j]
+            out.append(value if value == value else slope * (x - x1) + row[j + 1])
+        return out
 
 
 def _fingers_touch(model: mujoco.MjModel, data: mujoco.MjData, fingers: list[set[int]]) -> bool:

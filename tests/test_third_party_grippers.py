@@ -186,6 +186,22 @@ def test_a_tall_object_is_taken_high_enough_for_the_palm_to_clear_it(tmp_path):
     assert mounted.grasp_height_m(config(keys(path))) == pytest.approx(0.02, abs=1e-9)
 
 
+def test_the_drives_tables_are_read_as_numpy_interpolates_them():
+    """The drive reads its path's tables at the opening in Python floats (PathTable), bit for bit
+    what np.interp gives each row: inside, on every point, at and past both ends, and NaN."""
+    from piezotip.cosim.gripper_drive import PathTable
+
+    rng = np.random.default_rng(7)
+    grid = np.linspace(0.012, 0.071, 201)
+    table = rng.normal(size=(3, grid.size)) * 10.0 ** rng.uniform(-6, 3, size=(3, 1))
+    read = PathTable(grid, table)
+    edges = [grid[0], grid[-1], np.nextafter(grid[0], 1.0), np.nextafter(grid[-1], 0.0), 0.0, 1.0]
+    for x in (*rng.uniform(0.0, 0.08, 2000), *grid, *edges):
+        assert np.array_equal(read(x), [np.interp(x, grid, row) for row in table]), x
+    assert all(math.isnan(v) for v in read(math.nan))
+    assert PathTable(grid, table[0])(0.03) == [np.interp(0.03, grid, table[0])]  # one row, given flat
+
+
 def test_the_drive_commands_and_reads_the_opening(tmp_path):
     """The drive's command for an opening is the servos' position that holds it, and the
     opening it reads is the distance between the unloaded pads' surfaces."""
