@@ -36,6 +36,7 @@ import_mujoco()
 from piezotip import controllers, scenarios  # noqa: E402
 from piezotip.analysis.referee import Criteria, judge  # noqa: E402
 from piezotip.cosim.control import Command, Observation, PadSignal, Phase, RobotLimits, make_command  # noqa: E402
+from piezotip.cosim.gripper_mount import HOME_CLEARANCE_M  # noqa: E402
 from piezotip.cosim.loop import CoSimulation, SimulationDiverged, make_controller  # noqa: E402
 from piezotip.cosim.rows import READOUT_STATUSES as STATUS_CODES  # noqa: E402
 from piezotip.scenarios.config import RATED_MASS_KG, ObjectConfig, ScenarioConfig  # noqa: E402
@@ -110,7 +111,7 @@ class ObjectRanges:
         if given or low > widest_m:
             raise ValueError(
                 f"randomize_object: ObjectRanges.size_m {self.size_m!r} reaches past the widest object this gripper takes, "
-                f"{widest_m:.4g} m (its open pads less 2.5 mm a side)"
+                f"{widest_m:.4g} m (its open pads less {1e3 * HOME_CLEARANCE_M:g} mm a side)"
             )
         return dataclasses.replace(self, size_m=(low, widest_m))
 
