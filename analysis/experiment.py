@@ -119,13 +119,12 @@ COLUMNS = (
 @functools.cache
 def gripper() -> tuple[float, float]:
     """(the fingers' force limit, N per finger; gravity, m/s^2) as the gripper's model has them
-    (one model for every object: the gripper does not change with what it grasps)."""
+    (one model for every object: the gripper does not change with what it grasps): the house
+    gripper's :func:`gripper_limits`."""
     from piezotip import scenarios
-    from piezotip.cosim.assembly import build_scene
-    from piezotip.cosim.scene import finger_force_limit_n, gravity_m_s2
 
-    model = build_scene(scenarios.get("grasp"))
-    return finger_force_limit_n(model), gravity_m_s2(model)
+    limit_n, gravity, _ = gripper_limits(scenarios.get("grasp"))
+    return limit_n, gravity
 
 
 def gripper_limits(config) -> tuple[float, float, float]:

@@ -131,11 +131,10 @@ class GripperDrive:
         self.path = path
         self.joint_qpos = [int(model.jnt_qposadr[j]) for j in joints]
         self._sites = [model.site(f"{side}_pad_surface").id for side in PAD_SIDES]
-        self._grid = path.opening_m
         self._slopes = path.slopes()
-        self._lengths_at = PathTable(self._grid, path.lengths)
-        self._slopes_at = PathTable(self._grid, self._slopes)
-        self._static_at = PathTable(self._grid, path.static_force)
+        self._lengths_at = PathTable(path.opening_m, path.lengths)
+        self._slopes_at = PathTable(path.opening_m, self._slopes)
+        self._static_at = PathTable(path.opening_m, path.static_force)
         self.home_opening_m = float(path.opening_m[-1])
         idle = [a.name for a, row in zip(parts.actuators, self._slopes, strict=True) if not np.abs(row).max() > 0]
         if idle:
@@ -143,7 +142,7 @@ class GripperDrive:
         speeds = path.joint_rates()  # joint speed per opening speed, (points, joints)
         dofs = [int(model.jnt_dofadr[j]) for j in joints]
         self.joint_damping_n_s_m = speeds**2 @ model.dof_damping[dofs]
-        self._damping_at = PathTable(self._grid, self.joint_damping_n_s_m)
+        self._damping_at = PathTable(path.opening_m, self.joint_damping_n_s_m)
         self.servo_damping_n_s_m = (np.asarray(kv)[:, None] * self._slopes**2).sum(axis=0)
         self.servo_stiffness_n_m = (np.maximum(np.asarray(kp, dtype=float), 0.0)[:, None] * self._slopes**2).sum(axis=0)
         self.friction_n = np.abs(speeds) @ model.dof_frictionloss[dofs]
