@@ -1219,6 +1219,18 @@ class GentleGrasp(MultimodeGrasp):
         pace = self.climb_pace
         self.climb_pace = min(self._pace_goal, pace + step) if pace < self._pace_goal else max(self._pace_goal, pace - step)
 
+    def _contact_lost(self) -> bool:
+        """Whether every pad reads nothing in the probe after the fingertips read the object in
+        it, on a drive with dry friction: its fingers, pressing light in their friction's band,
+        cannot close after an object narrowing above the contact as the pads slide up it (a
+        sphere, an egg), and the pads leave it.  The lift then waits (:meth:`_transfer`): climbing
+        on slides them further up a narrowing object, where the wedge needs more grip than
+        friction can give, while the probe's growing drive closes the fingers back on it: robosuite's
+        Rethink gripper lost a 16 mm, 28 g sphere 0.14 mm into its probe, climbed 2.8 mm more with
+        both pads empty, and closed over its top (tests/test_grip_on_fingertips.py::
+        test_a_probe_that_loses_the_contact_waits_for_the_fingers_to_close_back_on_it)."""
+        return self.grips_on_fingertips and self._seen_ref[1] > 0.0 and all(sel.empty for sel in self.selectors.values())
+
     def _fingertips_blind(self) -> bool:
         """Whether a pad's readout is settling this period (a ramping pressure, a switch's
         ring-up): it holds its last trusted estimate, which says nothing of the grip now."""
@@ -1266,7 +1278,8 @@ class GentleGrasp(MultimodeGrasp):
             return
         if window_full and self.grips_on_fingertips:
             self._pace_climb(obs.opening_m)
-        pace_m_s = self.climb_pace * c.probe_speed_m_s
+        lost = self._contact_lost()
+        pace_m_s = 0.0 if lost else self.climb_pace * c.probe_speed_m_s
         rising = window_full and lift.risen_m() >= 0.5 * pace_m_s * (lift.plateau_steps - 1) * dt_s
         growth_n_s = 0.0
         at_cap = False
@@ -1301,7 +1314,8 @@ class GentleGrasp(MultimodeGrasp):
         # friction measured so far (the highest expected until then): the lift keeps rising
         # while the pads slide, and the pads slide up the object at about the probe's pace, not
         # faster.
-        lift.climb(pace_m_s + 2.0 * self.friction * growth_n_s / self.robot.lift_kp_n_m, dt_s)
+        if not lost:
+            lift.climb(pace_m_s + 2.0 * self.friction * growth_n_s / self.robot.lift_kp_n_m, dt_s)
         if not rising:
             self._span = []  # held on the table: the load grows, the grip waits
             return
@@ -1736,6 +1750,7 @@ class GentleGrasp(MultimodeGrasp):
         self._felt_ref, self._felt_sigma_n = (obs.opening_m, felt_n), sigma_n
         self._read_in_carry = True
         off_n = grip_n - felt_n
+        edge_n = self._band_contact_n(obs, felt_n, opened_m, still_m)
         # within [1 - FEEL_TOLERANCE / 2, 1 + FEEL_TOLERANCE] of the grip (and 2 sigma): never
         # much under it, a margin over it for the fingers' momentum as a pull stops
         below, above = felt_tolerance_n(grip_n, sigma_n)
@@ -1772,7 +1787,7 @@ class GentleGrasp(MultimodeGrasp):
             # contact crept up to the grip in newtons, r x the grip to the element, after each
             # pull: robosuite's Panda held its egg at 1.85-1.95x its need at the accurate preset
             # (tests/test_grip_on_fingertips.py::test_past_its_tolerance_the_hold_lets_the_contact_creep_down_not_up_to_the_grip).
-            held_n = self._held_within_tolerance_n(grip_n, felt_n) if way <= 0 else max(grip_n, felt_n - self._friction_n)
+            held_n = self._held_within_tolerance_n(grip_n, felt_n, edge_n) if way <= 0 else max(grip_n, edge_n - self._friction_n)
             drive_n, self._moved_dir = held_n, 0
             if way < 0 and self._over_periods >= self.cfg.persist:
                 # Over the tolerance and held under it (by the tolerance's rule carried on),
@@ -1828,13 +1843,28 @@ class GentleGrasp(MultimodeGrasp):
             # test_a_grip_felt_too_hard_is_eased_down_by_pulling_open_only_after_it_persists,
             # ::test_the_pandas_light_box_is_held_on_its_fingertips_not_at_the_touchs_leftover).
             if self._moved_dir >= 0:
-                drive_n = max(grip_n, felt_n - self._friction_n)  # from the band's near edge (held above)
+                drive_n = max(grip_n, edge_n - self._friction_n)  # from the band's near edge (held above)
             drive_n -= 0.25 * FEEL_TOLERANCE * grip_n
             self._moved_dir = -1
             self._slip_watch_waits(t)  # a pressure pulled down is no slip
         return drive_n, paid_n
 
-    def _held_within_tolerance_n(self, grip_n: float, contact_n: float) -> float:
+    def _band_contact_n(self, obs: Observation, felt_n: float, opened_m: float, still_m: float) -> float:
+        """The contact the drive's friction band is about, N: the fingertips' reading ``felt_n``
+        (N), but no more than the drive's own force (``obs.grip_force_n``) and its friction F_f
+        unless the fingers open (``opened_m`` past ``still_m``, m): fingers at rest press with
+        their drive's force to within F_f, and closing ones with less.  The element reads a curved
+        patch's pressure over the whole pad, r times the contact (a sphere's r 1.25-1.8), and a
+        heavy grip's r - 1 is past 2 F_f: held at the band's near edge about the reading, felt - F_f,
+        the drive stood over the contact's far edge and the fingers closed on, into a higher reading
+        and a higher drive (robosuite's Panda held a 728 g, 39 mm egg from 5.4 N to 16.4 N, read
+        20.4 N, 4.3x its need, and crushed it; tests/test_grip_on_fingertips.py::
+        test_a_heavy_patch_read_high_is_not_closed_on_by_the_friction_bands_edge)."""
+        if opened_m > still_m:
+            return felt_n
+        return min(felt_n, obs.grip_force_n + self._friction_n)
+
+    def _held_within_tolerance_n(self, grip_n: float, contact_n: float, edge_n: float | None = None) -> float:
         """The drive's force (N) that holds a contact ``contact_n`` (N, the fingertips' reading or,
         blind, the joints' stand-in for it) within FEEL_TOLERANCE of the grip ``grip_n`` (N) or
         past it: the grip less the contact's excess over FEEL_TOLERANCE (zero at the
@@ -1848,7 +1878,7 @@ class GentleGrasp(MultimodeGrasp):
         contact went from 1.23x to 1.77x the need; tests/test_grip_on_fingertips.py::
         test_a_heavy_grip_read_a_little_light_is_crept_up_to_not_closed_on)."""
         raised_n = min(grip_n - (contact_n - grip_n) / FEEL_TOLERANCE, contact_n + self._friction_n)
-        return max(raised_n, contact_n - self._friction_n, 0.0)
+        return max(raised_n, (contact_n if edge_n is None else edge_n) - self._friction_n, 0.0)
 
     def _joint_contact_n(self, opening_m: float, felt_ref: tuple[float, float] | None = None) -> float:
         """The grip on the fingertips by the fingers' own joints, N: the grip last felt less the
