@@ -57,7 +57,6 @@ def controller(tmp_path):
 class _Obs:
     opening_m = 0.03
     lift_pos_m = -math.inf  # under where any object rested: a place there is landing
-    grip_force_n = math.inf  # the drive's reading, unmodelled: it bounds no contact (GentleGrasp._band_contact_n)
 
 
 class _At:
@@ -786,6 +785,7 @@ def test_a_grip_felt_far_over_is_held_at_the_friction_bands_near_edge(controller
     and the object rock off the pads."""
     controller._moved_dir = 1  # closing
     controller._held_opening_m = _Obs.opening_m + 1e-4  # and the fingers closed in the last period
+    controller._drive_n = 2.0 + 1.5 * controller.robot.finger_friction_n  # the drive that closed them, past the band
     limit_n, opening_m = _drive(controller, 2.0, 1.0)
     assert limit_n == pytest.approx(2.0 - controller.robot.finger_friction_n) and opening_m == controller.opening_target
 
@@ -803,7 +803,7 @@ def test_a_heavy_patch_read_high_is_not_closed_on_by_the_friction_bands_edge(con
     grip_n, contact_n = 5.0, 12.0
     assert over_read == 1.0 or (over_read - 1.0) * contact_n > 2.0 * friction_n  # the old edge past the far one
     drive_n, share, k_n_m = contact_n, 0.3, 2000.0  # the contact's stiffness on the opening
-    controller._held_opening_m = _Obs.opening_m
+    controller._held_opening_m, controller._drive_n = _Obs.opening_m, drive_n
     for _ in range(400):
         obs = _At(-(contact_n - 12.0) / k_n_m, drive_n)  # fingers that close press harder
         drive_n = _drive(controller, over_read * contact_n, grip_n, obs=obs)[0]
@@ -829,6 +829,7 @@ def test_a_blind_hold_is_not_closed_on_by_its_joints_stand_in(controller, over_r
     c._felt_ref = (_Obs.opening_m, over_read * contact_n)  # the last reading
     c._fingertips_grip_n, c._fingertips_blind = (lambda: None), (lambda: True)
     drive_n, share = contact_n, 0.3
+    c._drive_n = drive_n  # the drive that stands the fingers at this contact
     for i in range(400):
         obs = _At(-(contact_n - 8.0) / k_n_m, drive_n)  # fingers that close press harder
         drive_n = c._drive_for_grip(obs, 10.0 + i * c.dt_s, grip_n)[0]
@@ -846,8 +847,8 @@ def test_opening_fingers_are_held_at_the_band_about_the_reading(controller):
     friction_n = controller.robot.finger_friction_n
     grip_n, felt_n = 10.0, 10.0 * (1.0 + 0.5 * FEEL_TOLERANCE)  # within the tolerance, a heavy grip
     for opened_m, held_n in ((1e-4, felt_n - friction_n), (0.0, grip_n - (felt_n - grip_n) / FEEL_TOLERANCE)):
-        obs = _At(opened_m, 5.0)  # the drive reading 5 N
-        controller._held_opening_m = _Obs.opening_m
+        obs = _At(opened_m)
+        controller._held_opening_m, controller._drive_n = _Obs.opening_m, 5.0  # the drive at 5 N in the last period
         limit_n, _ = _drive(controller, felt_n, grip_n, obs=obs)
         assert limit_n == pytest.approx(held_n)
 

@@ -1724,7 +1724,7 @@ class GentleGrasp(MultimodeGrasp):
                 # a patch, and closing fingers raise their stand-in as they close, so held at the
                 # edge about it the drive closed them on, unread: robosuite's Panda raised an
                 # 889 g, 47 mm sphere's contact from 7.6 N to 20 N in the raise, blind.
-                drive_n = self._held_within_tolerance_n(grip_n, contact_n, self._band_contact_n(obs, contact_n, opened_m, still_m))
+                drive_n = self._held_within_tolerance_n(grip_n, contact_n, self._band_contact_n(contact_n, drive_n, opened_m, still_m))
                 self._slip_watch_waits(t)
             else:  # under the grip by the joints (or no reading yet in the carry): brought up to it
                 drive_n = max(drive_n, grip_n)
@@ -1755,7 +1755,7 @@ class GentleGrasp(MultimodeGrasp):
         self._felt_ref, self._felt_sigma_n = (obs.opening_m, felt_n), sigma_n
         self._read_in_carry = True
         off_n = grip_n - felt_n
-        edge_n = self._band_contact_n(obs, felt_n, opened_m, still_m)
+        edge_n = self._band_contact_n(felt_n, drive_n, opened_m, still_m)
         # within [1 - FEEL_TOLERANCE / 2, 1 + FEEL_TOLERANCE] of the grip (and 2 sigma): never
         # much under it, a margin over it for the fingers' momentum as a pull stops
         below, above = felt_tolerance_n(grip_n, sigma_n)
@@ -1854,20 +1854,25 @@ class GentleGrasp(MultimodeGrasp):
             self._slip_watch_waits(t)  # a pressure pulled down is no slip
         return drive_n, paid_n
 
-    def _band_contact_n(self, obs: Observation, felt_n: float, opened_m: float, still_m: float) -> float:
+    def _band_contact_n(self, felt_n: float, drive_n: float, opened_m: float, still_m: float) -> float:
         """The contact the drive's friction band is about, N: the fingertips' reading ``felt_n``
-        (N), but no more than the drive's own force (``obs.grip_force_n``) and its friction F_f
-        unless the fingers open (``opened_m`` past ``still_m``, m): fingers at rest press with
-        their drive's force to within F_f, and closing ones with less.  The element reads a curved
-        patch's pressure over the whole pad, r times the contact (a sphere's r 1.25-1.8), and a
-        heavy grip's r - 1 is past 2 F_f: held at the band's near edge about the reading, felt - F_f,
-        the drive stood over the contact's far edge and the fingers closed on, into a higher reading
-        and a higher drive (robosuite's Panda held a 728 g, 39 mm egg from 5.4 N to 16.4 N, read
-        20.4 N, 4.3x its need, and crushed it; tests/test_grip_on_fingertips.py::
-        test_a_heavy_patch_read_high_is_not_closed_on_by_the_friction_bands_edge)."""
+        (N, or the joints' stand-in for it), but no more than the drive's force of the last period
+        (``drive_n``, N) and its friction F_f unless the fingers open (``opened_m`` past
+        ``still_m``, m): fingers at rest press with their drive's force to within F_f, and closing
+        ones with less.  So the band's near edge never takes the drive over its last force: it is
+        there to keep a drive set far under the contact from throwing the fingers open, which a
+        drive that does not open them is not.  The element reads a curved patch's pressure over
+        the whole pad, r times the contact (a sphere's r 1.25-1.8), and a heavy grip's r - 1 is
+        past 2 F_f: held at the band's near edge about the reading, felt - F_f, the drive stood over
+        the contact's far edge and the fingers closed on, into a higher reading and a higher drive
+        (robosuite's Panda held a 728 g, 39 mm egg from 5.4 N to 16.4 N, read 20.4 N, 4.3x its
+        need, and crushed it; tests/test_grip_on_fingertips.py::
+        test_a_heavy_patch_read_high_is_not_closed_on_by_the_friction_bands_edge).  Bounded by the
+        drive's reading instead, which its damping takes from as the fingers move, the drive
+        followed its own reading down to nothing and dropped an 802 g egg."""
         if opened_m > still_m:
             return felt_n
-        return min(felt_n, obs.grip_force_n + self._friction_n)
+        return min(felt_n, drive_n + self._friction_n)
 
     def _held_within_tolerance_n(self, grip_n: float, contact_n: float, edge_n: float | None = None) -> float:
         """The drive's force (N) that holds a contact ``contact_n`` (N, the fingertips' reading or,
