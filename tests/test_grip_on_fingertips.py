@@ -328,16 +328,44 @@ def test_a_probe_blind_past_its_friction_over_a_steady_load_takes_its_friction_o
     assert c.grip_n == pytest.approx(grown_n - friction_n)  # blind past the window: F_f off, once
     blind(steps)
     assert c.grip_n == pytest.approx(grown_n - friction_n)
-    # within the band, or the load still following the grip: nothing taken off
-    for grip_n, growth in ((felt_n + 0.5 * friction_n, 0.0), (felt_n + 1.5 * friction_n, 0.05)):
+    # the load still following the grip (past the band or within it): nothing taken off
+    for grip_n in (felt_n + 0.5 * friction_n, felt_n + 1.5 * friction_n):
         for sel in c.selectors.values():
             sel.trusted, sel.status = True, "ok"
         lift.raw_load_n = 0.2
         for _ in range(steps):
             prober.period()
         c.grip_n = grip_n
-        blind(steps + 3, growth=growth)
-        assert c.grip_n >= grip_n, (grip_n, growth)
+        blind(steps + 3, growth=0.05)
+        assert c.grip_n >= grip_n, grip_n
+
+
+def test_a_probe_blind_within_its_band_over_a_steady_load_stops_the_contact_where_it_is(prober):
+    """Within the band, a drive over the contact draws it up by MuJoCo's soft friction's creep,
+    unread while the readouts settle on that ramp: robosuite's Rethink lifted a 19 g cylinder at
+    0.14 N and its contact crept on to 0.35 N, 2.6x its need, before the verdict.  Blind past the
+    window over a steady load (the object leaving the table), the pads seen to slide before, the
+    drive comes down once to the contact the joints say the fingers press: the last reading and the
+    pads' stiffness times the closing since."""
+    c, lift = prober.c, prober.c.lift
+    friction_n, steps = c.robot.finger_friction_n, lift.plateau_steps
+    felt_n = c._fingertips_grip_n()[0]
+    lift.raw_load_n = 0.2
+    for _ in range(steps):
+        prober.period()  # every pad reads: the load steady over the window
+    c._slid = True  # the pads were seen to slide (a contact carried before is let down instead)
+    c.grip_n = felt_n + 0.5 * friction_n  # within the band about the contact felt
+    for sel in c.selectors.values():
+        sel.trusted, sel.status = False, "settling"
+    for _ in range(steps):  # within a plateau window of the reading: grown on
+        prober.period()
+    assert c.grip_n > felt_n + 0.5 * friction_n
+    prober.period()  # blind past the window: down to the contact (the fingers have not moved: the reading)
+    assert c.grip_n == pytest.approx(felt_n)
+    c.grip_n = felt_n + 0.5 * friction_n
+    for _ in range(steps):
+        prober.period()
+    assert c.grip_n == felt_n + 0.5 * friction_n  # once a blind spell
 
 
 def _let_down(prober, loads, read_n=None, seen_n: float = 0.02, carried_from_n: float = 0.01, weight_n: float = 0.0098):
@@ -1722,3 +1750,29 @@ def test_a_heavy_egg_is_not_closed_on_by_its_patch_reading(gripper, mass_kg, siz
     result = piezotip.run("grasp", overrides=overrides, preset="balanced")
     assert result.outcome == "success", result.reason
     assert result.summary["peak_contact_n"] < crush_n and result.grip_margin <= 1.6
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(
+    ("shape", "mass_kg", "size_m", "friction", "crush_n"),
+    [("cylinder", 0.01922, 0.0382, 0.704, 0.324), ("box", 0.006514, 0.0245, 0.305, 0.226), ("egg", 0.01437, 0.0403, 0.789, 0.178)],
+)
+def test_the_rethinks_light_objects_are_not_crushed_by_the_probes_creep(shape, mass_kg, size_m, friction, crush_n):
+    """Light objects no test named (crushing at 2.1-2.4x their need) on robosuite's Rethink gripper:
+    lifted at about their need, their contact crept on toward the probe's drive while the readouts
+    settled on the ramp, and was 1.8-2.6x the need when the verdict read it: crushed.  The drive
+    now comes down to the contact the joints say as the load turns steady
+    (test_a_probe_blind_within_its_band_over_a_steady_load_stops_the_contact_where_it_is)."""
+    file, tips, actuators = ROBOSUITE["rethink"]
+    overrides = {
+        **keys(_robosuite_grippers() / file, tips, actuators),
+        "object.shape": shape,
+        "object.mass_kg": mass_kg,
+        "object.size_m": size_m,
+        "object.friction": friction,
+        "object.crush_force_n": crush_n,
+        "controller.kind": "gentle",
+    }
+    result = piezotip.run("grasp", overrides=overrides, preset="balanced")
+    assert result.outcome == "success", result.reason
+    assert result.grip_margin <= 1.5 and result.summary["peak_contact_n"] <= 1.5 * result.summary["needed_grip_n"]
