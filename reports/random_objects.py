@@ -142,6 +142,7 @@ def run_one(label: str, obj: dict, preset: str | None, controller: str = "gentle
     import piezotip
     from piezotip import scenarios
     from piezotip.analysis.experiment import feasible, gripper_limits
+    from piezotip.reports.gripper_tables import _number
 
     overrides = {**gripper_keys(label), **obj, "controller.kind": controller}
     row = {"gripper": label, "controller": controller, "preset": preset, **obj}
@@ -174,10 +175,6 @@ def run_one(label: str, obj: dict, preset: str | None, controller: str = "gentle
         wall_s=time.perf_counter() - start,
     )
     return row
-
-
-def _number(value) -> float | None:
-    return None if value is None or not math.isfinite(float(value)) else float(value)
 
 
 def protected(row: dict) -> bool:

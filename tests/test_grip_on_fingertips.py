@@ -1724,6 +1724,14 @@ def test_the_rethinks_raspberry_lost_in_its_probe_is_regained_where_it_was_lost(
     assert result.grip_margin <= 1.5
 
 
+def _robosuite_object_run(gripper: str, shape: str, mass_kg: float, size_m: float, friction: float, crush_n: float):
+    """The gentle grasp at `balanced` of an object no catalogue names on one of robosuite's grippers."""
+    file, tips, actuators = ROBOSUITE[gripper]
+    obj = {"object.shape": shape, "object.mass_kg": mass_kg, "object.size_m": size_m, "object.friction": friction}
+    overrides = {**keys(_robosuite_grippers() / file, tips, actuators), **obj, "object.crush_force_n": crush_n, "controller.kind": "gentle"}
+    return piezotip.run("grasp", overrides=overrides, preset="balanced")
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize(
     ("gripper", "mass_kg", "size_m", "friction", "crush_n"),
@@ -1737,17 +1745,7 @@ def test_a_heavy_egg_is_not_closed_on_by_its_patch_reading(gripper, mass_kg, siz
     took the 728 g egg from 5.4 N to 16.4 N in its hold, the Rethink the 475 g one to 12.6 N in
     its raise, both crushed.  Bounded by the drive's own force, neither is
     (GentleGrasp._band_contact_n)."""
-    file, tips, actuators = ROBOSUITE[gripper]
-    overrides = {
-        **keys(_robosuite_grippers() / file, tips, actuators),
-        "object.shape": "egg",
-        "object.mass_kg": mass_kg,
-        "object.size_m": size_m,
-        "object.friction": friction,
-        "object.crush_force_n": crush_n,
-        "controller.kind": "gentle",
-    }
-    result = piezotip.run("grasp", overrides=overrides, preset="balanced")
+    result = _robosuite_object_run(gripper, "egg", mass_kg, size_m, friction, crush_n)
     assert result.outcome == "success", result.reason
     assert result.summary["peak_contact_n"] < crush_n and result.grip_margin <= 1.6
 
@@ -1763,16 +1761,6 @@ def test_the_rethinks_light_objects_are_not_crushed_by_the_probes_creep(shape, m
     settled on the ramp, and was 1.8-2.6x the need when the verdict read it: crushed.  The drive
     now comes down to the contact the joints say as the load turns steady
     (test_a_probe_blind_within_its_band_over_a_steady_load_stops_the_contact_where_it_is)."""
-    file, tips, actuators = ROBOSUITE["rethink"]
-    overrides = {
-        **keys(_robosuite_grippers() / file, tips, actuators),
-        "object.shape": shape,
-        "object.mass_kg": mass_kg,
-        "object.size_m": size_m,
-        "object.friction": friction,
-        "object.crush_force_n": crush_n,
-        "controller.kind": "gentle",
-    }
-    result = piezotip.run("grasp", overrides=overrides, preset="balanced")
+    result = _robosuite_object_run("rethink", shape, mass_kg, size_m, friction, crush_n)
     assert result.outcome == "success", result.reason
     assert result.grip_margin <= 1.5 and result.summary["peak_contact_n"] <= 1.5 * result.summary["needed_grip_n"]
