@@ -30,8 +30,6 @@ import argparse
 import json
 import math
 import sys
-import time
-import warnings
 from pathlib import Path
 
 import numpy as np
@@ -137,44 +135,29 @@ def gripper_keys(label: str) -> dict:
 
 
 def run_one(label: str, obj: dict, preset: str | None, controller: str = "gentle") -> dict:
-    """Grasp ``obj`` (``object.*`` keys) with gripper ``label``: the row the table reads (an
-    object the gripper's rating or open pads cannot take: outcome ``infeasible``)."""
-    import piezotip
+    """Grasp ``obj`` (``object.*`` keys) with gripper ``label``: the row the table reads, as the
+    gripper tables make one (:func:`gripper_tables.one`), with the object's keys (an object the
+    gripper's rating or open pads cannot take: outcome ``infeasible``, not run)."""
     from piezotip import scenarios
     from piezotip.analysis.experiment import feasible, gripper_limits
-    from piezotip.reports.gripper_tables import _number
+    from piezotip.reports.gripper_tables import one
 
-    overrides = {**gripper_keys(label), **obj, "controller.kind": controller}
-    row = {"gripper": label, "controller": controller, "preset": preset, **obj}
-    config = scenarios.get("grasp", {k: v for k, v in overrides.items() if k.startswith("gripper.")}, preset)
-    limit_n, gravity, widest_m = gripper_limits(config)
-    candidate = scenarios.ObjectConfig(
-        shape=obj["object.shape"],
-        mass_kg=obj["object.mass_kg"],
-        size_m=obj["object.size_m"],
-        friction=obj["object.friction"],
-        crush_force_n=obj["object.crush_force_n"],
-    )
+    keys = gripper_keys(label)
+    limit_n, gravity, widest_m = gripper_limits(scenarios.get("grasp", keys, preset))
+    candidate = scenarios.ObjectConfig(**{key.removeprefix("object."): value for key, value in obj.items()})
     ok, why = feasible(candidate, limit_n, gravity, widest_m)
     if not ok:
-        row.update(outcome="infeasible", reason=why)
-        return row
-    start = time.perf_counter()
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        result = piezotip.run("grasp", overrides=overrides, preset=preset)
-    s = result.summary
-    row.update(
-        outcome=result.outcome,
-        reason=result.reason,
-        grip_margin=_number(s.get("grip_margin")),
-        needed_grip_n=_number(s.get("needed_grip_n")),
-        peak_contact_n=_number(s.get("peak_contact_n")),
-        touch_peak_n=_number(s.get("touch_peak_n")),
-        sim_time_s=_number(s.get("sim_time_s")),
-        wall_s=time.perf_counter() - start,
-    )
-    return row
+        return {"gripper": label, "controller": controller, "preset": preset, **obj, "outcome": "infeasible", "reason": why}
+    run = {
+        "gripper": label,
+        "object": "random",
+        "controller": controller,
+        "scenario": "grasp",
+        "friction_x": 1.0,
+        "mass_x": 1.0,
+        "overrides": {**keys, **obj, "controller.kind": controller},
+    }
+    return {**one(run, preset), **obj}
 
 
 def protected(row: dict) -> bool:

@@ -1231,6 +1231,13 @@ class GentleGrasp(MultimodeGrasp):
         test_a_probe_that_loses_the_contact_waits_for_the_fingers_to_close_back_on_it)."""
         return self.grips_on_fingertips and self._seen_ref[1] > 0.0 and all(sel.empty for sel in self.selectors.values())
 
+    def _window_carries_steady_load(self) -> bool:
+        """Whether the lift's plateau window carries a load past the least it reads, and steady
+        (:func:`load_is_steady`): the object is leaving the table, not sliding in the pads."""
+        lift = self.lift
+        loads = [entry[2] for entry in lift.window]
+        return lift.window_load_n() > self.robot.min_load_n and load_is_steady(loads, self.steady_load_fraction)
+
     def _fingertips_blind(self) -> bool:
         """Whether a pad's readout is settling this period (a ramping pressure, a switch's
         ring-up): it holds its last trusted estimate, which says nothing of the grip now."""
@@ -1305,8 +1312,7 @@ class GentleGrasp(MultimodeGrasp):
             # glass jar's probe outlasted the scenario), and not down to the last reading, a
             # window old (the Panda's 500 g can, carried from 2.1 N by then, fell back)
             # (tests/test_grip_on_fingertips.py::test_a_probe_blind_past_its_friction_over_a_steady_load_takes_its_friction_off_the_drive).
-            loads = [entry[2] for entry in lift.window]
-            if lift.window_load_n() > self.robot.min_load_n and load_is_steady(loads, self.steady_load_fraction):
+            if self._window_carries_steady_load():
                 self._blind_eased = True
                 self.grip_n -= self._friction_n
         elif rising and self.grips_on_fingertips and not self._blind_eased and math.isfinite(self._seen_ref[0]):
@@ -1324,10 +1330,8 @@ class GentleGrasp(MultimodeGrasp):
             # reckoning (a full face's stiffness, the stiffest) robosuite's Panda's 1 g tissue box
             # was let down from too little, read over its bound and held at 1.57x its need (1.05x
             # at another noise seed); a drive near the contact draws it up by little.
-            loads = [entry[2] for entry in lift.window]
             contact_n = max(self.grip_floor_n, self._joint_contact_n(obs.opening_m, self._seen_ref))
-            steady = lift.window_load_n() > self.robot.min_load_n and load_is_steady(loads, self.steady_load_fraction)
-            if steady and self._slid and self.grip_n > self.cfg.grip_safety * contact_n:
+            if self._slid and self.grip_n > self.cfg.grip_safety * contact_n and self._window_carries_steady_load():
                 self._blind_eased = True
                 self.grip_n = contact_n
         # The goal rises at the probe's pace (slowed where the contact fades: _pace_climb), plus
@@ -1784,7 +1788,6 @@ class GentleGrasp(MultimodeGrasp):
         self._felt_ref, self._felt_sigma_n = (obs.opening_m, felt_n), sigma_n
         self._read_in_carry = True
         off_n = grip_n - felt_n
-        edge_n = felt_n
         # within [1 - FEEL_TOLERANCE / 2, 1 + FEEL_TOLERANCE] of the grip (and 2 sigma): never
         # much under it, a margin over it for the fingers' momentum as a pull stops
         below, above = felt_tolerance_n(grip_n, sigma_n)
@@ -1821,7 +1824,7 @@ class GentleGrasp(MultimodeGrasp):
             # contact crept up to the grip in newtons, r x the grip to the element, after each
             # pull: robosuite's Panda held its egg at 1.85-1.95x its need at the accurate preset
             # (tests/test_grip_on_fingertips.py::test_past_its_tolerance_the_hold_lets_the_contact_creep_down_not_up_to_the_grip).
-            held_n = self._held_within_tolerance_n(grip_n, felt_n, edge_n) if way <= 0 else max(grip_n, edge_n - self._friction_n)
+            held_n = self._held_within_tolerance_n(grip_n, felt_n) if way <= 0 else max(grip_n, felt_n - self._friction_n)
             drive_n, self._moved_dir = held_n, 0
             if way < 0 and self._over_periods >= self.cfg.persist:
                 # Over the tolerance and held under it (by the tolerance's rule carried on),
@@ -1877,7 +1880,7 @@ class GentleGrasp(MultimodeGrasp):
             # test_a_grip_felt_too_hard_is_eased_down_by_pulling_open_only_after_it_persists,
             # ::test_the_pandas_light_box_is_held_on_its_fingertips_not_at_the_touchs_leftover).
             if self._moved_dir >= 0:
-                drive_n = max(grip_n, edge_n - self._friction_n)  # from the band's near edge (held above)
+                drive_n = max(grip_n, felt_n - self._friction_n)  # from the band's near edge (held above)
             drive_n -= 0.25 * FEEL_TOLERANCE * grip_n
             self._moved_dir = -1
             self._slip_watch_waits(t)  # a pressure pulled down is no slip
