@@ -23,6 +23,7 @@ from piezotip.cosim.control.gentle import (
     FLAG_PERIODS,
     TOUCH_FLOORS,
     approach_pace_m_s,
+    flagged_touch_force_n,
     flagged_touch_speed_m_s,
     landing_speed_m_s,
     pad_contact_stiffness_n_m,
@@ -94,6 +95,16 @@ def test_the_flagged_touch_speed_keeps_the_force_at_the_flag_and_the_reaction_wi
     assert flagged_touch_speed_m_s(2.0 * bound, floor, k, t_react, latency, top) > v
     with pytest.raises(ValueError, match="touch_force_n"):
         flagged_touch_speed_m_s(floor, floor, k, t_react, latency, top)
+
+
+def test_the_flagged_touchs_force_is_the_flags_or_the_floors_plus_the_reaction():
+    """F(v) = max(F_floor, k v t_d(v)) + k v t_react: with a constant latency, the closed form on
+    either side of the floor; it rises with the speed."""
+    k, t_react, floor = 768.0, 0.010, 0.00395
+    assert flagged_touch_force_n(1e-3, floor, k, t_react, lambda v: 0.03) == pytest.approx(k * 1e-3 * 0.04, rel=1e-12)
+    assert flagged_touch_force_n(1e-4, floor, k, t_react, lambda v: 0.03) == pytest.approx(floor + k * 1e-4 * 0.01, rel=1e-12)
+    forces = [flagged_touch_force_n(v, floor, k, t_react, lambda v: 0.0131 * (v / 1.03e-3) ** -0.4) for v in (1e-4, 1e-3, 1e-2)]
+    assert forces == sorted(forces)
 
 
 def test_the_pace_is_fast_far_from_the_band_and_the_touch_speed_inside_it():
@@ -244,6 +255,14 @@ def test_a_friction_drive_with_a_lagging_readout_plans_its_touch_on_the_readouts
     assert house.touch_flag_latency_s is None
     by_default = CoSimulation(scenarios.get("grasp", _panda(), "balanced")).controller  # the floor's plan
     assert by_default.touch_flag_latency_s is None and by_default.touch_speed_m_s == fast.touch_speed_m_s
+    # ...which says what it costs: at least the touch the flags would tell at that speed, past the bound
+    v0 = by_default.touch_speed_m_s
+    t_d0 = touch_flag_latency_s(v0, k, c.robot.pad_area_m2, c.selectors[c.pads[0]].fingertip, c.dt_s) + (FLAG_PERIODS - 1) * c.dt_s
+    expected = max(c.grip_floor_n, k * v0 * t_d0) + k * v0 * c.touch_reaction_s
+    assert by_default.touch_expected_n == pytest.approx(expected, rel=1e-9) and expected > by_default.touch_force_n
+    plan = by_default.events[0].message
+    assert f"{expected:.3g} N or more, over its bound" in plan and f"closing at {v * 1e3:.3g} mm/s" in plan
+    assert c.touch_expected_n is fast.touch_expected_n is house.touch_expected_n is None  # they keep it
 
 
 def _cues(c, *statuses: str) -> tuple[list[bool], str]:
@@ -300,6 +319,20 @@ def test_the_pandas_tissue_box_is_touched_within_the_bound_at_the_balanced_prese
     assert impact_n(result.data) <= bound
     assert result.outcome == "success", result.reason
     assert result.grip_margin <= 1.5
+
+
+@pytest.mark.slow
+def test_the_pandas_plan_says_the_touch_it_cannot_keep_without_the_flags():
+    """Without ``controller.touch_on_flags`` the Panda's touch at `balanced` passes its bound, and
+    its plan says by about how much: the force the flags would tell at that speed, a lower bound
+    (its CUSUM alarms later still: 26 mN said, 32 mN measured)."""
+    from test_grip_on_fingertips import _catalogue
+
+    overrides = _panda(**_catalogue("tissue-box-1g"), **{"controller.kind": "gentle"})
+    c = CoSimulation(scenarios.get("grasp", overrides, "balanced")).controller
+    result = piezotip.run("grasp", overrides=overrides, preset="balanced")
+    assert c.touch_force_n < c.touch_expected_n <= impact_n(result.data) <= 1.5 * c.touch_expected_n
+    assert result.events[0]["message"] == c.events[0].message
 
 
 def test_the_fingers_speed_up_is_not_a_touch_at_the_fast_presets_steady_readout():

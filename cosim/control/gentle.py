@@ -176,6 +176,18 @@ def touch_flag_latency_s(
     return change_detection_s(mu_rate_per_s, fingertip.envelope_time_constant_s(), fingertip.sigma(mode), reading_period_s)
 
 
+def flagged_touch_force_n(
+    speed_m_s: float, detected_n: float, stiffness_n_m: float, reaction_s: float, latency_s: Callable[[float], float]
+) -> float:
+    """The finger force a touch that only the readout's change test tells reaches, N: the fingers
+    closing at ``speed_m_s`` (m/s of opening) into pads of contact stiffness ``stiffness_n_m``
+    (N/m), flagged ``latency_s(v)`` after contact (s: :func:`touch_flag_latency_s`), at least at
+    ``detected_n`` (N: the grip floor), and pressing on for ``reaction_s`` (s:
+    :func:`touch_reaction_s`) after it: F(v) = max(F_detected, k v t_d(v)) + k v t_react
+    (:func:`flagged_touch_speed_m_s`)."""
+    return max(detected_n, stiffness_n_m * speed_m_s * latency_s(speed_m_s)) + stiffness_n_m * speed_m_s * reaction_s
+
+
 def flagged_touch_speed_m_s(
     touch_force_n: float, detected_n: float, stiffness_n_m: float, reaction_s: float, latency_s: Callable[[float], float], top_m_s: float
 ) -> float:
@@ -197,7 +209,7 @@ def flagged_touch_speed_m_s(
         raise ValueError(f"touch_force_n {touch_force_n!r} N must exceed the force the touch is detected at, {detected_n!r} N")
 
     def excess_n(speed: float) -> float:
-        return max(detected_n, stiffness_n_m * speed * latency_s(speed)) + stiffness_n_m * speed * reaction_s - touch_force_n
+        return flagged_touch_force_n(speed, detected_n, stiffness_n_m, reaction_s, latency_s) - touch_force_n
 
     if excess_n(top_m_s) <= 0.0:
         return top_m_s
@@ -944,21 +956,38 @@ class GentleGrasp(MultimodeGrasp):
         #: the touch is planned for detection at the floor.
         self.touch_flag_latency_s: float | None = None
         self._flagged_periods: dict[str, int] = {}  # each pad's readings in a row flagged "settling" (_touch_cues)
-        if c.touch_on_flags and readout_dynamics != "steady" and robot.finger_friction_n > 0.0:
+        #: The touch the plan expects past its bound, N, where neither the joints (their dry
+        #: friction) nor a readout that lags (the envelope readouts) tell it at the floor and the
+        #: fingers do not stop on the flags: at least what a touch flagged by the change test
+        #: reaches at the touch speed (the CUSUM alarms later still); None where it keeps its bound.
+        self.touch_expected_n: float | None = None
+        flagged_speed_m_s: float | None = None
+        if readout_dynamics != "steady" and robot.finger_friction_n > 0.0:
             k, area = self.contact_stiffness_n_m, robot.pad_area_m2
 
             def latency_s(speed_m_s: float) -> float:  # to the flag's FLAG_PERIODS-th reading
                 return touch_flag_latency_s(speed_m_s, k, area, fingertip, self.dt_s) + (FLAG_PERIODS - 1) * self.dt_s
 
-            self.touch_speed_m_s = flagged_touch_speed_m_s(bound, floor, k, self.touch_reaction_s, latency_s, c.closing_speed_m_s)
-            self.touch_flag_latency_s = latency_s(self.touch_speed_m_s)
+            flagged_speed_m_s = flagged_touch_speed_m_s(bound, floor, k, self.touch_reaction_s, latency_s, c.closing_speed_m_s)
+            if c.touch_on_flags:
+                self.touch_speed_m_s = flagged_speed_m_s
+                self.touch_flag_latency_s = latency_s(self.touch_speed_m_s)
+            else:
+                expected = flagged_touch_force_n(self.touch_speed_m_s, floor, k, self.touch_reaction_s, latency_s)
+                self.touch_expected_n = expected if expected > bound else None
         #: The camera's width and sigma, m (``perception.*``), or None: no prior.
         self.width_prior_m = width_prior_m
         #: The opening from which the fingers close at the touch speed, m: the camera's width
         #: plus ``touch_band_sigmas`` of its sigma; without a camera, from the open fingers on.
         self.slow_from_m = math.inf if width_prior_m is None else width_prior_m[0] + c.touch_band_sigmas * width_prior_m[1]
         detected = f"detected at {floor:.3g} N"
-        if self.touch_flag_latency_s is not None:
+        if self.touch_expected_n is not None:
+            detected = (
+                f"but its joints' {robot.finger_friction_n:.3g} N of dry friction hides it and its readouts lag: it reaches "
+                f"{self.touch_expected_n:.3g} N or more, over its bound (controller.touch_on_flags: within it, closing at "
+                f"{flagged_speed_m_s * 1e3:.3g} mm/s)"
+            )
+        elif self.touch_flag_latency_s is not None:
             flag_n = max(floor, self.contact_stiffness_n_m * self.touch_speed_m_s * self.touch_flag_latency_s)
             detected = f"flagged by the readouts {self.touch_flag_latency_s * 1e3:.3g} ms after contact, at {flag_n:.3g} N"
         if width_prior_m is None:
