@@ -125,7 +125,10 @@ class GripperDrive:
         # ends, the one past the path's home length toward its closed end.
         held = np.array([[a.length_offset + a.length_per_ctrl * c for c in a.ctrl_range] for a in parts.actuators])
         closing = np.sign(path.lengths[:, 0] - path.lengths[:, -1])[:, None]
-        self._closed_length = held[np.arange(len(held)), np.argmax(closing * (held - path.lengths[:, -1:]), axis=1)]
+        closed_end = np.argmax(closing * (held - path.lengths[:, -1:]), axis=1)
+        self._closed_length = held[np.arange(len(held)), closed_end]
+        #: The commands that close the fingers as far as their servos go (each range's closing end).
+        self.closed_ctrl = [float(self.ctrl_range[a, end]) for a, end in enumerate(closed_end)]
         self._ctrl_per_length = [1.0 / a.length_per_ctrl for a in parts.actuators]
         self._length_offset = [a.length_offset for a in parts.actuators]
         self.path = path
@@ -133,6 +136,12 @@ class GripperDrive:
         self._sites = [model.site(f"{side}_pad_surface").id for side in PAD_SIDES]
         self._slopes = path.slopes()
         self._lengths_at = PathTable(path.opening_m, path.lengths)
+        # what the command that holds the pads touching presses with along the path (reach_n's, to there)
+        touching = self._lengths_at(0.0)
+        kp_now = np.maximum(np.asarray(kp, dtype=float), 0.0)[:, None]
+        touching_reach = np.abs(path.lengths - np.asarray(touching)[:, None]) * kp_now
+        touching_reach = np.where(kp_now > 0.0, np.minimum(self.force_max[:, None], touching_reach), self.force_max[:, None])
+        self._touching_reach_at = PathTable(path.opening_m, ((touching_reach * np.abs(path.slopes())).sum(axis=0))[None, :])
         self._slopes_at = PathTable(path.opening_m, self._slopes)
         self._static_at = PathTable(path.opening_m, path.static_force)
         self.home_opening_m = float(path.opening_m[-1])
@@ -148,9 +157,21 @@ class GripperDrive:
         self.friction_n = np.abs(speeds) @ model.dof_frictionloss[dofs]
         self.mass_kg, self.lift_coupling_kg = opening_inertia_kg(model, path, joints)
 
-    def ctrl_for(self, opening_m: float) -> list[float]:
+    def ctrl_for(self, opening_m: float, grip_n: float = 0.0, now_m: float = math.inf) -> list[float]:
         """The actuators' commands for an opening target, m: those that hold the path's lengths
-        there (a target past the path's ends commands its end), within their ranges."""
+        there (a target past the path's ends commands its end), within their ranges; but a
+        target at the pads touching or past them (an opening of 0 or less: the controllers'
+        "close, within the force limit") for a grip of ``grip_n`` (N per finger) more than the
+        command that holds the pads touching presses with at the opening now (``now_m``, m)
+        commands the servos' closed end (:attr:`closed_ctrl`).  Held to the pads touching, a
+        position servo presses an object with kp times the stroke to there, less than its range
+        reaches (:meth:`reach_n`): robosuite's Panda (kp 1000 N/m) stopped at 9.5 N a finger on a
+        24 mm cylinder its range reaches 15 N on (tests/test_third_party_grippers.py::
+        test_a_servo_closing_on_an_object_is_commanded_to_its_ranges_closed_end).  Only past
+        that grip: the servo presses there with its force limit either way, and a lighter grip's
+        commands stay those of the fingers' touch (the catalogue's runs the same)."""
+        if opening_m <= 0.0 and grip_n > self._touching_reach_at(now_m)[0]:
+            return list(self.closed_ctrl)
         lengths = self._lengths_at(opening_m)
         commands = [(v - o) * c for v, o, c in zip(lengths, self._length_offset, self._ctrl_per_length, strict=True)]
         return [min(max(v, lo), hi) for v, (lo, hi) in zip(commands, self.ctrl_range, strict=True)]

@@ -1294,3 +1294,55 @@ def test_the_record_reads_a_fingers_tilt_off_its_normal_forces_resultant_not_its
     recorded = [result.data[f"{side}_contact_tilt_rad"][at] for side in ("left", "right")]
     assert recorded == pytest.approx(resultant, abs=math.radians(0.05))
     assert result.summary["grip_margin"] <= 1.5
+
+
+def test_a_servo_closing_on_an_object_is_commanded_to_its_ranges_closed_end():
+    """A closing target at the pads touching or past them (the controllers' "close, within the
+    force limit"), for a grip more than holding the pads touching presses with, commands each
+    servo's range's closing end: robosuite's Panda (kp 1000 N/m, its closed command 0 holding its joints 3 mm
+    past where its fingers meet) pressed a 24 mm cylinder with 9.5 N a finger, commanded to hold
+    its pads touching, where its range reaches 15 N.  Closed on the cylinder at the command the mount
+    gives a target of 0, the drive's own grip reading is the reach its table says at the
+    opening it comes to, and past what the path's end command gives."""
+    file, tips, actuators = ROBOSUITE["panda"]
+    overrides = keys(_robosuite_grippers() / file, tips, actuators)
+    overrides.update({"object.shape": "cylinder", "object.size_m": 0.024, "object.mass_kg": 1.0, "object.friction": 0.5})
+    cfg = config(overrides)
+    mounted = mount_gripper(cfg)
+    drive = mounted.drive
+    touching = drive.ctrl_for(0.0)  # a light grip: the command that holds the pads touching
+    assert touching == drive.ctrl_for(0.0, 1.0, 0.024) and abs(touching[0]) > 0.005  # 5.5 mm short of the closed one
+    closed = drive.ctrl_for(0.0, 15.0, 0.024)  # more than that command presses with at 24 mm (12 N): the closed end
+    assert closed == drive.ctrl_for(-0.01, 15.0, 0.024) == drive.closed_ctrl == [0.0, 0.0]  # the ranges' closing ends
+    grips = []
+    for ctrl in (closed, touching):
+        data = mujoco.MjData(mounted.model)
+        limits = mounted.robot_limits(mounted.reset_home(data, cfg))
+        data.ctrl[drive.actuators] = ctrl
+        for _ in range(round(1.5 / mounted.model.opt.timestep)):
+            mujoco.mj_step(mounted.model, data)
+        grips.append((drive.opening_m(data), drive.grip_force_n(data)))
+    (opening, grip_n), (_, short_n) = grips
+    # within the drive's 1 N of dry friction (standing still, it takes up to that either way)
+    assert grip_n == pytest.approx(limits.finger_force_limit_at_n(opening), abs=limits.finger_friction_n)
+    assert grip_n > short_n + 2.0
+
+
+def test_a_grip_given_up_at_the_drives_reach_says_the_reach_where_the_fingers_came_to():
+    """A 1.36 kg, 24 mm cylinder at friction 0.46 needs 14.5 N a finger; robosuite's Panda reaches
+    17.5 N at its width, but its pads, pressed into it, close the fingers on and its servo's reach
+    falls with the stroke left: the grasp is given up at what the drive reaches where the fingers
+    came to, and says so, not "at the gripper's limit" of the touch's width."""
+    file, tips, actuators = ROBOSUITE["panda"]
+    overrides = keys(_robosuite_grippers() / file, tips, actuators)
+    overrides.update({"object.shape": "cylinder", "object.size_m": 0.024, "object.mass_kg": 1.36, "object.friction": 0.46})
+    overrides.update({"object.crush_force_n": 1000.0, "controller.kind": "gentle"})
+    robot = CoSimulation(config(overrides)).robot
+    result = piezotip.run("grasp", overrides=overrides, preset="fast")
+    assert result.outcome == "never_lifted"
+    said = re.search(r"what the drive reaches at this ([0-9.]+) mm opening, ([0-9.]+) N", result.reason)
+    assert said, result.reason
+    opening_mm, reach_n = float(said[1]), float(said[2])
+    assert opening_mm < 23.0 and reach_n == pytest.approx(robot.finger_force_limit_at_n(opening_mm * 1e-3), rel=0.01)
+    assert reach_n < robot.finger_force_limit_at_n(0.024)
+    assert result.summary["peak_contact_n"] == pytest.approx(reach_n, rel=0.1)  # what the pads got

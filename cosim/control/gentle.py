@@ -1327,7 +1327,7 @@ class GentleGrasp(MultimodeGrasp):
             elif sees and self._span:
                 at_cap = True  # the grip can grow no more: the span as it is decides (below)
             else:
-                self._pads_slide_at_cap(t, lift.raw_load_n)
+                self._pads_slide_at_cap(t, lift.raw_load_n, obs.opening_m)
                 return
         elif rising and self.grips_on_fingertips and not self._blind_eased and self.grip_n - self._friction_n > self._felt_seen_n:
             # Blind past the window, the growth stops, but a drive past its friction band's far
@@ -1396,7 +1396,7 @@ class GentleGrasp(MultimodeGrasp):
         self._span.append((applied, lift.raw_load_n, obs.opening_m))
         self._unslid.append((applied, lift.raw_load_n, obs.lift_pos_m))
         if at_cap and not self._carried_at_cap():
-            self._pads_slide_at_cap(t, lift.raw_load_n)
+            self._pads_slide_at_cap(t, lift.raw_load_n, obs.opening_m)
             return
         falls = self.contact_falls
         elasticity, error, grip_n, load_n = probe_verdict(self._span, 1.0 if at_cap else c.grip_safety, falls)

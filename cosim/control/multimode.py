@@ -943,12 +943,24 @@ class MultimodeGrasp:
             f"stiffness times the stroke left to its closed command; rated {self.robot.finger_force_limit_n:.3g} N): the grip's cap",
         )
 
-    def _pads_slide_at_cap(self, t: float, load_n: float) -> None:
+    def _pads_slide_at_cap(self, t: float, load_n: float, opening_m: float | None = None) -> None:
         """Give up: the pads slide at ``load_n`` N of load with the grip at its cap (``blind``
-        when the cap is what the fingertip measures, ``never_lifted`` when it is the gripper's)."""
+        when the cap is what the fingertip measures, ``never_lifted`` when it is the gripper's).
+        Where the drive reaches less than the cap at the fingers' opening now (``opening_m``, m:
+        pads pressed into an object close the fingers on, and a position servo's reach falls
+        with its stroke, :meth:`RobotLimits.finger_force_limit_at_n`), that reach is what the
+        grip came to, and is said: robosuite's Panda gave up on a 1.36 kg, 24 mm cylinder "at
+        the gripper's limit, 17.5 N", the reach at the touch's width, its fingers closed to 19 mm
+        and pressing 14.6 N, their reach there 15 N."""
         blind = self.measurable_grip_n < self.max_grip_n
         limit = "what the fingertip measures" if blind else "the gripper's limit"
         message = f"the pads slide at {load_n:.3g} N of load with the grip at {limit}, {self.grip_cap_n:.3g} N"
+        reach_n = self.robot.finger_force_limit_at_n(opening_m) if opening_m is not None else math.inf
+        if not blind and reach_n < self.grip_cap_n:
+            message = (
+                f"the pads slide at {load_n:.3g} N of load with the grip at what the drive reaches at this "
+                f"{opening_m * 1e3:.1f} mm opening, {reach_n:.3g} N"
+            )
         self._give_up(t, "blind" if blind else "never_lifted", message, Phase.PLACE)
 
     def _over_cap(self, t: float, wanted: float, load: float, carried: bool) -> bool:
