@@ -432,3 +432,49 @@ def test_pad_geometry_validates():
     for bad in ({"segments": 0}, {"element_length_m": 0.03}, {"stop_strain": 1.0}, {"retain_m": -1e-3}):
         with pytest.raises(ValueError):
             PadGeometry(**bad)
+
+
+def _pads_on_a_sphere(condim: int, torsion_m: float, friction: float, squeeze_n: float, torque_n_m: float) -> float:
+    """Two boxes on slides squeezing a free 10 mm sphere with ``squeeze_n`` each (gravity off),
+    their contacts of ``condim`` and torsional coefficient ``torsion_m`` (m); a torque
+    ``torque_n_m`` (N m) about the squeeze axis on the sphere for 0.3 s: its spin about that
+    axis then, rad/s."""
+    xml = f"""<mujoco><option gravity="0 0 0" timestep="0.001" cone="elliptic" impratio="1000"/>
+      <default><geom condim="{condim}" friction="{friction} {torsion_m} 0.0001" priority="1" solref="0.002 1"/></default>
+      <worldbody>
+        <body name="left" pos="-0.015 0 0"><joint name="l" type="slide" axis="1 0 0" damping="5"/>
+          <geom type="box" size="0.005 0.01 0.01" mass="0.02"/></body>
+        <body name="right" pos="0.015 0 0"><joint name="r" type="slide" axis="-1 0 0" damping="5"/>
+          <geom type="box" size="0.005 0.01 0.01" mass="0.02"/></body>
+        <body name="ball"><freejoint name="ball"/>
+          <geom type="sphere" size="0.01" mass="0.01" priority="0" condim="3" friction="0.5 0.005 0.0001"/></body>
+      </worldbody>
+      <actuator><motor joint="l"/><motor joint="r"/></actuator></mujoco>"""
+    model = mujoco.MjModel.from_xml_string(xml)
+    data = mujoco.MjData(model)
+    data.ctrl[:] = squeeze_n
+    ball = model.body("ball").id
+    for step in range(round(0.5 / model.opt.timestep)):
+        if step * model.opt.timestep >= 0.2:
+            data.xfrc_applied[ball, 3] = torque_n_m
+        mujoco.mj_step(model, data)
+    return float(abs(data.qvel[model.jnt_dofadr[model.joint("ball").id] + 3]))
+
+
+def test_the_pads_hold_an_object_as_soft_fingers_do_against_a_spin_about_the_grip():
+    """The pads' contacts are soft fingers (condim 4: the gel's patch resists a spin about its
+    normal, up to mu_t N a contact): held at two point contacts (a sphere, a cylinder's edge, a
+    linkage's tilted pads), an object spun about the grip axis stays below 2 mu_t N and turns past
+    it; with sliding friction only it turns at any torque.  Dm_robotics' 2F-85 let a 7 g, 21 mm
+    cylinder swing about its pads' two contacts as the place slowed its descent, and struck the
+    table (tests/test_third_party_grippers.py::test_robotiqs_pads_hold_a_light_cylinder_without_letting_it_swing).
+    The pad class's own coefficient (models/gripper.xml), on the scenes it builds."""
+    model = build_scene(scenarios.get("grasp"))
+    pads = [g for g in range(model.ngeom) if model.geom(g).name.startswith(PAD_NAMES)]
+    assert pads and {int(model.geom_condim[g]) for g in pads} == {4}
+    torsion = float(model.geom_friction[pads[0], 1])
+    squeeze = 1.0
+    limit = 2.0 * torsion * squeeze  # two contacts' torsional friction, N m
+    assert _pads_on_a_sphere(4, torsion, 1.0, squeeze, 0.5 * limit) < 0.05
+    assert _pads_on_a_sphere(4, torsion, 1.0, squeeze, 2.0 * limit) > 1.0
+    assert _pads_on_a_sphere(3, torsion, 1.0, squeeze, 0.5 * limit) > 1.0  # sliding friction only: it turns
