@@ -396,10 +396,18 @@ def carried_under_friction(
     thirds = _thirds(span)
     if thirds is None or friction <= 0.0:
         return False
-    n, _, g3, _, l3 = thirds
+    n, _, g3, l1, l3 = thirds
     if l3 <= min_load_n or g3 <= 0.0:
         return False
     if not load_is_steady([load for _, load, *_ in span[-n:]], fraction):
+        return False
+    if arc_slope == 0.0 and l1 > (1.0 + fraction) * l3 + min_load_n:
+        # Pads on slides carried more before: the weight is at least that, and a load that fell
+        # to L3 as the grip grew is pads that slipped down it, not a weight (robosuite's Panda
+        # called a 53 g cylinder carried at 0.30 N of its 0.52 N after its load fell from 0.40 N
+        # in a slip, and set the hold for that: lost).  Not on a linkage's arc, whose levers
+        # swing the load the lift reads (above): held off by it, the 2F-85s' 300 g jars and
+        # 500 g cans were pressed to 3.4-5.6x their need before the elasticity told them.
         return False
     return safety * l3 <= 2.0 * friction * (g3 + arc_slope * l3)
 
