@@ -136,12 +136,8 @@ class GripperDrive:
         self._sites = [model.site(f"{side}_pad_surface").id for side in PAD_SIDES]
         self._slopes = path.slopes()
         self._lengths_at = PathTable(path.opening_m, path.lengths)
-        # what the command that holds the pads touching presses with along the path (reach_n's, to there)
-        touching = self._lengths_at(0.0)
-        kp_now = np.maximum(np.asarray(kp, dtype=float), 0.0)[:, None]
-        touching_reach = np.abs(path.lengths - np.asarray(touching)[:, None]) * kp_now
-        touching_reach = np.where(kp_now > 0.0, np.minimum(self.force_max[:, None], touching_reach), self.force_max[:, None])
-        self._touching_reach_at = PathTable(path.opening_m, ((touching_reach * np.abs(path.slopes())).sum(axis=0))[None, :])
+        # what the command that holds the pads touching presses with along the path (ctrl_for)
+        self._touching_reach_at = PathTable(path.opening_m, self._servo_grip_n(np.asarray(self._lengths_at(0.0)))[None, :])
         self._slopes_at = PathTable(path.opening_m, self._slopes)
         self._static_at = PathTable(path.opening_m, path.static_force)
         self.home_opening_m = float(path.opening_m[-1])
@@ -226,10 +222,16 @@ class GripperDrive:
         on a tendon of the fingers' mean, 1.75 N a finger on a 60 mm jar for the 50 N its force
         range rates it at (tests/test_gripper_natural_pose.py::
         test_a_servos_reach_caps_the_grip_at_each_width_and_the_controller_says_so)."""
+        return self._servo_grip_n(self._closed_length) + (self.path.static_force * self._slopes).sum(axis=0)
+
+    def _servo_grip_n(self, held_lengths: np.ndarray) -> np.ndarray:
+        """The grip the servos press with along the path, N per finger, commanded to hold
+        ``held_lengths`` (one an actuator, its units): sum_a min(F_a, kp_a |l_a - l*_a|) |dl_a/do|,
+        F_a for an actuator without position feedback (:meth:`reach_n`)."""
         kp = np.maximum(self._kp, 0.0)[:, None]
-        reach = np.abs(self.path.lengths - self._closed_length[:, None]) * kp
+        reach = np.abs(self.path.lengths - held_lengths[:, None]) * kp
         force = np.where(kp > 0.0, np.minimum(self.force_max[:, None], reach), self.force_max[:, None])
-        return (force * np.abs(self._slopes)).sum(axis=0) + (self.path.static_force * self._slopes).sum(axis=0)
+        return (force * np.abs(self._slopes)).sum(axis=0)
 
     def damping_n_s_m(self) -> float:
         """The damping the drive must overcome to move the fingers, on the opening, N s/m: the

@@ -203,8 +203,9 @@ class MountedDrive:
         drive = sim.mounted.drive
         sim._lift_to = command.lift_m
         limit = min(max(command.grip_force_limit_n, 0.0), sim._finger_limit)
-        sim._fingers_to = drive.ctrl_for(command.opening_m, limit, drive.opening_m(sim.data))
-        sim.model.actuator_forcerange[drive.actuators] = np.column_stack(drive.force_limits(limit, drive.opening_m(sim.data)))
+        opening = drive.opening_m(sim.data)
+        sim._fingers_to = drive.ctrl_for(command.opening_m, limit, opening)
+        sim.model.actuator_forcerange[drive.actuators] = np.column_stack(drive.force_limits(limit, opening))
 
     def model_settings(self, sim: CoSimulation) -> tuple[np.ndarray, np.ndarray, int]:
         """As the house's, with every finger actuator's force range."""
